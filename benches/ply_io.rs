@@ -1,0 +1,167 @@
+//! PLY read and write speed: 2,000,000 points x 10 float properties
+//! (80 MB), from a file in the page cache and from a pipe, in process and
+//! whole-process, beside Python's plyfile and the Rust crate ply-rs-bw.
+//!
+//! `make bench` (or `cargo bench --bench ply_io`); BENCH_POINTS sets the
+//! point count. Results: target/bench/ply_io.txt.
+
+mod common;
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+
+use common::*;
+use pcsss::formats::{self, Format, Select};
+use pcsss::{Cloud, Role};
+
+fn make_cloud(n: usize) -> Cloud {
+    let mut c = Cloud::with_points(n);
+    let v = |k: usize| -> Vec<[f32; 3]> {
+        (0..n)
+            .map(|i| {
+                let t = (i * 7 + k) as f32 * 1e-3;
+                [t.sin(), t.cos(), t * 0.5]
+            })
+            .collect()
+    };
+    let pts = c.points_mut();
+    pts.set_vec3("P", Role::Point, &v(0)).unwrap();
+    pts.set_vec3("N", Role::Normal, &v(1)).unwrap();
+    pts.set_vec3("illum", Role::Color, &v(2)).unwrap();
+    pts.set_scalar("ptarea", (0..n).map(|i| 1e-6 * (i % 97) as f32).collect())
+        .unwrap();
+    c
+}
+
+fn read_pipe(bytes: &[u8], select: &Select) -> Cloud {
+    let (r, mut w) = std::io::pipe().unwrap();
+    pcsss::cli::grow_pipe(&r);
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            for chunk in bytes.chunks(1 << 20) {
+                w.write_all(chunk).unwrap();
+            }
+        });
+        formats::read_cloud(BufReader::with_capacity(1 << 16, r), select).unwrap()
+    })
+}
+
+fn write_pipe(c: &Cloud) {
+    let (mut r, w) = std::io::pipe().unwrap();
+    pcsss::cli::grow_pipe(&w);
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            let mut buf = vec![0u8; 1 << 20];
+            while r.read(&mut buf).unwrap() > 0 {}
+        });
+        let mut w = BufWriter::with_capacity(1 << 16, w);
+        formats::write_cloud(&mut w, c, Format::DEFAULT).unwrap();
+        w.flush().unwrap();
+    });
+}
+
+fn main() {
+    let n: usize = std::env::var("BENCH_POINTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2_000_000);
+    let dir = bench_dir();
+    let path = dir.join(format!("ply_io_{n}.ply"));
+    let cloud = make_cloud(n);
+    let mut f = BufWriter::new(File::create(&path).unwrap());
+    formats::write_cloud(&mut f, &cloud, Format::DEFAULT).unwrap();
+    f.flush().unwrap();
+    drop(f);
+    let bytes = std::fs::read(&path).unwrap();
+    let mb = bytes.len() as f64 / 1e6;
+    let p = path.display().to_string();
+    let mut t = Table::new(
+        &format!(
+            "PLY I/O: {n} points x 10 float properties, {mb:.1} MB binary little-endian; {}; best of 3",
+            machine()
+        ),
+        "| case | seconds | MB/s |\n|---|---|---|",
+    );
+    let mut row = |name: &str, s: Option<f64>| match s {
+        Some(s) => t.row(format!("| {name} | {s:.3} | {:.0} |", mb / s)),
+        None => t.row(format!("| {name} | failed | - |")),
+    };
+    let read_file = |sel: &Select| formats::read_cloud_file(&path, sel).unwrap();
+    let stream_file = |sel: &Select| {
+        let f = File::open(&path).unwrap();
+        formats::read_cloud(BufReader::with_capacity(1 << 16, f), sel).unwrap()
+    };
+    row(
+        "pcsss read, file (mapped), all 10 properties decoded",
+        Some(best(3, || read_file(&Select::All))),
+    );
+    row(
+        "pcsss read, file (mapped), only P and N decoded (rest lazy)",
+        Some(best(3, || read_file(&Select::only(&["P", "N"])))),
+    );
+    row(
+        "pcsss read, file (streamed), all decoded",
+        Some(best(3, || stream_file(&Select::All))),
+    );
+    row(
+        "pcsss read, pipe, all decoded",
+        Some(best(3, || read_pipe(&bytes, &Select::All))),
+    );
+    row(
+        "pcsss read, pipe, only P and N decoded",
+        Some(best(3, || read_pipe(&bytes, &Select::only(&["P", "N"])))),
+    );
+    let out = dir.join("ply_io_out.ply");
+    row(
+        "pcsss write, file",
+        Some(best(3, || {
+            let mut w = BufWriter::new(File::create(&out).unwrap());
+            formats::write_cloud(&mut w, &cloud, Format::DEFAULT).unwrap();
+            w.flush().unwrap();
+        })),
+    );
+    row("pcsss write, pipe", Some(best(3, || write_pipe(&cloud))));
+    let lazy = read_file(&Select::only(&[]));
+    row(
+        "pcsss write, file, pass-through of undecoded input",
+        Some(best(3, || {
+            let mut w = BufWriter::new(File::create(&out).unwrap());
+            formats::write_cloud(&mut w, &lazy, Format::DEFAULT).unwrap();
+            w.flush().unwrap();
+        })),
+    );
+    row(
+        "ply-rs-bw 4 read, file, generic DefaultElement (1 run)",
+        Some(best(1, || {
+            let mut f = BufReader::new(File::open(&path).unwrap());
+            let parser = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new();
+            parser.read_ply(&mut f).unwrap()
+        })),
+    );
+    let pcinfo = env!("CARGO_BIN_EXE_pcinfo");
+    let pcconvert = env!("CARGO_BIN_EXE_pcconvert");
+    row(
+        "whole process: pcinfo FILE (read + min/max/mean of every property)",
+        best_cmd(3, &format!("{pcinfo} {p} > /dev/null")),
+    );
+    row(
+        "whole process: cat FILE | pcinfo",
+        best_cmd(3, &format!("cat {p} | {pcinfo} > /dev/null")),
+    );
+    row(
+        "whole process: cat FILE | pcconvert | cat (read, write to a pipe)",
+        best_cmd(3, &format!("cat {p} | {pcconvert} | cat > /dev/null")),
+    );
+    let py = python();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/plyfile_read.py");
+    row(
+        "whole process: python plyfile FILE (memory-mapped; + min/max/mean)",
+        best_cmd(3, &format!("{py} {script} {p} > /dev/null")),
+    );
+    row(
+        "whole process: cat FILE | python plyfile (1 run)",
+        best_cmd(1, &format!("cat {p} | {py} {script} - > /dev/null")),
+    );
+    t.save("ply_io.txt");
+    let _ = std::fs::remove_file(&out);
+}

@@ -1,0 +1,44 @@
+//! `pcinfo`: prints a cloud's summary (points, attributes with type, role
+//! and min/max/mean, detail attributes, faces).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Parser;
+use pcsss::cli::{self, MsgArgs};
+use pcsss::formats::Select;
+
+/// Print a point cloud's or mesh's summary: elements, attributes (type,
+/// role, min/max/mean), detail attributes, faces.
+#[derive(Parser, Debug)]
+#[command(version)]
+struct Args {
+    /// Input files (PLY or OBJ); standard input when none or '-'.
+    #[arg(value_name = "IN")]
+    inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    msg: MsgArgs,
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let inputs: Vec<Option<PathBuf>> = if args.inputs.is_empty() {
+        vec![None]
+    } else {
+        args.inputs.into_iter().map(Some).collect()
+    };
+    let many = inputs.len() > 1;
+    for p in &inputs {
+        let cloud = cli::read_input(p.as_deref(), &Select::All)?;
+        let text = pcsss::tools::info::summary(&cloud);
+        if many {
+            println!("{}:", cli::display_name(p.as_deref()));
+        }
+        use std::io::Write;
+        std::io::stdout().lock().write_all(text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    cli::main_of("pcinfo", || run(Args::parse()))
+}

@@ -1,0 +1,277 @@
+//! What every binary shares: input and output, formats, messages, errors.
+//!
+//! - The positional argument is the main input; absent or `-` means stdin.
+//!   A terminal on stdin with no input is an error, not a hang.
+//! - `-o FILE` writes a file atomically (a temp file beside it, renamed
+//!   into place when complete); absent or `-` writes stdout.
+//! - The output format comes from `--format`, else the output's extension,
+//!   else binary little-endian PLY.
+//! - Messages go to stderr; `-q` silences them, `-v` adds detail.
+//! - Errors are one line, `stage: file: what is wrong`, exit status 1; a
+//!   broken pipe (`| head`) is success.
+
+use std::fs::File;
+use std::io::{self, BufReader, BufWriter, IsTerminal, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use crate::cloud::Cloud;
+use crate::formats::{self, Format, Select};
+
+/// Verbosity flags.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct MsgArgs {
+    /// No messages on stderr, errors only.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// More messages on stderr (repeat for more).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+}
+
+/// The input, output and format arguments of a stage.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct IoArgs {
+    /// Input file (PLY or OBJ); standard input when absent or '-'.
+    #[arg(value_name = "IN")]
+    pub input: Option<PathBuf>,
+    /// Output file; standard output when absent or '-'.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Output format: ply, ply-ascii, ply-be, exr [default: from the
+    /// output file's extension, else ply (binary little-endian)].
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<Format>,
+    #[command(flatten)]
+    pub msg: MsgArgs,
+}
+
+/// A path that stands for stdin/stdout.
+fn is_std(p: &Option<PathBuf>) -> bool {
+    p.as_deref().is_none_or(|p| p == Path::new("-"))
+}
+
+/// How a path is named in messages.
+pub fn display_name(p: Option<&Path>) -> String {
+    match p {
+        Some(p) if p != Path::new("-") => p.display().to_string(),
+        _ => "<stdin>".to_string(),
+    }
+}
+
+impl IoArgs {
+    /// The input's name in messages.
+    pub fn input_name(&self) -> String {
+        display_name(self.input.as_deref())
+    }
+
+    /// Reads the main input, decoding `select`ed attributes now.
+    pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
+        read_input(self.input.as_deref(), select)
+    }
+
+    /// The output format in force.
+    pub fn output_format(&self) -> Format {
+        self.format
+            .or_else(|| self.output.as_deref().and_then(Format::from_path))
+            .unwrap_or(Format::DEFAULT)
+    }
+
+    /// Writes `cloud` to the output in the chosen format.
+    pub fn write(&self, cloud: &Cloud) -> anyhow::Result<()> {
+        let format = self.output_format();
+        let out = if is_std(&self.output) {
+            None
+        } else {
+            self.output.as_deref()
+        };
+        write_output(out, |w| {
+            formats::write_cloud(w, cloud, format).map_err(Into::into)
+        })
+    }
+
+    /// A message printer for `stage`.
+    pub fn messages(&self, stage: &'static str) -> Messages {
+        self.msg.messages(stage)
+    }
+}
+
+impl MsgArgs {
+    /// A message printer for `stage`.
+    pub fn messages(&self, stage: &'static str) -> Messages {
+        Messages {
+            stage,
+            level: if self.quiet { 0 } else { 1 + self.verbose },
+        }
+    }
+}
+
+/// Reads a cloud or mesh from `path` (stdin when `None` or `-`).
+pub fn read_input(path: Option<&Path>, select: &Select) -> anyhow::Result<Cloud> {
+    let name = display_name(path);
+    let result = match path {
+        Some(p) if p != Path::new("-") => {
+            formats::read_cloud_file(p, select).map_err(anyhow::Error::from)
+        }
+        _ => {
+            let stdin = io::stdin();
+            if stdin.is_terminal() {
+                anyhow::bail!("no input: give an input file, or pipe one in (see --help)");
+            }
+            grow_pipe(&stdin);
+            formats::read_cloud(BufReader::with_capacity(1 << 16, stdin.lock()), select)
+                .map_err(Into::into)
+        }
+    };
+    result.with_context(|| name)
+}
+
+/// Writes through `body` to `path` atomically, or to stdout when `None`.
+pub fn write_output(
+    path: Option<&Path>,
+    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    match path {
+        None => {
+            let stdout = io::stdout();
+            grow_pipe(&stdout);
+            let mut w = BufWriter::with_capacity(1 << 16, stdout.lock());
+            body(&mut w)?;
+            w.flush()?;
+            Ok(())
+        }
+        Some(path) => write_atomic(path, body).with_context(|| path.display().to_string()),
+    }
+}
+
+/// Writes to a temp file beside `path`, then renames it into place: a
+/// failure never leaves a partial file at `path`. Devices and FIFOs are
+/// written directly.
+pub fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    // A device or FIFO (`-o /dev/null`, a named pipe) is written directly.
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let f = std::fs::OpenOptions::new().write(true).open(path)?;
+        let mut w = BufWriter::with_capacity(1 << 16, f);
+        body(&mut w)?;
+        w.flush()?;
+        return Ok(());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".pcsss-")
+        .suffix(".tmp")
+        .tempfile_in(dir)?;
+    {
+        let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file());
+        body(&mut w)?;
+        w.flush()?;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
+    tmp.persist(path)?;
+    Ok(())
+}
+
+/// Asks the kernel for a 1 MiB pipe buffer when `fd` is a pipe (Linux):
+/// with the default 64 KiB, a pipe moves data at a third of the speed
+/// (measured in benches/ply_io.rs). Anything else is left alone.
+pub fn grow_pipe(fd: &impl std::os::fd::AsRawFd) {
+    #[cfg(target_os = "linux")]
+    {
+        let fd = fd.as_raw_fd();
+        // SAFETY: fstat and fcntl on a descriptor we hold; failures ignored.
+        unsafe {
+            let mut st: libc::stat = std::mem::zeroed();
+            if libc::fstat(fd, &mut st) == 0 && (st.st_mode & libc::S_IFMT) == libc::S_IFIFO {
+                libc::fcntl(fd, libc::F_SETPIPE_SZ, 1 << 20);
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = fd;
+}
+
+/// Reads all of `path` (stdin when `None`) into memory.
+pub fn read_bytes(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
+    let mut v = Vec::new();
+    match path {
+        Some(p) if p != Path::new("-") => {
+            File::open(p)?.read_to_end(&mut v)?;
+        }
+        _ => {
+            io::stdin().lock().read_to_end(&mut v)?;
+        }
+    }
+    Ok(v)
+}
+
+/// Messages to stderr, prefixed with the stage name.
+#[derive(Clone, Copy, Debug)]
+pub struct Messages {
+    stage: &'static str,
+    level: u8,
+}
+
+impl Messages {
+    /// A normal message (silenced by `-q`).
+    pub fn info(&self, msg: impl std::fmt::Display) {
+        if self.level >= 1 {
+            eprintln!("{}: {msg}", self.stage);
+        }
+    }
+
+    /// A warning (silenced by `-q`).
+    pub fn warn(&self, msg: impl std::fmt::Display) {
+        if self.level >= 1 {
+            eprintln!("{}: warning: {msg}", self.stage);
+        }
+    }
+
+    /// Detail shown with `-v`.
+    pub fn debug(&self, msg: impl std::fmt::Display) {
+        if self.level >= 2 {
+            eprintln!("{}: {msg}", self.stage);
+        }
+    }
+
+    /// True when progress may be drawn: not quiet and stderr is a terminal.
+    pub fn progress_enabled(&self) -> bool {
+        self.level >= 1 && io::stderr().is_terminal()
+    }
+}
+
+/// True when an error chain holds a broken pipe.
+pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<io::Error>()
+            .is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe)
+            || c.downcast_ref::<crate::Error>()
+                .is_some_and(|e| e.is_broken_pipe())
+    })
+}
+
+/// Runs a stage's body: on error prints `stage: context: error` on one line
+/// and returns exit status 1 (a broken pipe is success).
+pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
+    match body() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            let line = format!("{e:#}").replace('\n', " ");
+            eprintln!("{stage}: {line}");
+            ExitCode::FAILURE
+        }
+    }
+}

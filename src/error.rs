@@ -1,0 +1,113 @@
+//! The library's error type: every failure says whose fault it is.
+//!
+//! - [`Error::Invalid`]: the input is malformed (which element, row or line).
+//! - [`Error::Truncated`]: the input ended before what its header promised.
+//! - [`Error::Unsupported`]: a valid input uses a feature we do not handle.
+//! - [`Error::Missing`]: a stage needs an attribute the input does not have;
+//!   the message names the stage that makes it.
+//! - [`Error::Param`]: a parameter value is out of range.
+//! - [`Error::Io`]: the operating system failed us.
+//!
+//! Messages are one line, without the file name: the binaries add it.
+
+use std::fmt;
+
+/// Result alias used throughout the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// A library error. `Display` gives one line without the file name.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Malformed input: the message says where.
+    #[error("invalid: {0}")]
+    Invalid(String),
+    /// The input ended early.
+    #[error("truncated: {0}")]
+    Truncated(String),
+    /// Valid input using something this toolkit does not handle.
+    #[error("unsupported: {0}")]
+    Unsupported(String),
+    /// A required attribute is absent.
+    #[error("{0}")]
+    Missing(MissingAttr),
+    /// A parameter is out of range or not finite.
+    #[error("parameter {name}: {what}")]
+    Param { name: String, what: String },
+    /// An operating-system I/O error.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// A missing attribute, with the stage that makes it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MissingAttr {
+    /// Element class: "point", "face", "detail".
+    pub class: &'static str,
+    /// Attribute name, e.g. `N`.
+    pub name: String,
+    /// Stage that produces it, e.g. `facet`.
+    pub made_by: Option<&'static str>,
+}
+
+impl fmt::Display for MissingAttr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "missing {} attribute '{}'", self.class, self.name)?;
+        if let Some(stage) = self.made_by {
+            write!(f, " (run '{stage}' first to make it)")?;
+        }
+        Ok(())
+    }
+}
+
+impl Error {
+    /// Shorthand for [`Error::Invalid`].
+    pub fn invalid(msg: impl Into<String>) -> Self {
+        Error::Invalid(msg.into())
+    }
+
+    /// Shorthand for [`Error::Truncated`].
+    pub fn truncated(msg: impl Into<String>) -> Self {
+        Error::Truncated(msg.into())
+    }
+
+    /// Shorthand for [`Error::Unsupported`].
+    pub fn unsupported(msg: impl Into<String>) -> Self {
+        Error::Unsupported(msg.into())
+    }
+
+    /// Shorthand for [`Error::Param`].
+    pub fn param(name: impl Into<String>, what: impl Into<String>) -> Self {
+        Error::Param {
+            name: name.into(),
+            what: what.into(),
+        }
+    }
+
+    /// A missing attribute of class `class`, made by `made_by`.
+    pub fn missing(class: &'static str, name: &str, made_by: Option<&'static str>) -> Self {
+        Error::Missing(MissingAttr {
+            class,
+            name: name.to_string(),
+            made_by,
+        })
+    }
+
+    /// True when the error is a broken pipe (the reader went away: `| head`).
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, Error::Io(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+}
+
+/// The stage that makes a well-known attribute (DESIGN.md's stage table).
+pub fn stage_making(name: &str) -> Option<&'static str> {
+    match name {
+        "area" | "perimeter" => Some("measure"),
+        "Tarea" | "Tptarea" => Some("promote"),
+        "ptarea" | "sourceprim" | "sourceuv" => Some("scatter"),
+        "N" => Some("facet"),
+        "illum" => Some("illum"),
+        "ssM" => Some("ssmulti"),
+        "P" => Some("scatter"),
+        _ => None,
+    }
+}

@@ -1,0 +1,139 @@
+//! On-disk formats: detection by magic bytes, reading and writing clouds.
+//!
+//! PLY ([`ply`]) is read and written in all three encodings; OBJ ([`obj`])
+//! is read as a mesh. The written specs are in the repository's `formats/`.
+
+pub mod obj;
+pub mod ply;
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+use std::str::FromStr;
+
+use crate::cloud::Cloud;
+use crate::error::{Error, Result};
+pub use ply::{Encoding, Select};
+
+/// An output format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// PLY with the given body encoding.
+    Ply(Encoding),
+    /// OpenEXR point cloud.
+    Exr,
+}
+
+impl Format {
+    /// The default: binary little-endian PLY.
+    pub const DEFAULT: Format = Format::Ply(Encoding::BinaryLe);
+
+    /// The format a file name asks for, by its extension.
+    pub fn from_path(p: &Path) -> Option<Format> {
+        let ext = p.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "ply" => Some(Format::DEFAULT),
+            "exr" => Some(Format::Exr),
+            _ => None,
+        }
+    }
+
+    /// The names accepted by `--format`.
+    pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr";
+}
+
+impl FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Ok(match s {
+            "ply" | "ply-le" | "ply-binary" => Format::DEFAULT,
+            "ply-be" => Format::Ply(Encoding::BinaryBe),
+            "ply-ascii" | "ascii" => Format::Ply(Encoding::Ascii),
+            "exr" => Format::Exr,
+            _ => return Err(format!("unknown format '{s}' (one of: {})", Format::NAMES)),
+        })
+    }
+}
+
+/// What an input's first bytes say it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Ply,
+    Exr,
+    Obj,
+}
+
+/// OpenEXR's magic number.
+pub const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Identifies a format from the first bytes of a file.
+pub fn sniff(head: &[u8]) -> Option<Kind> {
+    if head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n") {
+        return Some(Kind::Ply);
+    }
+    if head.starts_with(&EXR_MAGIC) {
+        return Some(Kind::Exr);
+    }
+    let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .and_then(|l| l.split_whitespace().next());
+    match first {
+        Some("v" | "vn" | "vt" | "f" | "o" | "g" | "s" | "mtllib" | "usemtl") => Some(Kind::Obj),
+        None if text.trim_start().starts_with('#') => Some(Kind::Obj),
+        _ => None,
+    }
+}
+
+/// Reads a cloud or mesh of any supported format, sniffed from its bytes.
+pub fn read_cloud<R: BufRead>(mut r: R, select: &Select) -> Result<Cloud> {
+    let head = r.fill_buf()?;
+    if head.is_empty() {
+        return Err(Error::invalid("empty file"));
+    }
+    match sniff(head) {
+        Some(Kind::Ply) => ply::read_ply(r, select),
+        Some(Kind::Obj) => obj::read_obj(r),
+        Some(Kind::Exr) => Err(Error::unsupported("OpenEXR input is not supported yet")),
+        None => Err(Error::invalid(
+            "not a PLY, OBJ or OpenEXR file (unrecognised first bytes)",
+        )),
+    }
+}
+
+/// Reads a cloud or mesh from a file. Regular files are memory-mapped
+/// (unless `PCSSS_NO_MMAP` is set): properties a stage does not decode are
+/// never copied. The toolkit replaces files by renaming, never by rewriting
+/// them in place, so a mapping it reads cannot shrink under it.
+pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if meta.is_dir() {
+        return Err(Error::invalid("is a directory"));
+    }
+    let use_map = meta.is_file() && meta.len() > 0 && std::env::var_os("PCSSS_NO_MMAP").is_none();
+    // SAFETY: the mapping is read-only; see the note above on files
+    // changing underneath it.
+    let map = match use_map {
+        true => unsafe { memmap2::MmapOptions::new().populate().map(&file) }.ok(),
+        false => None,
+    };
+    let Some(map) = map else {
+        return read_cloud(std::io::BufReader::with_capacity(1 << 16, file), select);
+    };
+    match sniff(&map) {
+        Some(Kind::Ply) => {
+            ply::read::read_ply_from(ply::read::Mapped::new(std::sync::Arc::new(map)), select)
+        }
+        _ => read_cloud(&map[..], select),
+    }
+}
+
+/// Writes a cloud in `format`.
+pub fn write_cloud<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, format: Format) -> Result<()> {
+    match format {
+        Format::Ply(enc) => ply::write_ply(w, cloud, enc),
+        Format::Exr => Err(Error::unsupported("OpenEXR output is not supported yet")),
+    }
+}

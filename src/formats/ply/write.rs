@@ -1,0 +1,228 @@
+//! PLY writing: binary little-endian by default, big-endian and ASCII on
+//! request.
+//!
+//! Elements without list attributes are written column by column into
+//! 1 MiB row chunks (undecoded properties are copied from the input's bytes
+//! when the byte order matches); elements with lists and ASCII bodies row
+//! by row.
+
+use std::io::Write;
+
+use super::header::{component_names, default_role, detail_comment, Encoding, TAG};
+use crate::cloud::{AttrData, Cloud, Element};
+use crate::column::{Column, ScalarType, Values};
+use crate::error::{Error, Result};
+
+/// Writes `cloud` as PLY with body encoding `enc`.
+pub fn write_ply<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, enc: Encoding) -> Result<()> {
+    w.write_all(header_text(cloud, enc)?.as_bytes())?;
+    let big = enc == Encoding::BinaryBe;
+    for el in &cloud.elements {
+        let has_lists = el
+            .attrs()
+            .iter()
+            .any(|a| matches!(a.data, AttrData::List(_)));
+        match enc {
+            Encoding::Ascii => write_rows(w, el, None)?,
+            _ if has_lists => write_rows(w, el, Some(big))?,
+            _ => write_fixed(w, el, big)?,
+        }
+    }
+    Ok(())
+}
+
+fn check_name(what: &str, s: &str) -> Result<()> {
+    if s.is_empty() || s.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        return Err(Error::invalid(format!(
+            "{what} name '{s}' cannot be written to PLY (empty or contains whitespace)"
+        )));
+    }
+    Ok(())
+}
+
+fn check_line(what: &str, s: &str) -> Result<()> {
+    if s.contains(['\n', '\r']) {
+        return Err(Error::invalid(format!(
+            "{what} '{s}' contains a line break"
+        )));
+    }
+    Ok(())
+}
+
+/// The header text, `ply` to `end_header\n` inclusive.
+pub fn header_text(cloud: &Cloud, enc: Encoding) -> Result<String> {
+    let mut h = format!("ply\nformat {} 1.0\n", enc.keyword());
+    for c in &cloud.comments {
+        check_line("comment", c)?;
+        h += &format!("comment {c}\n");
+    }
+    for c in &cloud.obj_info {
+        check_line("obj_info", c)?;
+        h += &format!("obj_info {c}\n");
+    }
+    for el in &cloud.elements {
+        for a in el.attrs() {
+            if let Some(role) = a.role() {
+                if default_role(&a.name, role) != role {
+                    h += &format!(
+                        "comment {TAG} role {} {} {}\n",
+                        el.name,
+                        a.name,
+                        role.name()
+                    );
+                }
+            }
+        }
+    }
+    for d in &cloud.detail {
+        check_name("detail attribute", &d.name)?;
+        h += &format!("comment {}\n", detail_comment(d));
+    }
+    for el in &cloud.elements {
+        check_name("element", &el.name)?;
+        h += &format!("element {} {}\n", el.name, el.len());
+        for a in el.attrs() {
+            check_name("attribute", &a.name)?;
+            match &a.data {
+                AttrData::Scalar(v) => h += &format!("property {} {}\n", v.ty().ply_name(), a.name),
+                AttrData::Vec3(role, c) => {
+                    for (v, n) in c.iter().zip(component_names(&a.name, *role)) {
+                        h += &format!("property {} {n}\n", v.ty().ply_name());
+                    }
+                }
+                AttrData::List(l) => {
+                    h += &format!(
+                        "property list {} {} {}\n",
+                        l.count_ty.ply_name(),
+                        l.items.ty().ply_name(),
+                        a.name
+                    )
+                }
+            }
+        }
+    }
+    h += "end_header\n";
+    Ok(h)
+}
+
+const CHUNK_BYTES: usize = 1 << 20;
+
+/// Fixed-size rows: columns scattered into row chunks.
+fn write_fixed<W: Write + ?Sized>(w: &mut W, el: &Element, big: bool) -> Result<()> {
+    let comps: Vec<&Values> = el.attrs().iter().flat_map(|a| a.components()).collect();
+    let mut offs = Vec::with_capacity(comps.len());
+    let mut stride = 0;
+    for v in &comps {
+        offs.push(stride);
+        stride += v.ty().size();
+    }
+    if stride == 0 {
+        return Ok(());
+    }
+    let chunk = (CHUNK_BYTES / stride).max(1);
+    let mut buf = vec![0u8; chunk.min(el.len()) * stride];
+    let mut start = 0;
+    while start < el.len() {
+        let n = chunk.min(el.len() - start);
+        let out = &mut buf[..n * stride];
+        for (v, &off) in comps.iter().zip(&offs) {
+            match v.raw() {
+                Some(raw) if raw.block.big_endian == big => {
+                    let (rs, ro, size) = (raw.block.stride, raw.offset, v.ty().size());
+                    let src = &raw.block.bytes[start * rs..(start + n) * rs];
+                    for (s, d) in src.chunks_exact(rs).zip(out.chunks_exact_mut(stride)) {
+                        d[off..off + size].copy_from_slice(&s[ro..ro + size]);
+                    }
+                }
+                _ => v
+                    .column()
+                    .scatter_into(start..start + n, out, stride, off, big),
+            }
+        }
+        w.write_all(out)?;
+        start += n;
+    }
+    Ok(())
+}
+
+/// Encodes a list length as the list's count type.
+fn count_column(n: usize, ct: ScalarType, list: &str) -> Result<Column> {
+    let max = match ct {
+        ScalarType::I8 => i8::MAX as u64,
+        ScalarType::U8 => u8::MAX as u64,
+        ScalarType::I16 => i16::MAX as u64,
+        ScalarType::U16 => u16::MAX as u64,
+        ScalarType::I32 => i32::MAX as u64,
+        _ => u32::MAX as u64,
+    };
+    if n as u64 > max {
+        return Err(Error::invalid(format!(
+            "list '{list}' has a row of {n} items, more than its count type {} holds",
+            ct.ply_name()
+        )));
+    }
+    let mut c = Column::empty(ct);
+    c.push_token(&n.to_string());
+    Ok(c)
+}
+
+/// Row by row: ASCII when `big` is `None`, else binary.
+fn write_rows<W: Write + ?Sized>(w: &mut W, el: &Element, big: Option<bool>) -> Result<()> {
+    enum Part<'a> {
+        Col(&'a Column),
+        List(&'a crate::cloud::ListColumn, &'a str),
+    }
+    let parts: Vec<Part> = el
+        .attrs()
+        .iter()
+        .flat_map(|a| match &a.data {
+            AttrData::List(l) => vec![Part::List(l, &a.name)],
+            _ => a
+                .components()
+                .iter()
+                .map(|v| Part::Col(v.column()))
+                .collect(),
+        })
+        .collect();
+    let mut text = String::new();
+    let mut bin: Vec<u8> = Vec::new();
+    let mut tmp = [0u8; 8];
+    let mut put = |c: &Column, i: usize, text: &mut String, bin: &mut Vec<u8>| match big {
+        None => {
+            if !text.is_empty() {
+                text.push(' ');
+            }
+            c.fmt_ascii(i, text);
+        }
+        Some(big) => {
+            let n = c.ty().size();
+            c.write_bin(i, &mut tmp[..n], big);
+            bin.extend_from_slice(&tmp[..n]);
+        }
+    };
+    for row in 0..el.len() {
+        for p in &parts {
+            match p {
+                Part::Col(c) => put(c, row, &mut text, &mut bin),
+                Part::List(l, name) => {
+                    let r = l.range(row);
+                    let count = count_column(r.len(), l.count_ty, name)?;
+                    put(&count, 0, &mut text, &mut bin);
+                    for i in r {
+                        put(&l.items, i, &mut text, &mut bin);
+                    }
+                }
+            }
+        }
+        if big.is_none() {
+            text.push('\n');
+            w.write_all(text.as_bytes())?;
+            text.clear();
+        } else if bin.len() >= CHUNK_BYTES {
+            w.write_all(&bin)?;
+            bin.clear();
+        }
+    }
+    w.write_all(&bin)?;
+    Ok(())
+}

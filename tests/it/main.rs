@@ -1,0 +1,11 @@
+//! One integration-test binary: the real stage binaries and the library,
+//! against fixtures and independent truth. One module per area.
+
+mod util;
+
+mod cli;
+mod mesh_input;
+mod pcdiff;
+mod ply_bad_input;
+mod ply_roundtrip;
+mod python_interop;

@@ -1,0 +1,215 @@
+//! PLY round trips: every encoding, every property type, unknown elements.
+
+use crate::util::*;
+use pcsss::formats::{self, Select};
+use pcsss::{AttrData, Cloud, DetailValue, Role, ScalarType};
+
+/// Values equal bit for bit (NaN included), structure equal.
+fn assert_same_values(a: &Cloud, b: &Cloud) {
+    assert_eq!(a.elements.len(), b.elements.len());
+    for (ea, eb) in a.elements.iter().zip(&b.elements) {
+        assert_eq!(ea.name, eb.name);
+        assert_eq!(ea.len(), eb.len(), "element {}", ea.name);
+        assert_eq!(ea.attrs().len(), eb.attrs().len(), "element {}", ea.name);
+        for (x, y) in ea.attrs().iter().zip(eb.attrs()) {
+            assert_eq!(x.name, y.name);
+            assert_eq!(x.type_name(), y.type_name(), "{}", x.name);
+            let cols = |a: &pcsss::Attribute| -> Vec<pcsss::Column> {
+                match &a.data {
+                    AttrData::List(l) => vec![
+                        l.items.clone(),
+                        pcsss::Column::U32(l.offsets.iter().map(|&o| o as u32).collect()),
+                    ],
+                    _ => a.components().iter().map(|v| v.column().clone()).collect(),
+                }
+            };
+            for (cx, cy) in cols(x).iter().zip(cols(y)) {
+                assert_eq!(cx.len(), cy.len());
+                for i in 0..cx.len() {
+                    let (p, q) = (cx.get_f64(i), cy.get_f64(i));
+                    assert!(
+                        p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan()),
+                        "{}.{} row {i}: {p} vs {q}",
+                        ea.name,
+                        x.name
+                    );
+                }
+            }
+        }
+    }
+    assert_eq!(a.detail, b.detail);
+    assert_eq!(a.comments, b.comments);
+    assert_eq!(a.obj_info, b.obj_info);
+}
+
+#[test]
+fn le_ascii_be_le_keeps_every_value_of_every_type() {
+    let c0 = every_type_cloud();
+    let le1 = to_bytes(&c0, LE);
+    let c1 = from_bytes(&le1);
+    assert_same_values(&c0, &c1);
+    let asc = to_bytes(&c1, ASCII);
+    let c2 = from_bytes(&asc);
+    assert_same_values(&c0, &c2);
+    let be = to_bytes(&c2, BE);
+    let c3 = from_bytes(&be);
+    assert_same_values(&c0, &c3);
+    let le2 = to_bytes(&c3, LE);
+    assert_eq!(le1, le2, "binary LE bytes identical after the whole chain");
+}
+
+#[test]
+fn roles_and_detail_survive() {
+    let c = from_bytes(&to_bytes(&every_type_cloud(), ASCII));
+    let role = |n: &str| c.points().attr(n).unwrap().role();
+    assert_eq!(role("P"), Some(Role::Point));
+    assert_eq!(role("N"), Some(Role::Normal));
+    assert_eq!(role("Cd"), Some(Role::Color));
+    assert_eq!(role("rest"), Some(Role::Point));
+    assert_eq!(role("vel"), Some(Role::Vector));
+    assert_eq!(role("Nalt"), Some(Role::Normal));
+    assert_eq!(c.detail("count"), Some(&DetailValue::I32(-7)));
+    assert_eq!(c.detail_f64("Tarea").unwrap(), std::f64::consts::PI * 4.0);
+    assert_eq!(
+        c.detail("note"),
+        Some(&DetailValue::Str("quotes \" and\nnewline, ünïcödé".into()))
+    );
+}
+
+#[test]
+fn ascii_header_uses_the_naming_convention() {
+    let text = String::from_utf8(to_bytes(&every_type_cloud(), ASCII)).unwrap();
+    let header = &text[..text.find("end_header").unwrap()];
+    for line in [
+        "property double x\nproperty double y\nproperty double z\n",
+        "property float nx\nproperty float ny\nproperty float nz\n",
+        "property uchar Cd_r\nproperty uchar Cd_g\nproperty uchar Cd_b\n",
+        "property float rest_x\n",
+        "property short vel_x\n",
+        "comment pcsss role vertex rest point\n",
+        "comment pcsss role vertex Nalt normal\n",
+        "comment pcsss detail Tarea f64 12.566370614359172\n",
+        "comment pcsss detail light_dir v3f 0 -1 1.1754944e-38\n",
+        "element empty_rows 4\n",
+        "property list uchar int vertex_indices\n",
+    ] {
+        assert!(header.contains(line), "header lacks {line:?}:\n{header}");
+    }
+}
+
+#[test]
+fn valid_fixtures_round_trip_through_every_encoding() {
+    let dir = fixtures().join("ply/valid");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = std::fs::read(&path).unwrap();
+        let c = formats::read_cloud(&bytes[..], &Select::All)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        for f in [LE, BE, ASCII] {
+            let back = from_bytes(&to_bytes(&c, f));
+            assert_same_values(&c, &back);
+        }
+        n += 1;
+    }
+    assert!(n >= 2);
+}
+
+#[test]
+fn unknown_elements_and_properties_come_back_intact() {
+    // Values written by hand with Python's struct (see fixtures/ply/README.md).
+    let bytes = std::fs::read(fixtures().join("ply/valid/unknown_elements_be.ply")).unwrap();
+    let c = from_bytes(&bytes);
+    let p = c.points().vec3_f64("P").unwrap();
+    assert_eq!(p[0], [1e6, -1e6, 0.125]);
+    assert_eq!(p[1], [1e6 + 0.5, -1e6, 1e-300]);
+    assert_eq!(c.points().scalar_f64("flags").unwrap(), vec![-7.0, 127.0]);
+    assert_eq!(c.points().scalar_f64("id").unwrap(), vec![65535.0, 0.0]);
+    assert_eq!(
+        c.points().scalar_f64("confidence").unwrap(),
+        vec![0.5, f64::INFINITY]
+    );
+    let face = c.faces().unwrap();
+    assert_eq!(face.scalar_f64("material").unwrap(), vec![-2147483648.0]);
+    let cam = c.element("camera").unwrap();
+    assert_eq!(cam.scalar_f64("view_px").unwrap(), vec![35.0]);
+    let tags = cam.list("tags").unwrap();
+    assert_eq!(tags.count_ty, ScalarType::U16);
+    assert_eq!(tags.items.to_f64_vec(), vec![-32768.0, 32767.0]);
+    assert_eq!(c.comments, vec!["made by hand for pcsss tests"]);
+    assert_eq!(c.obj_info, vec!["scanner 42"]);
+    // Written back big-endian, the file is byte for byte the same.
+    assert_eq!(to_bytes(&c, BE), bytes);
+}
+
+#[test]
+fn selected_read_decodes_only_what_is_asked_and_passes_the_rest_through() {
+    let src = to_bytes(&every_type_cloud(), LE);
+    let c = formats::read_cloud(&src[..], &Select::only(&["P"])).unwrap();
+    let pts = c.points();
+    assert!(pts
+        .attr("P")
+        .unwrap()
+        .components()
+        .iter()
+        .all(|v| v.is_decoded()));
+    for name in ["N", "s_float", "s_uint", "Cd", "rest"] {
+        let a = pts.attr(name).unwrap();
+        assert!(
+            a.components().iter().all(|v| !v.is_decoded()),
+            "{name} was decoded"
+        );
+    }
+    // Undecoded columns are copied through; output equals input.
+    assert_eq!(to_bytes(&c, LE), src);
+    // And decode lazily, correctly, when asked for.
+    assert_eq!(
+        pts.scalar_f64("s_int").unwrap(),
+        extremes(ScalarType::I32).to_f64_vec()
+    );
+    // A byte-order change decodes them.
+    let be = to_bytes(&c, BE);
+    assert_same_values(&from_bytes(&be), &every_type_cloud());
+}
+
+#[test]
+fn modified_columns_replace_raw_bytes() {
+    let src = to_bytes(&every_type_cloud(), LE);
+    let mut c = formats::read_cloud(&src[..], &Select::only(&[])).unwrap();
+    let pts = c.points_mut();
+    pts.set_scalar("s_float", vec![1.0f32; 6]).unwrap();
+    let back = from_bytes(&to_bytes(&c, LE));
+    assert_eq!(back.points().scalar_f64("s_float").unwrap(), vec![1.0; 6]);
+    assert_eq!(
+        back.points().scalar_f64("s_int").unwrap(),
+        extremes(ScalarType::I32).to_f64_vec()
+    );
+}
+
+#[test]
+fn empty_cloud_round_trips() {
+    let c = Cloud::with_points(0);
+    for f in [LE, BE, ASCII] {
+        let back = from_bytes(&to_bytes(&c, f));
+        assert_eq!(back.len(), 0);
+        assert_eq!(back.elements.len(), 1);
+    }
+}
+
+#[test]
+fn large_binary_crosses_chunk_boundaries() {
+    // 300k points x 16 bytes: several 1 MiB chunks, an uneven last one.
+    let n = 300_001;
+    let mut c = Cloud::with_points(n);
+    let p: Vec<[f32; 3]> = (0..n).map(|i| [i as f32, -(i as f32), 0.5]).collect();
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut()
+        .set_scalar("id", (0..n as u32).collect())
+        .unwrap();
+    let b = to_bytes(&c, LE);
+    for sel in [Select::All, Select::only(&["P"])] {
+        let r = formats::read_cloud(&b[..], &sel).unwrap();
+        assert_eq!(r.points().vec3_f32("P").unwrap(), p);
+        assert_eq!(r.points().scalar_f64("id").unwrap()[n - 1], (n - 1) as f64);
+    }
+}

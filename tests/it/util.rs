@@ -1,0 +1,215 @@
+//! The harness: run a binary on stdin bytes, temp dirs, test clouds.
+
+#![allow(dead_code)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use pcsss::formats::{self, Encoding, Format, Select};
+use pcsss::{
+    AttrData, Attribute, Cloud, Column, DetailValue, Element, ListColumn, Role, ScalarType,
+};
+
+/// Path of a binary of this package.
+pub fn bin(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_BIN_EXE_pcinfo"));
+    dir.parent().unwrap().join(name)
+}
+
+/// Runs `name args` with `stdin` bytes; returns the output.
+pub fn run(name: &str, args: &[&str], stdin: &[u8]) -> Output {
+    run_in(None, name, args, stdin)
+}
+
+/// Like [`run`], in directory `dir`.
+pub fn run_in(dir: Option<&Path>, name: &str, args: &[&str], stdin: &[u8]) -> Output {
+    let mut cmd = Command::new(bin(name));
+    cmd.args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
+    let mut child = cmd.spawn().expect("spawn binary");
+    let mut sin = child.stdin.take().unwrap();
+    let data = stdin.to_vec();
+    let writer = std::thread::spawn(move || {
+        let _ = sin.write_all(&data);
+    });
+    let out = child.wait_with_output().expect("wait");
+    writer.join().unwrap();
+    out
+}
+
+/// Stderr as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A fresh temp directory.
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temp dir")
+}
+
+/// The repository's fixtures folder.
+pub fn fixtures() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures")
+}
+
+/// Writes a cloud to bytes.
+pub fn to_bytes(c: &Cloud, f: Format) -> Vec<u8> {
+    let mut v = Vec::new();
+    formats::write_cloud(&mut v, c, f).expect("write");
+    v
+}
+
+/// Reads a cloud from bytes.
+pub fn from_bytes(b: &[u8]) -> Cloud {
+    formats::read_cloud(b, &Select::All).expect("read")
+}
+
+pub const LE: Format = Format::Ply(Encoding::BinaryLe);
+pub const BE: Format = Format::Ply(Encoding::BinaryBe);
+pub const ASCII: Format = Format::Ply(Encoding::Ascii);
+
+/// Extreme and ordinary values of each type, `n` = 6 rows.
+pub fn extremes(t: ScalarType) -> Column {
+    match t {
+        ScalarType::I8 => Column::I8(vec![i8::MIN, -1, 0, 1, 42, i8::MAX]),
+        ScalarType::U8 => Column::U8(vec![0, 1, 127, 128, 200, u8::MAX]),
+        ScalarType::I16 => Column::I16(vec![i16::MIN, -1, 0, 1, 1234, i16::MAX]),
+        ScalarType::U16 => Column::U16(vec![0, 1, 32767, 32768, 40000, u16::MAX]),
+        ScalarType::I32 => Column::I32(vec![i32::MIN, -1, 0, 1, 123456789, i32::MAX]),
+        ScalarType::U32 => Column::U32(vec![0, 1, 1 << 31, 3_000_000_000, 7, u32::MAX]),
+        ScalarType::F32 => Column::F32(vec![
+            -0.0,
+            f32::MIN_POSITIVE / 8.0,
+            0.1,
+            f32::NAN,
+            f32::NEG_INFINITY,
+            f32::MAX,
+        ]),
+        ScalarType::F64 => Column::F64(vec![
+            -0.0,
+            f64::MIN_POSITIVE / 1024.0,
+            0.1,
+            f64::NAN,
+            f64::INFINITY,
+            1e300,
+        ]),
+    }
+}
+
+/// A cloud with every property type: scalars of all eight types, 3-vectors
+/// with every role, list properties of every count and item type, an
+/// element the toolkit knows nothing of, detail attributes of every type.
+pub fn every_type_cloud() -> Cloud {
+    let n = 6;
+    let mut pts = Element::new("vertex", n);
+    let p: Vec<[f64; 3]> = (0..n)
+        .map(|i| [1e6 + i as f64 * 0.1, -1e6, 1e-3 * i as f64])
+        .collect();
+    pts.set_vec3("P", Role::Point, &p).unwrap();
+    let nn: Vec<[f32; 3]> = (0..n)
+        .map(|i| [0.0, (i as f32).sin(), (i as f32).cos()])
+        .collect();
+    pts.set_vec3("N", Role::Normal, &nn).unwrap();
+    for t in ScalarType::ALL {
+        pts.set(Attribute::scalar(
+            &format!("s_{}", t.ply_name()),
+            extremes(t),
+        ))
+        .unwrap();
+    }
+    pts.set(Attribute::vec3(
+        "Cd",
+        Role::Color,
+        [
+            extremes(ScalarType::U8),
+            extremes(ScalarType::U8),
+            extremes(ScalarType::U8),
+        ],
+    ))
+    .unwrap();
+    pts.set(Attribute::vec3(
+        "rest",
+        Role::Point,
+        [
+            extremes(ScalarType::F32),
+            extremes(ScalarType::F32),
+            extremes(ScalarType::F32),
+        ],
+    ))
+    .unwrap();
+    pts.set(Attribute::vec3(
+        "vel",
+        Role::Vector,
+        [
+            extremes(ScalarType::I16),
+            extremes(ScalarType::I16),
+            extremes(ScalarType::I16),
+        ],
+    ))
+    .unwrap();
+    pts.set(Attribute::vec3(
+        "Nalt",
+        Role::Normal,
+        [
+            extremes(ScalarType::F64),
+            extremes(ScalarType::F64),
+            extremes(ScalarType::F64),
+        ],
+    ))
+    .unwrap();
+
+    let mut lists = Element::new("lists", 3);
+    for ct in ScalarType::ALL.into_iter().filter(|t| !t.is_float()) {
+        for it in ScalarType::ALL {
+            let vals = extremes(it);
+            let mut l = ListColumn::new(ct, it);
+            // Rows of 0, 2 and 4 items.
+            let idx: Vec<usize> = vec![0, 1, 2, 3, 4, 5];
+            l.items = vals.gather(&idx);
+            l.offsets = vec![0, 0, 2, 6];
+            lists
+                .set(Attribute {
+                    name: format!("l_{}_{}", ct.ply_name(), it.ply_name()),
+                    data: AttrData::List(l),
+                })
+                .unwrap();
+        }
+    }
+    let mut faces = Element::new("face", 2);
+    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
+    l.items = Column::I32(vec![0, 1, 2, 2, 3, 4, 5]);
+    l.offsets = vec![0, 3, 7];
+    faces
+        .set(Attribute {
+            name: "vertex_indices".into(),
+            data: AttrData::List(l),
+        })
+        .unwrap();
+    faces.set_scalar("area", vec![0.5f32, 1.5]).unwrap();
+
+    let mut cloud = Cloud {
+        elements: vec![pts, faces, lists, Element::new("empty_rows", 4)],
+        ..Default::default()
+    };
+    cloud.comments.push("a comment with   inner  spaces".into());
+    cloud.obj_info.push("made by tests".into());
+    cloud.set_detail("Tarea", DetailValue::F64(std::f64::consts::PI * 4.0));
+    cloud.set_detail("Tptarea", DetailValue::F32(0.1));
+    cloud.set_detail("count", DetailValue::I32(-7));
+    cloud.set_detail(
+        "light_dir",
+        DetailValue::V3F([0.0, -1.0, f32::MIN_POSITIVE]),
+    );
+    cloud.set_detail("origin", DetailValue::V3D([1e6, -1e6, 1e-300]));
+    cloud.set_detail(
+        "note",
+        DetailValue::Str("quotes \" and\nnewline, ünïcödé".into()),
+    );
+    cloud
+}
