@@ -1,0 +1,38 @@
+# Entry points: `make test` (what CI runs), `make bench`, `make demo`.
+SHELL := bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DELETE_ON_ERROR:
+
+PYENV := target/pyenv
+PY := $(PYENV)/bin/python
+export PCSSS_PYTHON := $(abspath $(PY))
+
+.PHONY: test bench demo pyenv lint
+
+## The Python packages the tests use as independent readers (plyfile, trimesh).
+pyenv: $(PY).stamp
+$(PY).stamp: tests/requirements.txt
+	python3 -m venv $(PYENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
+	touch $@
+
+## Every test; Python interop tests must run, not skip. Ends with a total.
+test: pyenv
+	mkdir -p target
+	PCSSS_REQUIRE_PYTHON=1 cargo test 2>&1 | tee target/test.log
+	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log
+
+## Benchmarks (figures in the README's performance section).
+bench: pyenv
+	cargo bench
+
+## What runs today: the embedded cube as PLY, summarised.
+demo:
+	cargo build --release --quiet
+	mkdir -p out
+	target/release/pcconvert fixtures/mesh/cube.obj -o out/cube.ply
+	target/release/pcinfo out/cube.ply
+
+lint:
+	cargo fmt --all -- --check
+	cargo clippy --all-targets -- -D warnings
