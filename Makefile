@@ -26,12 +26,10 @@ test: pyenv
 bench: pyenv
 	cargo bench
 
-## What runs today: the embedded cube as PLY, summarised.
+## What runs today: the geometry chain (pipelines/Makefile) on the embedded
+## cube, summarised. Becomes the bunny bake when illum/ssmulti/filter land.
 demo:
-	cargo build --release --quiet
-	mkdir -p out
-	target/release/pcconvert fixtures/mesh/cube.obj -o out/cube.ply
-	target/release/pcinfo out/cube.ply
+	$(MAKE) -C pipelines info
 
 lint:
 	cargo fmt --all -- --check

@@ -7,7 +7,8 @@
 //! - [`column`]: scalar types and (lazily decoded) columns.
 //! - [`cloud`]: the point cloud: elements, attributes, detail, faces.
 //! - [`formats`]: PLY (all encodings) and OBJ input, format sniffing.
-//! - [`mesh`]: faces as polygons, triangulation.
+//! - [`geom`]: triangle and polygon measures, sampling, closest points.
+//! - [`mesh`]: faces as polygons, triangulation, closest-point queries.
 //! - [`cli`]: what every binary shares (I/O, messages, errors).
 //! - [`tools`]: `pcinfo` and `pcdiff`.
 //!
@@ -19,7 +20,9 @@ pub mod cloud;
 pub mod column;
 pub mod error;
 pub mod formats;
+pub mod geom;
 pub mod mesh;
+pub mod stages;
 pub mod tools;
 
 pub use cloud::{AttrData, Attribute, Cloud, Detail, DetailValue, Element, ListColumn, Role};

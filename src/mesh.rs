@@ -1,7 +1,15 @@
-//! Meshes: a cloud's `face` element as polygons, and their triangulation.
+//! Meshes: a cloud's `face` element as polygons, their triangulation, and
+//! closest-point queries.
+
+use std::num::NonZero;
+
+use glam::DVec3;
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use kiddo::SquaredEuclidean;
 
 use crate::cloud::{Cloud, ListColumn};
 use crate::error::{Error, Result};
+use crate::geom;
 
 /// A cloud's faces as polygons over its points.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,18 +67,210 @@ impl Polygons {
         &self.indices[self.offsets[f]..self.offsets[f + 1]]
     }
 
-    /// Fan triangulation: triangle `t` of the result comes from polygon
-    /// `source[t]`. Polygons of fewer than three vertices give no triangle.
-    pub fn triangles(&self) -> (Vec<[u32; 3]>, Vec<u32>) {
-        let mut tris = Vec::with_capacity(self.indices.len());
-        let mut source = Vec::with_capacity(self.indices.len());
-        for f in 0..self.len() {
-            let p = self.polygon(f);
-            for k in 1..p.len().saturating_sub(1) {
-                tris.push([p[0], p[k], p[k + 1]]);
-                source.push(f as u32);
+    /// Number of triangles a triangulation gives (n - 2 per n-gon).
+    pub fn triangle_count(&self) -> usize {
+        (0..self.len())
+            .map(|f| self.polygon(f).len().saturating_sub(2))
+            .sum()
+    }
+}
+
+/// A polygon mesh with its triangulation, positions in f64.
+#[derive(Clone, Debug)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<DVec3>,
+    /// The polygons.
+    pub polys: Polygons,
+    /// Triangles as corner ids (indices into `polys.indices`), so a
+    /// triangle knows its face's per-corner data.
+    pub tris: Vec<[u32; 3]>,
+    /// Face `f` owns triangles `face_tris[f]..face_tris[f + 1]`.
+    pub face_tris: Vec<u32>,
+}
+
+impl TriMesh {
+    /// The mesh of `cloud`: its `P` and faces, polygons triangulated by ear
+    /// clipping. Errors on no faces, faces pointing at missing vertices and
+    /// non-finite positions.
+    pub fn from_cloud(cloud: &Cloud) -> Result<TriMesh> {
+        let polys = Polygons::of(cloud)?;
+        let positions: Vec<DVec3> = cloud
+            .points()
+            .vec3_f64("P")?
+            .into_iter()
+            .map(DVec3::from_array)
+            .collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::invalid(format!(
+                "vertex {i} has a non-finite position {:?}",
+                positions[i].to_array()
+            )));
+        }
+        let mut tris = Vec::with_capacity(polys.triangle_count());
+        let mut face_tris = Vec::with_capacity(polys.len() + 1);
+        face_tris.push(0u32);
+        let mut local = Vec::new();
+        let mut pts = Vec::new();
+        for f in 0..polys.len() {
+            let poly = polys.polygon(f);
+            pts.clear();
+            pts.extend(poly.iter().map(|&v| positions[v as usize]));
+            local.clear();
+            geom::triangulate(&pts, &mut local);
+            let base = polys.offsets[f] as u32;
+            tris.extend(
+                local
+                    .iter()
+                    .map(|t| [base + t[0] as u32, base + t[1] as u32, base + t[2] as u32]),
+            );
+            face_tris.push(tris.len() as u32);
+        }
+        Ok(TriMesh {
+            positions,
+            polys,
+            tris,
+            face_tris,
+        })
+    }
+
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.polys.len()
+    }
+
+    /// The vertex id at corner `c`.
+    #[inline]
+    pub fn vertex(&self, corner: u32) -> usize {
+        self.polys.indices[corner as usize] as usize
+    }
+
+    /// The three corners' positions of triangle `t`.
+    #[inline]
+    pub fn tri(&self, t: usize) -> [DVec3; 3] {
+        let k = self.tris[t];
+        [
+            self.positions[self.vertex(k[0])],
+            self.positions[self.vertex(k[1])],
+            self.positions[self.vertex(k[2])],
+        ]
+    }
+
+    /// The face a triangle belongs to.
+    pub fn tri_faces(&self) -> Vec<u32> {
+        let mut out = vec![0u32; self.tris.len()];
+        for f in 0..self.face_count() {
+            for t in self.face_tris[f]..self.face_tris[f + 1] {
+                out[t as usize] = f as u32;
             }
         }
-        (tris, source)
+        out
+    }
+
+    /// The area of every triangle.
+    pub fn tri_areas(&self) -> Vec<f64> {
+        (0..self.tris.len())
+            .map(|t| {
+                let [a, b, c] = self.tri(t);
+                geom::tri_area(a, b, c)
+            })
+            .collect()
+    }
+
+    /// Unit face normals (Newell's; zero for a degenerate face).
+    pub fn face_normals(&self) -> Vec<DVec3> {
+        let mut pts = Vec::new();
+        (0..self.face_count())
+            .map(|f| {
+                pts.clear();
+                pts.extend(
+                    self.polys
+                        .polygon(f)
+                        .iter()
+                        .map(|&v| self.positions[v as usize]),
+                );
+                geom::unit_or_zero(geom::newell(&pts))
+            })
+            .collect()
+    }
+}
+
+/// Closest-point queries on a mesh's triangles: a k-d tree of triangle
+/// centroids, searched outwards until no unvisited triangle can be closer
+/// (a triangle lies within its bounding radius of its centroid).
+pub struct ClosestPoint<'a> {
+    mesh: &'a TriMesh,
+    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    radius: f64,
+}
+
+/// A closest-point answer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Triangle index.
+    pub tri: usize,
+    /// Barycentric weights on it.
+    pub bary: [f64; 3],
+    /// Distance.
+    pub dist: f64,
+}
+
+impl<'a> ClosestPoint<'a> {
+    /// Builds the index; `None` for a mesh without triangles.
+    pub fn new(mesh: &'a TriMesh) -> Option<Self> {
+        if mesh.tris.is_empty() {
+            return None;
+        }
+        let mut radius: f64 = 0.0;
+        let centroids: Vec<[f64; 3]> = (0..mesh.tris.len())
+            .map(|t| {
+                let [a, b, c] = mesh.tri(t);
+                let m = (a + b + c) / 3.0;
+                radius = radius
+                    .max((a - m).length())
+                    .max((b - m).length())
+                    .max((c - m).length());
+                m.to_array()
+            })
+            .collect();
+        Some(ClosestPoint {
+            mesh,
+            tree: ImmutableKdTree::new_from_slice(&centroids),
+            radius,
+        })
+    }
+
+    /// The closest point of the mesh to `p`.
+    pub fn query(&self, p: DVec3) -> Hit {
+        let n = self.mesh.tris.len();
+        let mut k = 8.min(n);
+        loop {
+            let near = self
+                .tree
+                .nearest_n::<SquaredEuclidean>(&p.to_array(), NonZero::new(k).expect("k > 0"));
+            let mut best = Hit {
+                tri: 0,
+                bary: [1.0, 0.0, 0.0],
+                dist: f64::INFINITY,
+            };
+            for nb in &near {
+                let t = nb.item as usize;
+                let [a, b, c] = self.mesh.tri(t);
+                let w = geom::closest_on_triangle(p, a, b, c);
+                let d = (geom::blend(w, a, b, c) - p).length();
+                if d < best.dist || (d == best.dist && t < best.tri) {
+                    best = Hit {
+                        tri: t,
+                        bary: w,
+                        dist: d,
+                    };
+                }
+            }
+            let reach = near.last().map_or(0.0, |nb| nb.distance.sqrt()) - self.radius;
+            if k >= n || reach > best.dist {
+                return best;
+            }
+            k = (k * 4).min(n);
+        }
     }
 }

@@ -74,8 +74,12 @@ pub fn summary(cloud: &Cloud) -> String {
     if cloud.faces().is_some() {
         match Polygons::of(cloud) {
             Ok(p) => {
-                let (t, _) = p.triangles();
-                let _ = writeln!(s, "faces: {} polygons, {} triangles", p.len(), t.len());
+                let _ = writeln!(
+                    s,
+                    "faces: {} polygons, {} triangles",
+                    p.len(),
+                    p.triangle_count()
+                );
             }
             Err(e) => {
                 let _ = writeln!(s, "faces: not a valid mesh ({e})");

@@ -4,6 +4,7 @@
 mod util;
 
 mod cli;
+mod geometry;
 mod mesh_input;
 mod pcdiff;
 mod ply_bad_input;

@@ -16,9 +16,10 @@ fn obj_cube_has_eight_points_six_quads_twelve_triangles() {
     let p = Polygons::of(&c).unwrap();
     assert_eq!(p.len(), 6);
     assert!((0..6).all(|f| p.polygon(f).len() == 4));
-    let (tris, src) = p.triangles();
-    assert_eq!(tris.len(), 12);
-    assert_eq!(src, vec![0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]);
+    assert_eq!(p.triangle_count(), 12);
+    let m = pcsss::mesh::TriMesh::from_cloud(&c).unwrap();
+    assert_eq!(m.tri_faces(), vec![0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]);
+    assert!(m.tri_areas().iter().all(|&a| (a - 0.5).abs() < 1e-15));
     // tobj numbers vertices in order of first use: check by position.
     let pos = c.points().vec3_f32("P").unwrap();
     let corners: Vec<[f32; 3]> = p.polygon(0).iter().map(|&i| pos[i as usize]).collect();

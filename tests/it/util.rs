@@ -213,3 +213,63 @@ pub fn every_type_cloud() -> Cloud {
     );
     cloud
 }
+
+/// A UV sphere of radius `r` centred at `c`: `rings` latitude bands of
+/// `segs` quads, triangles at the poles. Its exact area tends to 4 pi r^2.
+pub fn uv_sphere(rings: usize, segs: usize, r: f64, c: [f64; 3]) -> Cloud {
+    use std::f64::consts::PI;
+    let mut p: Vec<[f64; 3]> = vec![[c[0], c[1], c[2] + r]];
+    for i in 1..rings {
+        let th = PI * i as f64 / rings as f64;
+        for j in 0..segs {
+            let ph = 2.0 * PI * j as f64 / segs as f64;
+            p.push([
+                c[0] + r * th.sin() * ph.cos(),
+                c[1] + r * th.sin() * ph.sin(),
+                c[2] + r * th.cos(),
+            ]);
+        }
+    }
+    p.push([c[0], c[1], c[2] - r]);
+    let south = (p.len() - 1) as i32;
+    let ring = |i: usize, j: usize| (1 + (i - 1) * segs + j % segs) as i32;
+    let mut faces: Vec<Vec<i32>> = Vec::new();
+    for j in 0..segs {
+        faces.push(vec![0, ring(1, j), ring(1, j + 1)]);
+    }
+    for i in 1..rings - 1 {
+        for j in 0..segs {
+            faces.push(vec![
+                ring(i, j),
+                ring(i + 1, j),
+                ring(i + 1, j + 1),
+                ring(i, j + 1),
+            ]);
+        }
+    }
+    for j in 0..segs {
+        faces.push(vec![ring(rings - 1, j), south, ring(rings - 1, j + 1)]);
+    }
+    mesh_from(&p, &faces)
+}
+
+/// A mesh cloud from positions (f64) and polygons.
+pub fn mesh_from(p: &[[f64; 3]], faces: &[Vec<i32>]) -> Cloud {
+    let mut c = Cloud::with_points(p.len());
+    c.points_mut().set_vec3("P", Role::Point, p).unwrap();
+    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
+    let mut items = Vec::new();
+    for f in faces {
+        items.extend_from_slice(f);
+        l.offsets.push(items.len());
+    }
+    l.items = Column::I32(items);
+    let mut e = Element::new("face", faces.len());
+    e.set(Attribute {
+        name: "vertex_indices".into(),
+        data: AttrData::List(l),
+    })
+    .unwrap();
+    c.elements.push(e);
+    c
+}

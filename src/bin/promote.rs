@@ -1,0 +1,86 @@
+//! `promote`: reduces a point or face attribute to a detail attribute, or
+//! normalises `ptarea` to the mesh's area.
+
+use std::process::ExitCode;
+
+use clap::{Parser, ValueEnum};
+use pcsss::cli::{self, IoArgs};
+use pcsss::formats::Select;
+use pcsss::stages::promote::{self, Class, Method};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ClassArg {
+    Point,
+    Face,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum MethodArg {
+    Sum,
+    Mean,
+    Min,
+    Max,
+}
+
+/// Promote a point or face attribute to a detail attribute (Houdini's
+/// Attribute Promote SOP): `--attr area --class face --as Tarea`. With
+/// `--normalize`, scale `ptarea` by Tarea / Tptarea so it sums to the
+/// mesh's area (and set Tptarea to the new sum).
+#[derive(Parser, Debug)]
+#[command(version)]
+struct Args {
+    #[command(flatten)]
+    io: IoArgs,
+    /// Element to read the attribute from.
+    #[arg(long, value_enum, default_value = "point")]
+    class: ClassArg,
+    /// Attribute to promote.
+    #[arg(long, required_unless_present = "normalize")]
+    attr: Option<String>,
+    /// Reduction.
+    #[arg(long, value_enum, default_value = "sum")]
+    method: MethodArg,
+    /// Detail attribute name [default: T<attr>, e.g. Tarea].
+    #[arg(long = "as", value_name = "DETAIL")]
+    as_name: Option<String>,
+    /// Normalise ptarea: ptarea *= Tarea / Tptarea.
+    #[arg(long, conflicts_with = "attr")]
+    normalize: bool,
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let msg = args.io.messages("promote");
+    let name = args.io.input_name();
+    let ctx = |e: pcsss::Error| anyhow::anyhow!("{name}: {e}");
+    if args.normalize {
+        let mut cloud = args.io.read(&Select::only(&["ptarea"]))?;
+        let (tarea, before) = promote::normalize(&mut cloud).map_err(ctx)?;
+        msg.info(format!(
+            "ptarea scaled by Tarea / Tptarea = {tarea} / {before}"
+        ));
+        return args.io.write(&cloud);
+    }
+    let attr = args.attr.expect("clap requires --attr");
+    let mut cloud = args.io.read(&Select::only(&[&attr]))?;
+    let class = match args.class {
+        ClassArg::Point => Class::Point,
+        ClassArg::Face => Class::Face,
+    };
+    let method = match args.method {
+        MethodArg::Sum => Method::Sum,
+        MethodArg::Mean => Method::Mean,
+        MethodArg::Min => Method::Min,
+        MethodArg::Max => Method::Max,
+    };
+    let as_name = args.as_name.unwrap_or_else(|| format!("T{attr}"));
+    let v = promote::promote(&mut cloud, class, &attr, method, &as_name).map_err(ctx)?;
+    msg.info(format!(
+        "{as_name} = {}",
+        pcsss::tools::info::detail_text(&v)
+    ));
+    args.io.write(&cloud)
+}
+
+fn main() -> ExitCode {
+    cli::main_of("promote", || run(Args::parse()))
+}

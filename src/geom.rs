@@ -1,0 +1,282 @@
+//! Geometry as pure free functions: triangle and polygon measures,
+//! polygon triangulation, triangle sampling, closest points.
+//!
+//! Everything is f64 and takes positions relative to a triangle's first
+//! vertex before crossing, so results hold at large coordinates.
+
+use glam::DVec3;
+
+/// Twice the vector area of triangle `abc` (its normal times 2 * area).
+#[inline]
+pub fn tri_cross(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    (b - a).cross(c - a)
+}
+
+/// Area of triangle `abc`: 0 for a degenerate one, never NaN for finite input.
+#[inline]
+pub fn tri_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    0.5 * tri_cross(a, b, c).length()
+}
+
+/// Newell's normal of a polygon: twice its vector area. Exact for planar
+/// polygons of any shape, a sensible average for non-planar ones.
+pub fn newell(pts: &[DVec3]) -> DVec3 {
+    let Some(&o) = pts.first() else {
+        return DVec3::ZERO;
+    };
+    let mut n = DVec3::ZERO;
+    for i in 0..pts.len() {
+        let (a, b) = (pts[i] - o, pts[(i + 1) % pts.len()] - o);
+        n += a.cross(b);
+    }
+    n
+}
+
+/// Unit normal of `v`, or zero when `v` has no direction.
+#[inline]
+pub fn unit_or_zero(v: DVec3) -> DVec3 {
+    let l = v.length();
+    if l > 0.0 && l.is_finite() {
+        v / l
+    } else {
+        DVec3::ZERO
+    }
+}
+
+/// Perimeter of a closed polygon.
+pub fn perimeter(pts: &[DVec3]) -> f64 {
+    (0..pts.len())
+        .map(|i| (pts[(i + 1) % pts.len()] - pts[i]).length())
+        .sum()
+}
+
+/// Triangulates polygon `pts` (indices into `pts`) by ear clipping in the
+/// plane of its Newell normal, so non-convex planar polygons come out
+/// right; triangles and degenerate polygons fall back to a fan. Fewer than
+/// three vertices give nothing.
+pub fn triangulate(pts: &[DVec3], out: &mut Vec<[usize; 3]>) {
+    let n = pts.len();
+    if n < 3 {
+        return;
+    }
+    if n == 3 {
+        out.push([0, 1, 2]);
+        return;
+    }
+    let nrm = newell(pts);
+    let ax = nrm.abs().max_position();
+    if nrm[ax] == 0.0 {
+        return fan(n, out);
+    }
+    // Project dropping the dominant axis; keep counter-clockwise order.
+    let (u, v) = match ax {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let flip = nrm[ax] < 0.0;
+    let p2: Vec<[f64; 2]> = pts
+        .iter()
+        .map(|p| if flip { [p[v], p[u]] } else { [p[u], p[v]] })
+        .collect();
+    let cross2 = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let mut ring: Vec<usize> = (0..n).collect();
+    let start = out.len();
+    while ring.len() > 3 {
+        let m = ring.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (ring[(i + m - 1) % m], ring[i], ring[(i + 1) % m]);
+            if cross2(p2[a], p2[b], p2[c]) <= 0.0 {
+                return false;
+            }
+            ring.iter().all(|&k| {
+                k == a
+                    || k == b
+                    || k == c
+                    || cross2(p2[a], p2[b], p2[k]) < 0.0
+                    || cross2(p2[b], p2[c], p2[k]) < 0.0
+                    || cross2(p2[c], p2[a], p2[k]) < 0.0
+            })
+        });
+        match ear {
+            Some(i) => {
+                out.push([ring[(i + m - 1) % m], ring[i], ring[(i + 1) % m]]);
+                ring.remove(i);
+            }
+            None => {
+                // Self-intersecting or degenerate: a fan of the whole polygon.
+                out.truncate(start);
+                return fan(n, out);
+            }
+        }
+    }
+    out.push([ring[0], ring[1], ring[2]]);
+}
+
+fn fan(n: usize, out: &mut Vec<[usize; 3]>) {
+    for k in 1..n - 1 {
+        out.push([0, k, k + 1]);
+    }
+}
+
+/// Uniform barycentric weights on a triangle from two uniform numbers in
+/// [0, 1) (the square-root warp, pbrt's `SampleUniformTriangle`).
+#[inline]
+pub fn sample_triangle(r1: f64, r2: f64) -> [f64; 3] {
+    let s = r1.sqrt();
+    [1.0 - s, s * (1.0 - r2), s * r2]
+}
+
+/// The point of triangle `abc` closest to `p` (Ericson, Real-Time Collision
+/// Detection, 5.1.5), as barycentric weights.
+pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // Degenerate triangle: the nearest of its vertices.
+        let d = [
+            (p - a).length_squared(),
+            (p - b).length_squared(),
+            (p - c).length_squared(),
+        ];
+        let k = (0..3).min_by(|&i, &j| d[i].total_cmp(&d[j])).unwrap_or(0);
+        let mut w = [0.0; 3];
+        w[k] = 1.0;
+        return w;
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    [1.0 - v - w, v, w]
+}
+
+/// `w0 a + w1 b + w2 c`.
+#[inline]
+pub fn blend(w: [f64; 3], a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    // Relative to `a`, so large coordinates keep their precision.
+    a + (b - a) * w[1] + (c - a) * w[2]
+}
+
+/// A compensated (Neumaier) sum: rounding does not grow with the count.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sum {
+    s: f64,
+    c: f64,
+}
+
+impl Sum {
+    /// Adds `x`.
+    #[inline]
+    pub fn add(&mut self, x: f64) {
+        let t = self.s + x;
+        if self.s.abs() >= x.abs() {
+            self.c += (self.s - t) + x;
+        } else {
+            self.c += (x - t) + self.s;
+        }
+        self.s = t;
+    }
+
+    /// The sum.
+    pub fn value(&self) -> f64 {
+        self.s + self.c
+    }
+}
+
+impl FromIterator<f64> for Sum {
+    fn from_iter<I: IntoIterator<Item = f64>>(it: I) -> Self {
+        let mut s = Sum::default();
+        it.into_iter().for_each(|x| s.add(x));
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn d(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    #[test]
+    fn ear_clipping_a_non_convex_l_shape_keeps_its_area() {
+        // An L of area 3 (unit squares), counter-clockwise, in the xz plane.
+        let pts = [
+            d(0., 0., 0.),
+            d(2., 0., 0.),
+            d(2., 0., 1.),
+            d(1., 0., 1.),
+            d(1., 0., 2.),
+            d(0., 0., 2.),
+        ];
+        let mut t = Vec::new();
+        triangulate(&pts, &mut t);
+        assert_eq!(t.len(), 4);
+        let a: f64 = t
+            .iter()
+            .map(|k| tri_area(pts[k[0]], pts[k[1]], pts[k[2]]))
+            .sum();
+        assert!((a - 3.0).abs() < 1e-12, "{a}");
+        assert!((newell(&pts).length() / 2.0 - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn closest_point_regions() {
+        let (a, b, c) = (d(0., 0., 0.), d(1., 0., 0.), d(0., 1., 0.));
+        assert_eq!(
+            closest_on_triangle(d(0.2, 0.2, 5.0), a, b, c),
+            [0.6000000000000001, 0.2, 0.2]
+        );
+        assert_eq!(
+            closest_on_triangle(d(-1., -1., 0.), a, b, c),
+            [1.0, 0.0, 0.0]
+        );
+        assert_eq!(
+            closest_on_triangle(d(0.5, -1., 0.), a, b, c),
+            [0.5, 0.5, 0.0]
+        );
+        let w = closest_on_triangle(d(1., 1., 0.), a, b, c);
+        assert!((w[1] - 0.5).abs() < 1e-12 && (w[2] - 0.5).abs() < 1e-12);
+        // Degenerate: a point triangle.
+        assert_eq!(closest_on_triangle(d(1., 1., 1.), a, a, a)[0], 1.0);
+    }
+
+    #[test]
+    fn compensated_sum_does_not_drift() {
+        let s: Sum = std::iter::once(1e16)
+            .chain(std::iter::repeat_n(1.0, 1000))
+            .chain(std::iter::once(-1e16))
+            .collect();
+        assert_eq!(s.value(), 1000.0);
+    }
+}

@@ -1,0 +1,7 @@
+//! The stages: pure functions from clouds to clouds, one module each.
+//! The binaries in `src/bin/` only parse arguments, read, call, write.
+
+pub mod facet;
+pub mod measure;
+pub mod promote;
+pub mod scatter;

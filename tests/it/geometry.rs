@@ -1,0 +1,449 @@
+//! The geometry stages: measure, promote, scatter, facet, against closed
+//! forms (cube, sphere), statistics, and bad input.
+
+use std::f64::consts::PI;
+
+use crate::util::*;
+use pcsss::mesh::TriMesh;
+use pcsss::stages::facet::{self, Mode, Weight};
+use pcsss::stages::scatter::{self, Params, PtareaMode};
+use pcsss::stages::{measure, promote};
+use pcsss::Cloud;
+
+fn cube() -> Cloud {
+    let b = std::fs::read(fixtures().join("mesh/cube.obj")).unwrap();
+    from_bytes(&b)
+}
+
+fn scatter_n(mesh: &Cloud, n: usize, seed: u64, mode: PtareaMode) -> Cloud {
+    scatter::scatter(
+        mesh,
+        &Params {
+            count: n,
+            seed,
+            ptarea: mode,
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn measure_cube_matches_the_hand_written_golden() {
+    let d = tempdir();
+    let cube = fixtures().join("mesh/cube.obj");
+    let out = run_in(
+        Some(d.path()),
+        "measure",
+        &[cube.to_str().unwrap(), "-o", "m.ply"],
+        b"",
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let golden = fixtures().join("golden/measure_cube.ply");
+    let out = run_in(
+        Some(d.path()),
+        "pcdiff",
+        &[
+            "m.ply",
+            golden.to_str().unwrap(),
+            "--only",
+            "area,perimeter",
+            "--rel",
+            "1e-6",
+        ],
+        b"",
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+#[test]
+fn sphere_area_converges_to_4_pi() {
+    let mut last_err = f64::INFINITY;
+    for (rings, segs) in [(8, 16), (32, 64), (128, 256)] {
+        let mut s = uv_sphere(rings, segs, 1.0, [0.0; 3]);
+        let rep = measure::measure(&mut s).unwrap();
+        let err = (4.0 * PI - rep.total_area) / (4.0 * PI);
+        assert!(
+            err > 0.0 && err < last_err / 3.0,
+            "{rings}x{segs}: relative error {err}"
+        );
+        last_err = err;
+    }
+    assert!(last_err < 2e-4, "{last_err}");
+}
+
+#[test]
+fn degenerate_faces_measure_zero_never_nan() {
+    let p = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1e-9, 1.0, 0.0],
+    ];
+    let faces = vec![
+        vec![0, 1, 2],
+        vec![0, 0, 3],
+        vec![0, 1],
+        vec![0, 3, 4],
+        vec![0, 1, 3],
+    ];
+    let mut m = mesh_from(&p, &faces);
+    let rep = measure::measure(&mut m).unwrap();
+    let area = m.faces().unwrap().scalar_f64("area").unwrap();
+    assert_eq!(&area[..3], &[0.0, 0.0, 0.0]);
+    assert!(area[3] > 0.0 && area[3] < 1e-9, "sliver {}", area[3]);
+    assert_eq!(area[4], 0.5);
+    assert_eq!(rep.degenerate, 3);
+    assert!(m
+        .faces()
+        .unwrap()
+        .scalar_f64("perimeter")
+        .unwrap()
+        .iter()
+        .all(|p| p.is_finite()));
+}
+
+#[test]
+fn after_the_chain_ptarea_sums_to_tarea_for_every_mode() {
+    for mode in [PtareaMode::Prim, PtareaMode::Knn] {
+        let mut mesh = uv_sphere(16, 32, 2.0, [1e6, -1e6, 1e6]);
+        measure::measure(&mut mesh).unwrap();
+        promote::promote(
+            &mut mesh,
+            promote::Class::Face,
+            "area",
+            promote::Method::Sum,
+            "Tarea",
+        )
+        .unwrap();
+        let mut c = scatter_n(&mesh, 5000, 1, mode);
+        assert_eq!(
+            c.detail_f64("Tarea").unwrap(),
+            mesh.detail_f64("Tarea").unwrap(),
+            "detail inherited"
+        );
+        promote::normalize(&mut c).unwrap();
+        let tarea = c.detail_f64("Tarea").unwrap();
+        let sum: f64 = c.points().scalar_f64("ptarea").unwrap().iter().sum();
+        assert!(
+            ((sum - tarea) / tarea).abs() < 1e-6,
+            "{mode:?}: {sum} vs {tarea}"
+        );
+        assert!(((c.detail_f64("Tptarea").unwrap() - tarea) / tarea).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn prim_ptarea_sums_to_the_area_before_normalising() {
+    let c = scatter_n(&cube(), 1000, 5, PtareaMode::Prim);
+    let sum: f64 = c.points().scalar_f64("ptarea").unwrap().iter().sum();
+    assert!((sum - 6.0).abs() < 1e-5, "{sum}");
+}
+
+/// Faces with areas 1, 2, ..., 8 (right triangles of legs 1 and 2k).
+fn strip() -> Cloud {
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..8 {
+        let x = 20.0 * k as f64;
+        let b = p.len() as i32;
+        p.extend([
+            [x, 0.0, 0.0],
+            [x + 1.0, 0.0, 0.0],
+            [x, 2.0 * (k + 1) as f64, 0.0],
+        ]);
+        faces.push(vec![b, b + 1, b + 2]);
+    }
+    mesh_from(&p, &faces)
+}
+
+#[test]
+fn scatter_counts_follow_area_chi_square_over_many_seeds() {
+    let mesh = strip();
+    let areas: Vec<f64> = (1..=8).map(|k| k as f64).collect();
+    let total: f64 = areas.iter().sum();
+    let (n, seeds) = (97usize, 300u64);
+    let mut counts = [0f64; 8];
+    for seed in 0..seeds {
+        let c = scatter_n(&mesh, n, seed, PtareaMode::Prim);
+        let prim = c.points().scalar_f64("sourceprim").unwrap();
+        let mut per = [0f64; 8];
+        prim.iter().for_each(|&f| per[f as usize] += 1.0);
+        for f in 0..8 {
+            // Stratified: each face gets floor or ceil of its share.
+            let e = n as f64 * areas[f] / total;
+            assert!(
+                per[f] == e.floor() || per[f] == e.ceil(),
+                "seed {seed} face {f}: {} vs {e}",
+                per[f]
+            );
+            counts[f] += per[f];
+        }
+    }
+    let chi2: f64 = (0..8)
+        .map(|f| {
+            let e = (n as u64 * seeds) as f64 * areas[f] / total;
+            (counts[f] - e).powi(2) / e
+        })
+        .sum();
+    // 7 degrees of freedom: P(chi2 > 24.32) = 0.001.
+    assert!(chi2 < 24.32, "chi-square {chi2}");
+    // Points lie on their face.
+    let c = scatter_n(&mesh, 200, 9, PtareaMode::Prim);
+    let p = c.points().vec3_f64("P").unwrap();
+    let prim = c.points().scalar_f64("sourceprim").unwrap();
+    for (q, f) in p.iter().zip(&prim) {
+        let x0 = 20.0 * *f;
+        assert!(q[0] >= x0 - 1e-9 && q[0] <= x0 + 1.0 + 1e-9 && q[2] == 0.0);
+    }
+}
+
+#[test]
+fn equal_seeds_give_equal_clouds_on_any_thread_count() {
+    let d = tempdir();
+    std::fs::write(
+        d.path().join("s.ply"),
+        to_bytes(&uv_sphere(16, 32, 1.0, [0.0; 3]), LE),
+    )
+    .unwrap();
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = std::process::Command::new(bin("scatter"))
+            .args(["s.ply", "-n", "20000", "--seed", "42", "--ptarea", "knn"])
+            .env("RAYON_NUM_THREADS", threads)
+            .current_dir(d.path())
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        outs.push(out.stdout);
+    }
+    assert_eq!(outs[0], outs[1]);
+    let other = run_in(
+        Some(d.path()),
+        "scatter",
+        &["s.ply", "-n", "20000", "--seed", "43"],
+        b"",
+    );
+    assert_ne!(other.stdout, outs[0]);
+}
+
+#[test]
+fn facet_flat_on_the_cube_gives_axis_normals() {
+    let mesh = cube();
+    let m = TriMesh::from_cloud(&mesh).unwrap();
+    let mut c = scatter_n(&mesh, 600, 2, PtareaMode::Prim);
+    let params = facet::Params {
+        mode: Mode::Flat,
+        weight: Weight::Angle,
+        cusp: 60.0,
+    };
+    facet::facet_points(&mut c, &m, &params).unwrap();
+    let p = c.points().vec3_f64("P").unwrap();
+    let n = c.points().vec3_f64("N").unwrap();
+    for (q, nn) in p.iter().zip(&n) {
+        // The outward axis normal of the face the point lies on.
+        let k = (0..3).find(|&k| nn[k] != 0.0).unwrap();
+        assert!(
+            nn[k].abs() == 1.0 && nn.iter().filter(|x| **x != 0.0).count() == 1,
+            "{nn:?}"
+        );
+        assert_eq!(
+            q[k],
+            if nn[k] > 0.0 { 1.0 } else { 0.0 },
+            "point {q:?} normal {nn:?}"
+        );
+    }
+    // Smooth with a 60 degree cusp keeps the 90 degree edges sharp.
+    let mut s = c.clone();
+    facet::facet_points(
+        &mut s,
+        &m,
+        &facet::Params {
+            mode: Mode::Smooth,
+            ..params
+        },
+    )
+    .unwrap();
+    assert_eq!(s.points().vec3_f64("N").unwrap(), n);
+    // With the cusp at 180 the corners blend: no longer axis-aligned.
+    facet::facet_points(
+        &mut s,
+        &m,
+        &facet::Params {
+            mode: Mode::Smooth,
+            cusp: 180.0,
+            ..params
+        },
+    )
+    .unwrap();
+    assert_ne!(s.points().vec3_f64("N").unwrap(), n);
+}
+
+#[test]
+fn facet_smooth_on_a_sphere_is_radial() {
+    let c0 = [3.0, -2.0, 1.0];
+    let mesh = uv_sphere(64, 128, 1.0, c0);
+    let m = TriMesh::from_cloud(&mesh).unwrap();
+    let mut c = scatter_n(&mesh, 5000, 4, PtareaMode::Prim);
+    let params = facet::Params {
+        mode: Mode::Smooth,
+        weight: Weight::Angle,
+        cusp: 60.0,
+    };
+    facet::facet_points(&mut c, &m, &params).unwrap();
+    let p = c.points().vec3_f64("P").unwrap();
+    let n = c.points().vec3_f64("N").unwrap();
+    let worst = p
+        .iter()
+        .zip(&n)
+        .map(|(q, nn)| {
+            let r = glam::DVec3::new(q[0] - c0[0], q[1] - c0[1], q[2] - c0[2]).normalize();
+            1.0 - r.dot(glam::DVec3::from_array(*nn))
+        })
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-3, "largest 1 - cos(angle to radial) {worst}");
+    // Without sourceprim, the closest point gives the same normals.
+    let mut bare = c.clone();
+    bare.points_mut().remove("sourceprim");
+    bare.points_mut().remove("sourceuv");
+    let rep = facet::facet_points(&mut bare, &m, &params).unwrap();
+    assert_eq!(rep.projected, 5000);
+    let nb = bare.points().vec3_f64("N").unwrap();
+    let max_diff = nb
+        .iter()
+        .zip(&n)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    assert!(max_diff < 1e-5, "{max_diff}");
+}
+
+#[test]
+fn facet_on_a_mesh_gives_vertex_normals() {
+    let mut s = uv_sphere(32, 64, 1.0, [0.0; 3]);
+    facet::facet_mesh(&mut s, Weight::Angle).unwrap();
+    let p = s.points().vec3_f64("P").unwrap();
+    let n = s.points().vec3_f64("N").unwrap();
+    for (q, nn) in p.iter().zip(&n) {
+        let d: f64 = (0..3).map(|k| q[k] * nn[k]).sum();
+        assert!(d > 0.999, "{q:?} {nn:?}");
+    }
+}
+
+#[test]
+fn the_seed_chain_runs_as_a_shell_pipe() {
+    let d = tempdir();
+    let cube = fixtures().join("mesh/cube.obj");
+    let b = |n: &str| bin(n).display().to_string();
+    let cmd = format!(
+        "set -o pipefail; {m} {cube} | {p} --class face --attr area --as Tarea > mesh.ply && \
+         {s} mesh.ply -n 2000 --seed 7 | {f} --mesh mesh.ply | {p} --normalize -o cloud.ply",
+        m = b("measure"),
+        p = b("promote"),
+        s = b("scatter"),
+        f = b("facet"),
+        cube = cube.display()
+    );
+    let out = std::process::Command::new("bash")
+        .args(["-c", &cmd])
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c = from_bytes(&std::fs::read(d.path().join("cloud.ply")).unwrap());
+    assert_eq!(c.len(), 2000);
+    for a in ["P", "N", "ptarea", "sourceprim", "sourceuv"] {
+        assert!(c.points().has(a), "{a}");
+    }
+    assert_eq!(c.detail_f64("Tarea").unwrap(), 6.0);
+}
+
+#[test]
+fn bad_geometry_input_is_a_clear_error() {
+    let d = tempdir();
+    let write =
+        |name: &str, c: &Cloud| std::fs::write(d.path().join(name), to_bytes(c, LE)).unwrap();
+    write(
+        "nan.ply",
+        &mesh_from(
+            &[[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[vec![0, 1, 2]],
+        ),
+    );
+    write(
+        "missing.ply",
+        &mesh_from(
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[vec![0, 1, 9]],
+        ),
+    );
+    write(
+        "flat.ply",
+        &mesh_from(
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            &[vec![0, 1, 2]],
+        ),
+    );
+    write("cloud.ply", &Cloud::with_points(0));
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            "measure",
+            &["nan.ply"],
+            "vertex 1 has a non-finite position",
+        ),
+        (
+            "scatter",
+            &["nan.ply", "-n", "10"],
+            "vertex 1 has a non-finite position",
+        ),
+        (
+            "measure",
+            &["missing.ply"],
+            "face 0 refers to vertex 9, but the mesh has 3 vertices",
+        ),
+        ("scatter", &["flat.ply", "-n", "10"], "total area is 0"),
+        ("scatter", &["cloud.ply", "-n", "10"], "no faces"),
+        ("scatter", &["flat.ply", "--density", "NaN"], "--density"),
+        ("facet", &["cloud.ply"], "needs --mesh MESH"),
+        (
+            "promote",
+            &["cloud.ply", "--normalize"],
+            "missing detail attribute 'Tarea'",
+        ),
+        (
+            "promote",
+            &["cloud.ply", "--attr", "illum"],
+            "missing point attribute 'illum' (run 'illum' first",
+        ),
+    ];
+    for (stage, args, want) in cases {
+        let out = run_in(Some(d.path()), stage, args, b"");
+        let e = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{stage} {args:?}: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+        assert!(e.contains(want), "{stage} {args:?}: '{e}' lacks '{want}'");
+    }
+    // N = 0 is a documented result: an empty cloud with the attributes.
+    write("cube.ply", &cube());
+    let out = run_in(Some(d.path()), "scatter", &["cube.ply", "-n", "0"], b"");
+    assert!(out.status.success(), "{}", stderr(&out));
+    let c = from_bytes(&out.stdout);
+    assert_eq!(c.len(), 0);
+    assert!(c.points().has("ptarea"));
+    // A cloud without sourceprim and no mesh: facet says what it needs.
+    let out = run_in(
+        Some(d.path()),
+        "facet",
+        &[],
+        &to_bytes(&scatter_n(&cube(), 5, 1, PtareaMode::Prim), LE),
+    );
+    assert!(stderr(&out).contains("needs --mesh"), "{}", stderr(&out));
+}
