@@ -1,0 +1,127 @@
+//! Scatter and facet speed: 1,000,000 points on a ~1,000,000-triangle
+//! sphere mesh, whole process, beside Python trimesh (sample_surface + face
+//! normals) in the same run. `cargo bench --bench geometry`; results in
+//! target/bench/geometry.txt.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+
+use common::*;
+use pcsss::formats::{self, Format};
+use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
+
+/// A UV sphere: rings x segs vertices, two triangles per quad.
+fn sphere(rings: usize, segs: usize) -> Cloud {
+    let mut p = Vec::new();
+    for i in 0..=rings {
+        let th = PI * i as f64 / rings as f64;
+        for j in 0..segs {
+            let ph = 2.0 * PI * j as f64 / segs as f64;
+            p.push([
+                (th.sin() * ph.cos()) as f32,
+                (th.sin() * ph.sin()) as f32,
+                th.cos() as f32,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
+    let mut items = Vec::new();
+    for i in 0..rings {
+        for j in 0..segs {
+            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let nf = items.len() / 3;
+    let mut c = Cloud::with_points(p.len());
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
+    l.offsets = (0..=nf).map(|f| 3 * f).collect();
+    l.items = Column::I32(items);
+    let mut e = Element::new("face", nf);
+    e.set(Attribute {
+        name: "vertex_indices".into(),
+        data: AttrData::List(l),
+    })
+    .unwrap();
+    c.elements.push(e);
+    c
+}
+
+fn main() {
+    let n: usize = std::env::var("BENCH_POINTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
+    let dir = bench_dir();
+    let mesh = sphere(500, 1000);
+    let tris = mesh.faces().unwrap().len();
+    let path = dir.join("sphere_1m.ply");
+    let mut w = BufWriter::new(File::create(&path).unwrap());
+    formats::write_cloud(&mut w, &mesh, Format::DEFAULT).unwrap();
+    w.flush().unwrap();
+    let p = path.display().to_string();
+    let out = dir.join("geometry_out.ply").display().to_string();
+    let b = |s: &str| {
+        format!(
+            "{}/{s}",
+            std::path::Path::new(env!("CARGO_BIN_EXE_pcinfo"))
+                .parent()
+                .unwrap()
+                .display()
+        )
+    };
+    let mut t = Table::new(
+        &format!("scatter + facet: {n} points on a UV sphere of {tris} triangles; {}; best of 3, whole process", machine()),
+        "| case | seconds |\n|---|---|",
+    );
+    let mut row = |name: &str, s: Option<f64>| {
+        t.row(format!(
+            "| {name} | {} |",
+            s.map_or("failed".into(), |s| format!("{s:.2}"))
+        ))
+    };
+    row(
+        "scatter -n N",
+        best_cmd(3, &format!("{} {p} -n {n} -o {out}", b("scatter"))),
+    );
+    row(
+        "scatter -n N --ptarea knn",
+        best_cmd(
+            3,
+            &format!("{} {p} -n {n} --ptarea knn -o {out}", b("scatter")),
+        ),
+    );
+    row(
+        "scatter | facet --mode flat",
+        best_cmd(
+            3,
+            &format!(
+                "{} {p} -n {n} | {} --mesh {p} --mode flat -o {out}",
+                b("scatter"),
+                b("facet")
+            ),
+        ),
+    );
+    row(
+        "scatter | facet --mode smooth",
+        best_cmd(
+            3,
+            &format!(
+                "{} {p} -n {n} | {} --mesh {p} -o {out}",
+                b("scatter"),
+                b("facet")
+            ),
+        ),
+    );
+    let py = python();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/trimesh_scatter.py");
+    row(
+        "python trimesh: load, sample_surface, face normals, write PLY",
+        best_cmd(3, &format!("{py} {script} {p} {n} {out}")),
+    );
+    t.save("geometry.txt");
+}
