@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, ValueEnum};
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
-use pcsss::stages::scatter::{self, Params, PtareaMode};
+use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum PtareaArg {
@@ -45,14 +45,9 @@ fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("scatter");
     let name = args.io.input_name();
     let mesh = args.io.read(&Select::only(&["P"]))?;
-    let count = match (args.count, args.density) {
-        (Some(n), _) => n,
-        (None, Some(d)) => {
-            let m = pcsss::mesh::TriMesh::from_cloud(&mesh)
-                .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-            let area: f64 = m.tri_areas().iter().sum();
-            scatter::count_for_density(d, area)?
-        }
+    let amount = match (args.count, args.density) {
+        (Some(n), _) => Amount::Count(n),
+        (None, Some(d)) => Amount::Density(d),
         (None, None) => unreachable!("clap requires one"),
     };
     let ptarea = match args.ptarea {
@@ -62,13 +57,13 @@ fn run(args: Args) -> anyhow::Result<()> {
     let cloud = scatter::scatter(
         &mesh,
         &Params {
-            count,
+            amount,
             seed: args.seed,
             ptarea,
         },
     )
     .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    msg.info(format!("{count} points"));
+    msg.info(format!("{} points", cloud.len()));
     args.io.write(&cloud)
 }
 

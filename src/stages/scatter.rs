@@ -45,8 +45,8 @@ pub enum PtareaMode {
 /// Parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
-    /// Point count.
-    pub count: usize,
+    /// How many points.
+    pub amount: Amount,
     /// Random seed.
     pub seed: u64,
     /// `ptarea` estimate.
@@ -55,6 +55,13 @@ pub struct Params {
 
 /// The most points one run makes.
 pub const MAX_POINTS: usize = 1 << 31;
+
+/// How many points: a count, or a density per unit area of the mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Amount {
+    Count(usize),
+    Density(f64),
+}
 
 /// The point count for a density (points per unit area) on `area`.
 pub fn count_for_density(density: f64, area: f64) -> Result<usize> {
@@ -84,11 +91,9 @@ fn uniform(r: &mut Pcg32) -> f64 {
 
 /// Scatters points on `mesh` (a cloud with faces).
 pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
-    if p.count > MAX_POINTS {
-        return Err(Error::param(
-            "--count",
-            format!("{} is more than {MAX_POINTS}", p.count),
-        ));
+    // Parameters first: an absurd one is reported before any geometry work.
+    if let Amount::Density(d) = p.amount {
+        count_for_density(d, 0.0)?;
     }
     let m = TriMesh::from_cloud(mesh)?;
     let areas = m.tri_areas();
@@ -107,7 +112,16 @@ pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
         cdf.push(acc.value() / total);
     }
     let u0 = uniform(&mut Pcg32::new(p.seed, u64::MAX));
-    let n = p.count;
+    let n = match p.amount {
+        Amount::Count(n) if n > MAX_POINTS => {
+            return Err(Error::param(
+                "--count",
+                format!("{n} is more than {MAX_POINTS}"),
+            ));
+        }
+        Amount::Count(n) => n,
+        Amount::Density(d) => count_for_density(d, total)?,
+    };
     let mut tri_of = Vec::with_capacity(n);
     let last = areas
         .iter()

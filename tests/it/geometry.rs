@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 use crate::util::*;
 use pcsss::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Weight};
-use pcsss::stages::scatter::{self, Params, PtareaMode};
+use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 use pcsss::stages::{measure, promote};
 use pcsss::Cloud;
 
@@ -19,7 +19,7 @@ fn scatter_n(mesh: &Cloud, n: usize, seed: u64, mode: PtareaMode) -> Cloud {
     scatter::scatter(
         mesh,
         &Params {
-            count: n,
+            amount: Amount::Count(n),
             seed,
             ptarea: mode,
         },
