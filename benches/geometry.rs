@@ -96,6 +96,23 @@ fn main() {
         ),
     );
     row(
+        "scatter -n N --ptarea voronoi",
+        best_cmd(
+            3,
+            &format!("{} {p} -n {n} --ptarea voronoi -o {out}", b("scatter")),
+        ),
+    );
+    row(
+        "scatter -n N --relax 5 --ptarea voronoi",
+        best_cmd(
+            1,
+            &format!(
+                "{} {p} -n {n} --relax 5 --ptarea voronoi -o {out}",
+                b("scatter")
+            ),
+        ),
+    );
+    row(
         "scatter | facet --mode flat",
         best_cmd(
             3,

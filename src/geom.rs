@@ -179,6 +179,48 @@ pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
     [1.0 - v - w, v, w]
 }
 
+/// Two unit vectors that make an orthonormal basis with the unit `n`
+/// (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+pub fn tangent_basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        DVec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Clips the convex polygon `poly` to the half-plane `dot(x, v) <= c`
+/// (Sutherland-Hodgman), into `out`.
+pub fn clip_half_plane(poly: &[[f64; 2]], v: [f64; 2], c: f64, out: &mut Vec<[f64; 2]>) {
+    out.clear();
+    let side = |p: [f64; 2]| p[0] * v[0] + p[1] * v[1] - c;
+    for (k, &p) in poly.iter().enumerate() {
+        let q = poly[(k + 1) % poly.len()];
+        let (sp, sq) = (side(p), side(q));
+        if sp <= 0.0 {
+            out.push(p);
+        }
+        if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
+            let t = sp / (sp - sq);
+            out.push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t]);
+        }
+    }
+}
+
+/// The area of a simple 2D polygon (shoelace formula).
+pub fn polygon_area_2d(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    let twice: f64 = (0..n)
+        .map(|k| {
+            let (p, q) = (poly[k], poly[(k + 1) % n]);
+            p[0] * q[1] - q[0] * p[1]
+        })
+        .sum();
+    0.5 * twice.abs()
+}
+
 /// `w0 a + w1 b + w2 c`.
 #[inline]
 pub fn blend(w: [f64; 3], a: DVec3, b: DVec3, c: DVec3) -> DVec3 {

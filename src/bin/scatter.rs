@@ -13,6 +13,9 @@ enum PtareaArg {
     Prim,
     /// pi r^2 / k from the 8 nearest neighbours (follows local density).
     Knn,
+    /// The Voronoi cell in the tangent plane (most accurate; pair with
+    /// --relax and promote --normalize).
+    Voronoi,
 }
 
 /// Scatter points on a mesh (Houdini's Scatter SOP): P, ptarea, sourceprim,
@@ -39,6 +42,10 @@ struct Args {
     /// How ptarea is estimated.
     #[arg(long, value_enum, default_value = "prim")]
     ptarea: PtareaArg,
+    /// Relaxation iterations: spread the points evenly (blue noise) by
+    /// repulsion on the surface, like the Scatter SOP's relax iterations.
+    #[arg(long, default_value_t = 0)]
+    relax: u32,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -53,6 +60,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     let ptarea = match args.ptarea {
         PtareaArg::Prim => PtareaMode::Prim,
         PtareaArg::Knn => PtareaMode::Knn,
+        PtareaArg::Voronoi => PtareaMode::Voronoi,
     };
     let cloud = scatter::scatter(
         &mesh,
@@ -60,6 +68,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             amount,
             seed: args.seed,
             ptarea,
+            relax: args.relax,
         },
     )
     .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;

@@ -15,12 +15,22 @@
 //! ear-clipping triangulation that `facet` recomputes). The mesh's detail
 //! attributes are inherited.
 //!
+//! `--relax ITER` then spreads the points evenly (blue noise) by repulsion
+//! on the surface, like the Scatter SOP's relax iterations (see `relax`).
+//!
 //! `ptarea`:
-//! - `prim`: a triangle's area shared equally by its points; sums to the
-//!   mesh area exactly.
+//! - `prim`: a triangle's area shared equally by its points, and a
+//!   triangle without points gives its area to the point nearest its
+//!   centroid; sums to the mesh area exactly.
 //! - `knn`: `pi r_k^2 / k` from the distance `r_k` to the k-th nearest
 //!   other point (k = 8): follows local density; needs `promote
 //!   --normalize` to sum to `Tarea`.
+//! - `voronoi`: the point's Voronoi cell in its tangent plane (see
+//!   `voronoi_areas`); needs `promote --normalize`. The most accurate
+//!   weights for every later sum: on a unit sphere the RMS error of the
+//!   `ssmulti` kernel sum over 8000 points with ~60 neighbours is 0.0087
+//!   with `prim`, 0.0035 with `voronoi`, 0.0006 with `voronoi` after 10
+//!   relax iterations (`relax_with_voronoi_weights_cuts_the_kernel_error`).
 
 use glam::DVec3;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -33,13 +43,15 @@ use crate::cloud::{Cloud, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
 use crate::geom::{self, Sum};
-use crate::mesh::TriMesh;
+use crate::mesh::{ClosestPoint, TriMesh};
+use std::num::NonZero;
 
 /// How `ptarea` is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PtareaMode {
     Prim,
     Knn,
+    Voronoi,
 }
 
 /// Parameters.
@@ -51,6 +63,8 @@ pub struct Params {
     pub seed: u64,
     /// `ptarea` estimate.
     pub ptarea: PtareaMode,
+    /// Relaxation iterations (0: plain stratified random points).
+    pub relax: u32,
 }
 
 /// The most points one run makes.
@@ -135,25 +149,37 @@ pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
         }
         tri_of.push(t as u32);
     }
-    let samples: Vec<(DVec3, [f64; 3])> = (0..n)
+    let mut samples: Vec<Sample> = (0..n)
         .into_par_iter()
         .map(|k| {
             let mut r = Pcg32::new(p.seed, k as u64);
             let w = geom::sample_triangle(uniform(&mut r), uniform(&mut r));
-            let [a, b, c] = m.tri(tri_of[k] as usize);
-            (geom::blend(w, a, b, c), w)
+            let t = tri_of[k];
+            let [a, b, c] = m.tri(t as usize);
+            Sample {
+                p: geom::blend(w, a, b, c),
+                tri: t,
+                w,
+            }
         })
         .collect();
+    if p.relax > 0 && n > 1 {
+        relax(&m, &mut samples, p.relax, p.seed, total);
+    }
     let ptarea: Vec<f32> = match p.ptarea {
-        PtareaMode::Prim => {
-            let mut per = vec![0u32; areas.len()];
-            tri_of.iter().for_each(|&t| per[t as usize] += 1);
-            tri_of
+        PtareaMode::Prim => prim_area(&m, &areas, &samples),
+        PtareaMode::Knn => knn_area(&samples.iter().map(|s| s.p).collect::<Vec<_>>(), total),
+        PtareaMode::Voronoi => {
+            let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
+            let nrm: Vec<DVec3> = samples
                 .iter()
-                .map(|&t| (areas[t as usize] / per[t as usize] as f64) as f32)
-                .collect()
+                .map(|s| {
+                    let [a, b, c] = m.tri(s.tri as usize);
+                    geom::tri_cross(a, b, c)
+                })
+                .collect();
+            voronoi_areas(&pos, &nrm, total)
         }
-        PtareaMode::Knn => knn_area(&samples.iter().map(|s| s.0).collect::<Vec<_>>(), total),
     };
     let mut cloud = Cloud::with_points(n);
     cloud.detail = mesh.detail.clone();
@@ -163,23 +189,23 @@ pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
         pts.set_vec3(
             "P",
             Role::Point,
-            &samples.iter().map(|s| s.0.to_array()).collect::<Vec<_>>(),
+            &samples.iter().map(|s| s.p.to_array()).collect::<Vec<_>>(),
         )?;
     } else {
-        let rows: Vec<[f32; 3]> = samples.iter().map(|s| s.0.as_vec3().to_array()).collect();
+        let rows: Vec<[f32; 3]> = samples.iter().map(|s| s.p.as_vec3().to_array()).collect();
         pts.set_vec3("P", Role::Point, &rows)?;
     }
     pts.set_scalar("ptarea", ptarea)?;
     pts.set_scalar(
         "sourceprim",
-        tri_of
+        samples
             .iter()
-            .map(|&t| tri_face[t as usize] as i32)
+            .map(|s| tri_face[s.tri as usize] as i32)
             .collect(),
     )?;
     let uv: Vec<[f32; 3]> = samples
         .iter()
-        .map(|s| [s.1[1] as f32, s.1[2] as f32, 0.0])
+        .map(|s| [s.w[1] as f32, s.w[2] as f32, 0.0])
         .collect();
     pts.set_vec3("sourceuv", Role::Vector, &uv)?;
     Ok(cloud)
@@ -203,6 +229,180 @@ fn knn_area(pos: &[DVec3], total: f64) -> Vec<f32> {
             let near = tree.nearest_n::<SquaredEuclidean>(q, nk);
             let r2 = near.last().map_or(0.0, |nb| nb.distance);
             (std::f64::consts::PI * r2 / k as f64) as f32
+        })
+        .collect()
+}
+
+/// A point on the mesh: position, triangle, barycentric weights.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    p: DVec3,
+    tri: u32,
+    w: [f64; 3],
+}
+
+/// The per-primitive estimate: a triangle's area shared equally by its
+/// points; a triangle that got no point (more triangles than points, or
+/// after relaxation) gives its area to the point nearest its centroid, so
+/// on a fine mesh this becomes a discrete Voronoi area and the sum is
+/// always the mesh's area.
+fn prim_area(m: &TriMesh, areas: &[f64], samples: &[Sample]) -> Vec<f32> {
+    let mut per = vec![0u32; areas.len()];
+    samples.iter().for_each(|s| per[s.tri as usize] += 1);
+    let mut acc: Vec<f64> = samples
+        .iter()
+        .map(|s| areas[s.tri as usize] / per[s.tri as usize] as f64)
+        .collect();
+    let empty: Vec<usize> = (0..areas.len())
+        .filter(|&t| per[t] == 0 && areas[t] > 0.0)
+        .collect();
+    if !empty.is_empty() && !samples.is_empty() {
+        let o = samples[0].p;
+        let rel: Vec<[f64; 3]> = samples.iter().map(|s| (s.p - o).to_array()).collect();
+        let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+        let owner: Vec<u32> = empty
+            .par_iter()
+            .map(|&t| {
+                let [a, b, c] = m.tri(t);
+                let q = ((a + b + c) / 3.0 - o).to_array();
+                tree.nearest_one::<SquaredEuclidean>(&q).item
+            })
+            .collect();
+        for (&t, &i) in empty.iter().zip(&owner) {
+            acc[i as usize] += areas[t];
+        }
+    }
+    acc.into_iter().map(|a| a as f32).collect()
+}
+
+/// Spacing of `n` points on `area` in a hexagonal lattice.
+fn hex_spacing(area: f64, n: usize) -> f64 {
+    (2.0 * area / (3f64.sqrt() * n as f64)).sqrt()
+}
+
+/// Relaxation (the Scatter SOP's relax iterations, Turk's re-tiling by
+/// repulsion): every iteration moves each point away from its neighbours
+/// closer than `R = 1.5 * spacing` within its triangle's plane, by at most
+/// half the spacing, then puts it back on the mesh at the closest point.
+/// Moves are computed from the previous iteration's positions only
+/// (Jacobi), so the result does not depend on the thread count.
+fn relax(m: &TriMesh, samples: &mut Vec<Sample>, iters: u32, seed: u64, total: f64) {
+    let Some(cp) = ClosestPoint::new(m) else {
+        return;
+    };
+    let normals: Vec<DVec3> = (0..m.tris.len())
+        .map(|t| {
+            let [a, b, c] = m.tri(t);
+            geom::unit_or_zero(geom::tri_cross(a, b, c))
+        })
+        .collect();
+    let n = samples.len();
+    let d = hex_spacing(total, n);
+    // Measured on a sphere (tests/it/geometry.rs): reach 1.5 and gain 0.5
+    // converge fastest; gains from 0.7 up oscillate.
+    let reach = 1.5 * d;
+    let gain = 0.5;
+    let max_step = 0.5 * d;
+    let k = NonZero::new(13.min(n)).expect("n > 1");
+    let o = samples[0].p;
+    for it in 0..iters {
+        let rel: Vec<[f64; 3]> = samples.iter().map(|s| (s.p - o).to_array()).collect();
+        let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+        let next: Vec<Sample> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let s = samples[i];
+                let q = DVec3::from_array(rel[i]);
+                let mut f = DVec3::ZERO;
+                for nb in tree.nearest_n::<SquaredEuclidean>(&rel[i], k) {
+                    let j = nb.item as usize;
+                    if j == i {
+                        continue;
+                    }
+                    let r = nb.distance.sqrt();
+                    if r >= reach {
+                        continue;
+                    }
+                    let dir = if r > 1e-9 * d {
+                        (q - DVec3::from_array(rel[j])) / r
+                    } else {
+                        // Coincident points (pushed onto the same edge or
+                        // corner): apart along a direction of their own.
+                        let mut g = Pcg32::new(seed ^ (it as u64) << 32, i as u64);
+                        DVec3::new(uniform(&mut g), uniform(&mut g), uniform(&mut g)) - 0.5
+                    };
+                    let x = 1.0 - r / reach;
+                    f += dir * (x * x);
+                }
+                let nrm = normals[s.tri as usize];
+                f -= nrm * f.dot(nrm);
+                let mut step = f * (gain * reach);
+                let len = step.length();
+                if len > max_step {
+                    step *= max_step / len;
+                }
+                if step == DVec3::ZERO {
+                    return s;
+                }
+                let hit = cp.query(s.p + step);
+                let [a, b, c] = m.tri(hit.tri);
+                Sample {
+                    p: geom::blend(hit.bary, a, b, c),
+                    tri: hit.tri as u32,
+                    w: hit.bary,
+                }
+            })
+            .collect();
+        *samples = next;
+    }
+}
+
+/// Neighbours a Voronoi cell is cut by.
+const VORONOI_K: usize = 16;
+
+/// The area of each point's Voronoi cell in its tangent plane: the
+/// nearest `VORONOI_K` other points, projected onto the plane through the
+/// point with normal `normals[i]` (any unit vector when zero), cut a square
+/// of half-width twice the farthest one's distance by their bisectors.
+/// Exact for points on a plane away from its edges; on a smooth surface
+/// the error is of the order of the cell's size over the radius of
+/// curvature. Cells at an open boundary are not closed by the mesh's edge
+/// and come out too large (`promote --normalize` rescales the total). A
+/// lone point gets `lone`.
+pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], lone: f64) -> Vec<f32> {
+    let n = positions.len();
+    let k = VORONOI_K.min(n.saturating_sub(1));
+    if k == 0 {
+        return vec![lone as f32; n];
+    }
+    let o = positions[0];
+    let rel: Vec<[f64; 3]> = positions.iter().map(|p| (*p - o).to_array()).collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+    let nk = NonZero::new(k + 1).expect("k + 1 > 0");
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let nrm = geom::unit_or_zero(normals[i]);
+            let (t1, t2) = geom::tangent_basis(if nrm == DVec3::ZERO { DVec3::Z } else { nrm });
+            let q = DVec3::from_array(rel[i]);
+            let near = tree.nearest_n::<SquaredEuclidean>(&rel[i], nk);
+            let far = near.last().map_or(0.0, |nb| nb.distance.sqrt());
+            let h = 2.0 * far;
+            let mut cell = vec![[-h, -h], [h, -h], [h, h], [-h, h]];
+            let mut tmp = Vec::with_capacity(24);
+            for nb in &near {
+                if nb.item as usize == i {
+                    continue;
+                }
+                let d = DVec3::from_array(rel[nb.item as usize]) - q;
+                let v = [d.dot(t1), d.dot(t2)];
+                let c = 0.5 * (v[0] * v[0] + v[1] * v[1]);
+                if c > 0.0 {
+                    geom::clip_half_plane(&cell, v, c, &mut tmp);
+                    std::mem::swap(&mut cell, &mut tmp);
+                }
+            }
+            geom::polygon_area_2d(&cell) as f32
         })
         .collect()
 }
