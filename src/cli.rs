@@ -275,3 +275,9 @@ pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCo
         }
     }
 }
+
+/// Prefixes a library error with the file (or `<stdin>`) it is about:
+/// `.map_err(cli::at(&name))`.
+pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
+    move |e| anyhow::anyhow!("{name}: {e}")
+}

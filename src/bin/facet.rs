@@ -73,7 +73,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                     cusp: args.cusp,
                 },
             )
-            .map_err(|e| anyhow::anyhow!("{name}: {e}"))?
+            .map_err(cli::at(&name))?
         }
         None => {
             if cloud.faces().is_none() {
@@ -82,7 +82,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             if matches!(mode, Mode::Flat) {
                 anyhow::bail!("{name}: --mode flat needs --mesh and a point cloud: a mesh's shared vertices have one normal each");
             }
-            facet::facet_mesh(&mut cloud, weight).map_err(|e| anyhow::anyhow!("{name}: {e}"))?
+            facet::facet_mesh(&mut cloud, weight).map_err(cli::at(&name))?
         }
     };
     if rep.projected > 0 {

@@ -18,8 +18,7 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("measure");
     let mut mesh = args.io.read(&Select::only(&["P"]))?;
-    let rep = pcsss::stages::measure::measure(&mut mesh)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.io.input_name()))?;
+    let rep = pcsss::stages::measure::measure(&mut mesh).map_err(cli::at(&args.io.input_name()))?;
     msg.info(format!(
         "{} faces, total area {} ({} degenerate)",
         rep.faces, rep.total_area, rep.degenerate

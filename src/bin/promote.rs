@@ -51,7 +51,7 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("promote");
     let name = args.io.input_name();
-    let ctx = |e: pcsss::Error| anyhow::anyhow!("{name}: {e}");
+    let ctx = cli::at(&name);
     if args.normalize {
         let mut cloud = args.io.read(&Select::only(&["ptarea"]))?;
         let (tarea, before) = promote::normalize(&mut cloud).map_err(ctx)?;

@@ -71,7 +71,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             relax: args.relax,
         },
     )
-    .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    .map_err(cli::at(&name))?;
     msg.info(format!("{} points", cloud.len()));
     args.io.write(&cloud)
 }

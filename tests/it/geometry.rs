@@ -615,3 +615,97 @@ fn prim_ptarea_covers_triangles_without_points() {
     let mean = total / 1000.0;
     assert!(a.iter().all(|&x| x > 0.1 * mean && x < 10.0 * mean));
 }
+
+#[test]
+fn facet_on_points_near_the_cube_matches_the_hand_written_golden() {
+    let d = tempdir();
+    let pts = fixtures().join("facet/cube_points.ply");
+    let cube = fixtures().join("mesh/cube.obj");
+    let golden = fixtures().join("golden/facet_cube.ply");
+    for mode in ["flat", "smooth"] {
+        let out = run_in(
+            Some(d.path()),
+            "facet",
+            &[
+                pts.to_str().unwrap(),
+                "--mesh",
+                cube.to_str().unwrap(),
+                "--mode",
+                mode,
+                "-o",
+                "f.ply",
+            ],
+            b"",
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let out = run_in(
+            Some(d.path()),
+            "pcdiff",
+            &["f.ply", golden.to_str().unwrap(), "--abs", "1e-6"],
+            b"",
+        );
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{mode}: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+}
+
+fn icosphere(level: u32) -> Cloud {
+    let b = std::fs::read(fixtures().join(format!("mesh/icosphere{level}.obj"))).unwrap();
+    from_bytes(&b)
+}
+
+#[test]
+fn icosphere_fixtures_measure_trimesh_areas_converging_to_4_pi() {
+    // trimesh's areas for the same files (fixtures/golden/README.md).
+    let trimesh = [11.665931391718317, 12.329848595234669, 12.506492733969928];
+    let mut last = f64::INFINITY;
+    for (level, want) in [1, 2, 3].into_iter().zip(trimesh) {
+        let mut s = icosphere(level);
+        let rep = measure::measure(&mut s).unwrap();
+        assert!(
+            // OBJ positions are f32 (formats/README.md).
+            (rep.total_area / want - 1.0).abs() < 1e-7,
+            "{level}: {}",
+            rep.total_area
+        );
+        let err = 4.0 * PI - rep.total_area;
+        // Each subdivision cuts the error about four times (second order).
+        assert!(err > 0.0 && err < last / 3.5, "{level}: {err} after {last}");
+        last = err;
+    }
+}
+
+#[test]
+fn facet_on_icosphere_vertices_is_radial_and_converges() {
+    let mut last = f64::INFINITY;
+    for level in [1, 2, 3] {
+        let mut s = icosphere(level);
+        facet::facet_mesh(&mut s, Weight::Angle).unwrap();
+        let p = s.points().vec3_f64("P").unwrap();
+        let n = s.points().vec3_f64("N").unwrap();
+        let worst = p
+            .iter()
+            .zip(&n)
+            .map(|(p, n)| {
+                let r = glam::DVec3::from_array(*p).normalize();
+                let n = glam::DVec3::from_array(*n);
+                assert!((n.length() - 1.0).abs() < 1e-6);
+                r.angle_between(n)
+            })
+            .fold(0.0, f64::max);
+        // Angle-weighted normals of an icosphere's vertices: level 1 is
+        // symmetric (every vertex radial to f32 rounding); after it, close
+        // everywhere and closer as it refines.
+        assert!(worst < 0.02, "{level}: {worst} rad");
+        if level == 1 {
+            assert!(worst < 1e-6, "{worst}");
+        } else {
+            assert!(worst < last, "{level}: {worst} after {last}");
+            last = worst;
+        }
+    }
+}
