@@ -250,6 +250,15 @@ impl Messages {
     pub fn progress_enabled(&self) -> bool {
         self.level >= 1 && io::stderr().is_terminal()
     }
+
+    /// A progress bar when one may be drawn, else a silent counter.
+    pub fn progress(&self) -> crate::progress::Progress {
+        if self.progress_enabled() {
+            crate::progress::Progress::bar(self.stage)
+        } else {
+            crate::progress::Progress::hidden()
+        }
+    }
 }
 
 /// True when an error chain holds a broken pipe.
@@ -280,4 +289,28 @@ pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCo
 /// `.map_err(cli::at(&name))`.
 pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
     move |e| anyhow::anyhow!("{name}: {e}")
+}
+
+/// Parses the command line like `clap::Parser::parse`, but a usage error
+/// is one line on stderr, `stage: error: ... (see --help)`, exit status 2;
+/// `--help` and `--version` print as usual.
+pub fn parse<T: clap::Parser>(stage: &str) -> T {
+    match T::try_parse() {
+        Ok(t) => t,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+                e.exit();
+            }
+            let text = e.render().to_string();
+            let text = text.split("\n\nUsage:").next().unwrap_or(&text);
+            let text = text
+                .split("\n\nFor more information")
+                .next()
+                .unwrap_or(text);
+            let line: Vec<&str> = text.split_whitespace().collect();
+            eprintln!("{stage}: {} (see --help)", line.join(" "));
+            std::process::exit(2);
+        }
+    }
 }

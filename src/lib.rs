@@ -15,13 +15,16 @@
 //! What each stage computes is in the repository's `DESIGN.md`; the on-disk
 //! conventions in `formats/`.
 
+pub mod bvh;
 pub mod cli;
 pub mod cloud;
 pub mod column;
 pub mod error;
 pub mod formats;
 pub mod geom;
+pub mod lights;
 pub mod mesh;
+pub mod progress;
 pub mod stages;
 pub mod tools;
 

@@ -101,5 +101,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("facet", || run(Args::parse()))
+    cli::main_of("facet", || run(cli::parse("facet")))
 }

@@ -27,5 +27,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("measure", || run(Args::parse()))
+    cli::main_of("measure", || run(cli::parse("measure")))
 }

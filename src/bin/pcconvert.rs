@@ -24,5 +24,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("pcconvert", || run(Args::parse()))
+    cli::main_of("pcconvert", || run(cli::parse("pcconvert")))
 }

@@ -100,7 +100,7 @@ fn run(args: Args) -> anyhow::Result<bool> {
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
+    let args: Args = cli::parse("pcdiff");
     let mut same = true;
     let code = cli::main_of("pcdiff", || {
         same = run(args)?;

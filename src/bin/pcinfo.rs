@@ -40,5 +40,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("pcinfo", || run(Args::parse()))
+    cli::main_of("pcinfo", || run(cli::parse("pcinfo")))
 }

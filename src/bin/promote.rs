@@ -82,5 +82,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("promote", || run(Args::parse()))
+    cli::main_of("promote", || run(cli::parse("promote")))
 }

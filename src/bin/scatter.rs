@@ -77,5 +77,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("scatter", || run(Args::parse()))
+    cli::main_of("scatter", || run(cli::parse("scatter")))
 }

@@ -2,6 +2,7 @@
 //! The binaries in `src/bin/` only parse arguments, read, call, write.
 
 pub mod facet;
+pub mod illum;
 pub mod measure;
 pub mod promote;
 pub mod scatter;

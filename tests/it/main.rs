@@ -5,6 +5,7 @@ mod util;
 
 mod cli;
 mod geometry;
+mod illum;
 mod mesh_input;
 mod pcdiff;
 mod ply_bad_input;

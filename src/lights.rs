@@ -1,0 +1,658 @@
+//! Lights: the JSON file (`formats/LIGHTS.md`), its validation, the light
+//! mask, and the light arriving at a point from each light.
+//!
+//! Every light delivers `Cl = color * intensity` times its distance falloff
+//! (point, spot and area lights: `1 / d^2` or none) and its shape (spot
+//! cone, emitter cosine). An area light is a point light spread over its
+//! surface: its `samples` points share `Cl` equally, each weighted by the
+//! emitter's cosine (rectangle, disk: Lambertian, one- or two-sided;
+//! sphere: the hemisphere facing the receiver, Lambertian), so that far
+//! away every area light equals the point light at its centre.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use globset::{Glob, GlobMatcher};
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+
+/// Distance falloff of point, spot and area lights.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Falloff {
+    None,
+    #[default]
+    InverseSquare,
+}
+
+fn white() -> [f64; 3] {
+    [1.0; 3]
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_samples() -> u32 {
+    16
+}
+fn default_cone() -> f64 {
+    30.0
+}
+fn default_delta() -> f64 {
+    5.0
+}
+
+/// A light as the file writes it.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+enum Spec {
+    Distant {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        /// The direction light travels in.
+        direction: [f64; 3],
+    },
+    Point {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        position: [f64; 3],
+        #[serde(default)]
+        falloff: Falloff,
+    },
+    Spot {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        position: [f64; 3],
+        /// The cone's axis (where the spot points).
+        direction: [f64; 3],
+        #[serde(default)]
+        falloff: Falloff,
+        /// Half-angle of the cone, degrees.
+        #[serde(default = "default_cone")]
+        cone_angle: f64,
+        /// Width of the soft edge inside the cone, degrees.
+        #[serde(default = "default_delta")]
+        cone_delta: f64,
+        /// Exponent of `cos(angle to axis)` inside the cone.
+        #[serde(default)]
+        beam_distribution: f64,
+    },
+    Rect {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        /// Centre.
+        position: [f64; 3],
+        /// Edge vectors: the rectangle is `position + s u + t v`,
+        /// `s, t` in [-1/2, 1/2]; it emits along `u x v`.
+        u: [f64; 3],
+        v: [f64; 3],
+        #[serde(default)]
+        falloff: Falloff,
+        #[serde(default = "default_samples")]
+        samples: u32,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    Disk {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        position: [f64; 3],
+        /// The side it emits towards.
+        normal: [f64; 3],
+        radius: f64,
+        #[serde(default)]
+        falloff: Falloff,
+        #[serde(default = "default_samples")]
+        samples: u32,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    Sphere {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        position: [f64; 3],
+        radius: f64,
+        #[serde(default)]
+        falloff: Falloff,
+        #[serde(default = "default_samples")]
+        samples: u32,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSpec {
+    lights: Vec<Spec>,
+}
+
+/// A light's shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// Light travelling along `-to_light`.
+    Distant {
+        to_light: DVec3,
+    },
+    Point {
+        position: DVec3,
+    },
+    Spot {
+        position: DVec3,
+        axis: DVec3,
+        cos_outside: f64,
+        cos_inside: f64,
+        beam: f64,
+    },
+    Rect {
+        centre: DVec3,
+        u: DVec3,
+        v: DVec3,
+        normal: DVec3,
+        two_sided: bool,
+    },
+    Disk {
+        centre: DVec3,
+        normal: DVec3,
+        radius: f64,
+        two_sided: bool,
+    },
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+}
+
+/// A validated light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub name: String,
+    /// Its place in the file.
+    pub id: u32,
+    /// `color * intensity`.
+    pub cl: DVec3,
+    pub shape: Shape,
+    pub falloff: Falloff,
+    /// Points on the light per receiver (1 for distant, point, spot).
+    pub samples: u32,
+}
+
+/// The most samples an area light may ask for.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+
+/// Reads and validates a lights file's text; `file` names it in errors.
+pub fn parse(text: &str, file: &str) -> Result<Vec<Light>> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let spec: FileSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let at = if path == "." || path.is_empty() {
+            String::new()
+        } else {
+            format!(" at {path}")
+        };
+        Error::invalid(format!("{file}{at}: {inner}"))
+    })?;
+    let mut out = Vec::with_capacity(spec.lights.len());
+    for (i, s) in spec.lights.into_iter().enumerate() {
+        let mut light = validate(s)
+            .map_err(|(key, why)| Error::invalid(format!("{file} at lights[{i}].{key}: {why}")))?;
+        light.id = i as u32;
+        if let Some(j) = out.iter().position(|l: &Light| l.name == light.name) {
+            return Err(Error::invalid(format!(
+                "{file} at lights[{i}].name: '{}' is already the name of lights[{j}]",
+                light.name
+            )));
+        }
+        out.push(light);
+    }
+    Ok(out)
+}
+
+type Check<T> = std::result::Result<T, (&'static str, String)>;
+
+fn finite3(key: &'static str, v: [f64; 3]) -> Check<DVec3> {
+    let d = DVec3::from_array(v);
+    if d.is_finite() {
+        Ok(d)
+    } else {
+        Err((key, format!("{v:?} is not finite")))
+    }
+}
+
+fn unit3(key: &'static str, v: [f64; 3]) -> Check<DVec3> {
+    let d = finite3(key, v)?;
+    let n = d.normalize_or_zero();
+    if n == DVec3::ZERO {
+        Err((key, format!("{v:?} has no direction")))
+    } else {
+        Ok(n)
+    }
+}
+
+fn positive(key: &'static str, x: f64) -> Check<f64> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err((key, format!("{x} is not a finite number > 0")))
+    }
+}
+
+fn samples_ok(n: u32) -> Check<u32> {
+    if (1..=MAX_SAMPLES).contains(&n) {
+        Ok(n)
+    } else {
+        Err(("samples", format!("{n} is not in 1..={MAX_SAMPLES}")))
+    }
+}
+
+/// The name, checked, and `Cl = color * intensity`.
+fn common(name: String, color: [f64; 3], intensity: f64) -> Check<(String, DVec3)> {
+    if name.is_empty() {
+        return Err(("name", "is empty".into()));
+    }
+    let col = DVec3::from_array(color);
+    if !(col.is_finite() && col.min_element() >= 0.0) {
+        return Err(("color", format!("{color:?} is not finite and >= 0")));
+    }
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        return Err(("intensity", format!("{intensity} is not finite and >= 0")));
+    }
+    Ok((name, col * intensity))
+}
+
+fn validate(s: Spec) -> Check<Light> {
+    Ok(match s {
+        Spec::Distant {
+            name,
+            color,
+            intensity,
+            direction,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Distant {
+                    to_light: -unit3("direction", direction)?,
+                },
+                falloff: Falloff::None,
+                samples: 1,
+            }
+        }
+        Spec::Point {
+            name,
+            color,
+            intensity,
+            position,
+            falloff,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Point {
+                    position: finite3("position", position)?,
+                },
+                falloff,
+                samples: 1,
+            }
+        }
+        Spec::Spot {
+            name,
+            color,
+            intensity,
+            position,
+            direction,
+            falloff,
+            cone_angle,
+            cone_delta,
+            beam_distribution,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            if !(cone_angle.is_finite() && cone_angle > 0.0 && cone_angle <= 180.0) {
+                return Err(("cone_angle", format!("{cone_angle} is not in (0, 180]")));
+            }
+            if !(cone_delta.is_finite() && cone_delta >= 0.0 && cone_delta <= cone_angle) {
+                return Err((
+                    "cone_delta",
+                    format!("{cone_delta} is not in [0, cone_angle = {cone_angle}]"),
+                ));
+            }
+            if !(beam_distribution.is_finite() && beam_distribution >= 0.0) {
+                return Err((
+                    "beam_distribution",
+                    format!("{beam_distribution} is not finite and >= 0"),
+                ));
+            }
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Spot {
+                    position: finite3("position", position)?,
+                    axis: unit3("direction", direction)?,
+                    cos_outside: cone_angle.to_radians().cos(),
+                    cos_inside: (cone_angle - cone_delta).to_radians().cos(),
+                    beam: beam_distribution,
+                },
+                falloff,
+                samples: 1,
+            }
+        }
+        Spec::Rect {
+            name,
+            color,
+            intensity,
+            position,
+            u,
+            v,
+            falloff,
+            samples,
+            two_sided,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            let (du, dv) = (finite3("u", u)?, finite3("v", v)?);
+            let normal = du.cross(dv).normalize_or_zero();
+            if normal == DVec3::ZERO {
+                return Err(("v", format!("u = {u:?} and v = {v:?} span no area")));
+            }
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Rect {
+                    centre: finite3("position", position)?,
+                    u: du,
+                    v: dv,
+                    normal,
+                    two_sided,
+                },
+                falloff,
+                samples: samples_ok(samples)?,
+            }
+        }
+        Spec::Disk {
+            name,
+            color,
+            intensity,
+            position,
+            normal,
+            radius,
+            falloff,
+            samples,
+            two_sided,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Disk {
+                    centre: finite3("position", position)?,
+                    normal: unit3("normal", normal)?,
+                    radius: positive("radius", radius)?,
+                    two_sided,
+                },
+                falloff,
+                samples: samples_ok(samples)?,
+            }
+        }
+        Spec::Sphere {
+            name,
+            color,
+            intensity,
+            position,
+            radius,
+            falloff,
+            samples,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Sphere {
+                    centre: finite3("position", position)?,
+                    radius: positive("radius", radius)?,
+                },
+                falloff,
+                samples: samples_ok(samples)?,
+            }
+        }
+    })
+}
+
+/// The light mask (the seed's `lmask`): names and glob patterns separated
+/// by commas or spaces; a pattern starting with `^` excludes. A light is
+/// used when it matches some including pattern (all lights when there is
+/// none) and no excluding one. Returns the indices of the lights used.
+pub fn mask(lights: &[Light], patterns: &str) -> Result<Vec<usize>> {
+    let mut include: Vec<GlobMatcher> = Vec::new();
+    let mut exclude: Vec<GlobMatcher> = Vec::new();
+    for p in patterns
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|p| !p.is_empty())
+    {
+        let (list, pat) = match p.strip_prefix('^') {
+            Some(rest) => (&mut exclude, rest),
+            None => (&mut include, p),
+        };
+        let g = Glob::new(pat)
+            .map_err(|e| Error::param("--lmask", format!("'{p}': {e}")))?
+            .compile_matcher();
+        list.push(g);
+    }
+    let used: Vec<usize> = (0..lights.len())
+        .filter(|&i| {
+            let n = lights[i].name.as_str();
+            (include.is_empty() || include.iter().any(|g| g.is_match(n)))
+                && !exclude.iter().any(|g| g.is_match(n))
+        })
+        .collect();
+    if used.is_empty() {
+        let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+        return Err(Error::param(
+            "--lmask",
+            format!(
+                "'{patterns}' selects no light (the lights are: {})",
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        ));
+    }
+    Ok(used)
+}
+
+/// One ray's worth of light at a receiver: the unit direction to the
+/// light, the distance (infinite for a distant light), and the irradiance
+/// it brings if unoccluded (`Cl` times falloff, shape and the receiver's
+/// cosine).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Arrival {
+    pub dir: DVec3,
+    pub dist: f64,
+    pub e: DVec3,
+}
+
+/// A rank-1 lattice point (Fibonacci-like, golden ratio) `k` of `n`,
+/// shifted by `(r1, r2)` modulo 1 (Cranley-Patterson rotation): evenly
+/// spread for any `n`.
+#[inline]
+fn lattice(k: u32, n: u32, r1: f64, r2: f64) -> (f64, f64) {
+    const PHI: f64 = 0.618_033_988_749_894_8;
+    let a = (k as f64 + r1) / n as f64;
+    let b = (k as f64 * PHI + r2).fract();
+    (a.min(1.0 - f64::EPSILON / 2.0), b)
+}
+
+impl Light {
+    fn falloff_at(&self, d2: f64) -> f64 {
+        match self.falloff {
+            Falloff::None => 1.0,
+            Falloff::InverseSquare => 1.0 / d2,
+        }
+    }
+
+    /// Light from a point `q` of the light with emitter weight `w` at the
+    /// receiver `p` with unit normal `n`, for one of `share` samples.
+    #[inline]
+    fn arrival_from(&self, p: DVec3, n: DVec3, q: DVec3, w: f64, share: f64) -> Option<Arrival> {
+        let to = q - p;
+        let d2 = to.length_squared();
+        if d2.is_nan() || d2 <= 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let dir = to / dist;
+        let cos = n.dot(dir);
+        if cos <= 0.0 || w <= 0.0 {
+            return None;
+        }
+        Some(Arrival {
+            dir,
+            dist,
+            e: self.cl * (cos * w * share * self.falloff_at(d2)),
+        })
+    }
+
+    /// Every sample of this light that can reach the receiver at `p` with
+    /// unit normal `n` (none that faces away or falls outside a cone):
+    /// `r1, r2` shift the area light's sample lattice.
+    pub fn arrivals(&self, p: DVec3, n: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
+        out.clear();
+        match &self.shape {
+            Shape::Distant { to_light } => {
+                let cos = n.dot(*to_light);
+                if cos > 0.0 {
+                    out.push(Arrival {
+                        dir: *to_light,
+                        dist: f64::INFINITY,
+                        e: self.cl * cos,
+                    });
+                }
+            }
+            Shape::Point { position } => {
+                out.extend(self.arrival_from(p, n, *position, 1.0, 1.0));
+            }
+            Shape::Spot {
+                position,
+                axis,
+                cos_outside,
+                cos_inside,
+                beam,
+            } => {
+                let from = (p - *position).normalize_or_zero();
+                let c = from.dot(*axis);
+                let edge = smooth(*cos_outside, *cos_inside, c);
+                if edge > 0.0 {
+                    let w = edge
+                        * if *beam > 0.0 {
+                            c.max(0.0).powf(*beam)
+                        } else {
+                            1.0
+                        };
+                    out.extend(self.arrival_from(p, n, *position, w, 1.0));
+                }
+            }
+            Shape::Rect {
+                centre,
+                u,
+                v,
+                normal,
+                two_sided,
+            } => {
+                let share = 1.0 / self.samples as f64;
+                for k in 0..self.samples {
+                    let (a, b) = lattice(k, self.samples, r1, r2);
+                    let q = *centre + *u * (a - 0.5) + *v * (b - 0.5);
+                    let w = emitter_cos(*normal, p - q, *two_sided);
+                    out.extend(self.arrival_from(p, n, q, w, share));
+                }
+            }
+            Shape::Disk {
+                centre,
+                normal,
+                radius,
+                two_sided,
+            } => {
+                let share = 1.0 / self.samples as f64;
+                let (t1, t2) = crate::geom::tangent_basis(*normal);
+                for k in 0..self.samples {
+                    let (a, b) = lattice(k, self.samples, r1, r2);
+                    let (rho, phi) = (*radius * a.sqrt(), 2.0 * PI * b);
+                    let q = *centre + t1 * (rho * phi.cos()) + t2 * (rho * phi.sin());
+                    let w = emitter_cos(*normal, p - q, *two_sided);
+                    out.extend(self.arrival_from(p, n, q, w, share));
+                }
+            }
+            Shape::Sphere { centre, radius } => {
+                let axis = p - *centre;
+                if axis.length() <= *radius {
+                    return; // inside the light: documented as dark
+                }
+                let axis = axis.normalize();
+                let (t1, t2) = crate::geom::tangent_basis(axis);
+                let share = 1.0 / self.samples as f64;
+                for k in 0..self.samples {
+                    // Cosine-weighted on the hemisphere facing the
+                    // receiver (uniform on its projected disk): the
+                    // `2 cos` emitter weight over the uniform density
+                    // becomes `cos_emit / z`, which is 1 far away.
+                    let (a, b) = lattice(k, self.samples, r1, r2);
+                    let (rho, phi) = (a.sqrt(), 2.0 * PI * b);
+                    let z = (1.0 - rho * rho).max(0.0).sqrt();
+                    if z <= 0.0 {
+                        continue;
+                    }
+                    let m = axis * z + t1 * (rho * phi.cos()) + t2 * (rho * phi.sin());
+                    let q = *centre + m * *radius;
+                    let w = emitter_cos(m, p - q, false) / z;
+                    out.extend(self.arrival_from(p, n, q, w, share));
+                }
+            }
+        }
+    }
+}
+
+/// The emitter's cosine towards `to_receiver` (0 behind a one-sided one).
+#[inline]
+fn emitter_cos(normal: DVec3, to_receiver: DVec3, two_sided: bool) -> f64 {
+    let c = normal.dot(to_receiver.normalize_or_zero());
+    if two_sided {
+        c.abs()
+    } else {
+        c.max(0.0)
+    }
+}
+
+/// Hermite smoothstep (`DESIGN.md`): 0 below `a`, 1 above `b`.
+#[inline]
+pub fn smooth(a: f64, b: f64, x: f64) -> f64 {
+    if b <= a {
+        return if x >= b { 1.0 } else { 0.0 };
+    }
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}

@@ -1,0 +1,155 @@
+//! `illum` (the seed's `pcIllum`, an `illuminance()` loop): the light
+//! arriving at every point,
+//! `illum = sum over lights in the mask of Cl * max(0, dot(N, L)) * visibility`,
+//! as the colour attribute `illum` (f32).
+//!
+//! - Visibility: an any-hit shadow ray against the mesh (`crate::bvh`),
+//!   from the point moved off its surface by a few ulps along `N`, up to
+//!   the light (or to infinity for a distant light). A light sample that
+//!   the normal faces away from, or that falls outside a spot's cone,
+//!   brings nothing and casts no ray. Without a mesh every ray is clear.
+//! - `N` is normalised here; a zero-length or non-finite `N` or `P` is an
+//!   error naming the point (facet leaves zero normals on degenerate
+//!   faces).
+//! - Area lights take `samples` points each, on a rank-1 lattice shifted by
+//!   a random offset per point and light (`Pcg32`, from the seed, the
+//!   light's place in the file and the point's index): the same output
+//!   bits for any thread count and any light mask.
+//! - Shadow terminator: with smooth normals a point just on the lit side
+//!   of its smooth normal but behind its flat facet sees the facet's own
+//!   mesh in the way, as a ray tracer would; its `dot(N, L)` is near zero
+//!   there, so the light it loses is small.
+//!
+//! Positions may be f64: light directions and distances are computed in
+//! f64, rays in the mesh's unit frame (see `crate::bvh`).
+
+use glam::DVec3;
+use rand_core::RngCore;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+use crate::bvh::Occluder;
+use crate::cloud::{Cloud, DetailValue, Role};
+use crate::error::{Error, Result};
+use crate::lights::{Arrival, Light};
+use crate::progress::Progress;
+
+/// What `illum` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub points: usize,
+    /// Shadow rays cast.
+    pub rays: u64,
+    /// Of them, blocked.
+    pub blocked: u64,
+    /// Points that no light reaches (all facing away or in shadow).
+    pub dark: usize,
+}
+
+/// Points per unit of parallel work (and of progress).
+const CHUNK: usize = 4096;
+
+/// Adds `illum` to `cloud` from `lights` (already masked), with shadows
+/// from `occluder` when given.
+pub fn illum(
+    cloud: &mut Cloud,
+    lights: &[Light],
+    occluder: Option<&Occluder>,
+    seed: u64,
+    progress: &Progress,
+) -> Result<Report> {
+    let pts = cloud.points();
+    if !pts.has("N") {
+        return Err(Error::missing("point", "N", Some("facet")));
+    }
+    let pos = pts.vec3_f64("P")?;
+    let nrm = pts.vec3_f64("N")?;
+    for i in 0..pos.len() {
+        if !DVec3::from_array(pos[i]).is_finite() {
+            return Err(Error::invalid(format!(
+                "point {i} has a non-finite position P {:?}",
+                pos[i]
+            )));
+        }
+        let n = DVec3::from_array(nrm[i]);
+        if !n.is_finite() || n.normalize_or_zero() == DVec3::ZERO {
+            return Err(Error::invalid(format!(
+                "point {i} has normal N {:?}, which has no direction (facet gives zero normals to points on degenerate faces)",
+                nrm[i]
+            )));
+        }
+    }
+    progress.start("shading", pos.len() as u64);
+    let chunks: Vec<(Vec<[f32; 3]>, u64, u64, usize)> = pos
+        .par_chunks(CHUNK)
+        .zip(nrm.par_chunks(CHUNK))
+        .enumerate()
+        .map(|(c, (pc, nc))| {
+            let mut out = Vec::with_capacity(pc.len());
+            let (mut rays, mut blocked, mut dark) = (0u64, 0u64, 0usize);
+            let mut arrivals: Vec<Arrival> = Vec::new();
+            for (k, (p, n)) in pc.iter().zip(nc).enumerate() {
+                let i = c * CHUNK + k;
+                let p = DVec3::from_array(*p);
+                let n = DVec3::from_array(*n).normalize();
+                let mut e = DVec3::ZERO;
+                for light in lights {
+                    if light.cl == DVec3::ZERO {
+                        continue;
+                    }
+                    let (r1, r2) = if light.samples > 1 {
+                        // A stream per point and light: which other
+                        // lights the mask keeps changes nothing.
+                        let key = (light.id as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                        let mut rng = Pcg32::new(seed ^ key, i as u64);
+                        (unit(&mut rng), unit(&mut rng))
+                    } else {
+                        (0.5, 0.5)
+                    };
+                    light.arrivals(p, n, r1, r2, &mut arrivals);
+                    for a in &arrivals {
+                        if a.e == DVec3::ZERO {
+                            continue;
+                        }
+                        if let Some(occ) = occluder {
+                            rays += 1;
+                            if occ.occluded(p, n, a.dir, a.dist) {
+                                blocked += 1;
+                                continue;
+                            }
+                        }
+                        e += a.e;
+                    }
+                }
+                if e == DVec3::ZERO {
+                    dark += 1;
+                }
+                out.push(e.as_vec3().to_array());
+            }
+            progress.inc(pc.len() as u64);
+            (out, rays, blocked, dark)
+        })
+        .collect();
+    progress.finish();
+    let mut report = Report {
+        points: pos.len(),
+        ..Report::default()
+    };
+    let mut illum = Vec::with_capacity(pos.len());
+    for (out, rays, blocked, dark) in chunks {
+        illum.extend(out);
+        report.rays += rays;
+        report.blocked += blocked;
+        report.dark += dark;
+    }
+    cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
+    let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+    cloud.set_detail("illum_lights", DetailValue::Str(names.join(",")));
+    Ok(report)
+}
+
+/// A uniform number in [0, 1).
+#[inline]
+fn unit(r: &mut Pcg32) -> f64 {
+    (r.next_u32() >> 8) as f64 * (1.0 / (1u32 << 24) as f64)
+}

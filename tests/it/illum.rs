@@ -1,0 +1,549 @@
+//! `illum` against closed forms: cosine law, inverse square, exact
+//! shadows of a box, light masks that add up, translation and scale
+//! invariance, area lights, and bad input.
+
+use glam::DVec3;
+
+use crate::util::*;
+use pcsss::bvh::Occluder;
+use pcsss::cloud::Role;
+use pcsss::lights::{self, Light};
+use pcsss::mesh::TriMesh;
+use pcsss::progress::Progress;
+use pcsss::stages::facet::{self, Mode, Weight};
+use pcsss::stages::illum;
+use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
+use pcsss::Cloud;
+
+fn parse(json: &str) -> Vec<Light> {
+    lights::parse(json, "test.json").unwrap()
+}
+
+/// A square grid of `k` x `k` quads on the plane z = `z`, side `s`,
+/// centred on `c`.
+fn plane(k: usize, s: f64, c: DVec3) -> Cloud {
+    let mut p = Vec::new();
+    for i in 0..=k {
+        for j in 0..=k {
+            let x = (i as f64 / k as f64 - 0.5) * s;
+            let y = (j as f64 / k as f64 - 0.5) * s;
+            p.push((c + DVec3::new(x, y, 0.0)).to_array());
+        }
+    }
+    let id = |i: usize, j: usize| (i * (k + 1) + j) as i32;
+    let mut f = Vec::new();
+    for i in 0..k {
+        for j in 0..k {
+            f.push(vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    mesh_from(&p, &f)
+}
+
+/// Two meshes as one.
+fn join(a: &Cloud, b: &Cloud) -> Cloud {
+    let pa = a.points().vec3_f64("P").unwrap();
+    let pb = b.points().vec3_f64("P").unwrap();
+    let fa = pcsss::mesh::Polygons::of(a).unwrap();
+    let fb = pcsss::mesh::Polygons::of(b).unwrap();
+    let mut faces: Vec<Vec<i32>> = (0..fa.len())
+        .map(|f| fa.polygon(f).iter().map(|&v| v as i32).collect())
+        .collect();
+    faces.extend((0..fb.len()).map(|f| {
+        fb.polygon(f)
+            .iter()
+            .map(|&v| (v as usize + pa.len()) as i32)
+            .collect()
+    }));
+    let p: Vec<[f64; 3]> = pa.iter().chain(&pb).copied().collect();
+    mesh_from(&p, &faces)
+}
+
+/// An axis-aligned box from `lo` to `hi`, outward quads.
+fn boxed(lo: DVec3, hi: DVec3) -> Cloud {
+    let p: Vec<[f64; 3]> = (0..8)
+        .map(|k| {
+            [
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            ]
+        })
+        .collect();
+    let f = vec![
+        vec![0, 2, 3, 1],
+        vec![4, 5, 7, 6],
+        vec![0, 1, 5, 4],
+        vec![2, 6, 7, 3],
+        vec![0, 4, 6, 2],
+        vec![1, 3, 7, 5],
+    ];
+    mesh_from(&p, &f)
+}
+
+/// Points on `mesh` with flat normals and f64 positions.
+fn points_on(mesh: &Cloud, n: usize) -> Cloud {
+    let mut c = scatter::scatter(
+        mesh,
+        &Params {
+            amount: Amount::Count(n),
+            seed: 7,
+            ptarea: PtareaMode::Prim,
+            relax: 0,
+        },
+    )
+    .unwrap();
+    let m = TriMesh::from_cloud(mesh).unwrap();
+    facet::facet_points(
+        &mut c,
+        &m,
+        &facet::Params {
+            mode: Mode::Flat,
+            weight: Weight::Angle,
+            cusp: 60.0,
+        },
+    )
+    .unwrap();
+    c
+}
+
+fn run_illum(
+    cloud: &Cloud,
+    lights: &[Light],
+    shadows: Option<&Cloud>,
+) -> (Vec<[f64; 3]>, illum::Report) {
+    let mut c = cloud.clone();
+    let occ = shadows.map(|m| Occluder::new(&TriMesh::from_cloud(m).unwrap()));
+    let rep = illum::illum(&mut c, lights, occ.as_ref(), 0, &Progress::hidden()).unwrap();
+    (c.points().vec3_f64("illum").unwrap(), rep)
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-30
+}
+
+#[test]
+fn a_plane_under_a_distant_light_gets_cl_cos_theta() {
+    for centre in [DVec3::ZERO, DVec3::new(1e6, -1e6, 1e6)] {
+        let mesh = plane(8, 4.0, centre);
+        let pts = points_on(&mesh, 2000);
+        for (dir, cos) in [
+            ([0.0, 0.0, -1.0], 1.0),
+            ([0.6, 0.0, -0.8], 0.8),
+            ([0.0, -0.96, -0.28], 0.28),
+        ] {
+            let l = parse(&format!(
+                r#"{{"lights": [{{"name": "sun", "type": "distant", "color": [1, 0.5, 0.25], "intensity": 3, "direction": {dir:?}}}]}}"#
+            ));
+            let (e, rep) = run_illum(&pts, &l, Some(&mesh));
+            assert_eq!(rep.blocked, 0);
+            assert_eq!(rep.rays, 2000);
+            for v in &e {
+                for (c, want) in v.iter().zip([3.0 * cos, 1.5 * cos, 0.75 * cos]) {
+                    assert!(close(*c, want, 2e-7), "{c} vs {want} at {centre}");
+                }
+            }
+        }
+        // From below: nothing, and no ray cast.
+        let l =
+            parse(r#"{"lights": [{"name": "s", "type": "distant", "direction": [0, 0.2, 1]}]}"#);
+        let (e, rep) = run_illum(&pts, &l, Some(&mesh));
+        assert_eq!(rep.rays, 0);
+        assert!(e.iter().all(|v| *v == [0.0; 3]));
+    }
+}
+
+#[test]
+fn a_point_light_falls_off_as_the_inverse_square() {
+    let mesh = plane(4, 10.0, DVec3::ZERO);
+    let pts = points_on(&mesh, 3000);
+    let light = DVec3::new(0.3, -0.2, 2.5);
+    let l = parse(
+        r#"{"lights": [
+            {"name": "a", "type": "point", "position": [0.3, -0.2, 2.5], "intensity": 7},
+            {"name": "b", "type": "point", "position": [0.3, -0.2, 2.5], "intensity": 7, "falloff": "none"}
+        ]}"#,
+    );
+    let p = pts.points().vec3_f64("P").unwrap();
+    for (k, inverse_square) in [(0, true), (1, false)] {
+        let (e, _) = run_illum(&pts, &l[k..k + 1], Some(&mesh));
+        for (q, v) in p.iter().zip(&e) {
+            let to = light - DVec3::from_array(*q);
+            let d = to.length();
+            let cos = to.z / d;
+            let want = 7.0 * cos / if inverse_square { d * d } else { 1.0 };
+            assert!(close(v[0], want, 1e-6), "{v:?} vs {want}");
+            assert_eq!(v[0], v[2]);
+        }
+    }
+}
+
+/// The sphere, a slab over its x < 0 half, and a distant light from +z:
+/// exactly the upper points with x < 0 are dark.
+fn sphere_and_slab(offset: DVec3, scale: f64) -> (Cloud, Cloud) {
+    let sphere = uv_sphere(24, 48, scale, offset.to_array());
+    let slab = boxed(
+        offset + DVec3::new(-3.0, -3.0, 2.0) * scale,
+        offset + DVec3::new(0.0, 3.0, 2.5) * scale,
+    );
+    let pts = points_on(&sphere, 4000);
+    (join(&sphere, &slab), pts)
+}
+
+#[test]
+fn a_box_shadows_exactly_the_points_behind_it() {
+    let (scene, pts) = sphere_and_slab(DVec3::ZERO, 1.0);
+    let l = parse(r#"{"lights": [{"name": "top", "type": "distant", "direction": [0, 0, -1]}]}"#);
+    let (e, rep) = run_illum(&pts, &l, Some(&scene));
+    let p = pts.points().vec3_f64("P").unwrap();
+    let n = pts.points().vec3_f64("N").unwrap();
+    let (mut lit, mut dark) = (0, 0);
+    for i in 0..p.len() {
+        let cos = n[i][2];
+        if cos <= 0.0 {
+            assert_eq!(e[i], [0.0; 3]);
+            continue;
+        }
+        // Straight up from x < 0 the ray meets the slab (x in [-3, 0]).
+        let shadowed = p[i][0] < 0.0;
+        if p[i][0].abs() < 1e-6 {
+            continue; // on the slab's edge: either answer is right
+        }
+        if shadowed {
+            assert_eq!(e[i], [0.0; 3], "point {i} at {:?} is lit", p[i]);
+            dark += 1;
+        } else {
+            assert!(
+                close(e[i][0], cos, 1e-6),
+                "point {i} at {:?}: {:?} vs {cos}",
+                p[i],
+                e[i]
+            );
+            lit += 1;
+        }
+    }
+    assert!(lit > 800 && dark > 800, "{lit} lit, {dark} dark");
+    assert_eq!(rep.blocked, dark as u64);
+}
+
+#[test]
+fn a_light_mask_removes_exactly_a_lights_contribution() {
+    let (scene, pts) = sphere_and_slab(DVec3::ZERO, 1.0);
+    let json = std::fs::read_to_string(fixtures().join("lights/three.json")).unwrap();
+    let all = parse(&json);
+    let pick = |m: &str| -> Vec<Light> {
+        lights::mask(&all, m)
+            .unwrap()
+            .into_iter()
+            .map(|i| all[i].clone())
+            .collect()
+    };
+    let (whole, _) = run_illum(&pts, &pick("*"), Some(&scene));
+    let mut sum = vec![[0.0f64; 3]; whole.len()];
+    for name in ["key", "rim", "fill_area"] {
+        let (one, _) = run_illum(&pts, &pick(name), Some(&scene));
+        for (s, o) in sum.iter_mut().zip(&one) {
+            for c in 0..3 {
+                s[c] += o[c];
+            }
+        }
+    }
+    for (s, w) in sum.iter().zip(&whole) {
+        for c in 0..3 {
+            // f32 outputs: each run rounds once.
+            assert!(close(s[c], w[c], 3e-7), "{s:?} vs {w:?}");
+        }
+    }
+    // Exclusion and globs select what they say.
+    let names = |m: &str| -> Vec<String> { pick(m).into_iter().map(|l| l.name).collect() };
+    assert_eq!(names("^key"), ["rim", "fill_area"]);
+    assert_eq!(names("*i*,^fill*"), ["rim"]);
+    assert_eq!(names("key rim"), ["key", "rim"]);
+    let (rest, _) = run_illum(&pts, &pick("^key"), Some(&scene));
+    let (key, _) = run_illum(&pts, &pick("key"), Some(&scene));
+    for i in 0..whole.len() {
+        assert!(close(rest[i][1] + key[i][1], whole[i][1], 3e-7));
+    }
+}
+
+#[test]
+fn translation_and_scale_change_nothing() {
+    let json = |o: DVec3, s: f64| {
+        let p = |v: DVec3| format!("[{}, {}, {}]", o.x + v.x * s, o.y + v.y * s, o.z + v.z * s);
+        format!(
+            r#"{{"lights": [
+            {{"name": "sun", "type": "distant", "direction": [0.3, 0.1, -1]}},
+            {{"name": "bulb", "type": "point", "position": {}, "intensity": {}}},
+            {{"name": "panel", "type": "rect", "position": {}, "u": [{}, 0, 0], "v": [0, {}, 0], "intensity": {}, "samples": 9}}
+        ]}}"#,
+            p(DVec3::new(2.0, 1.0, 3.0)),
+            5.0 * s * s,
+            p(DVec3::new(1.0, -1.0, 4.0)),
+            s,
+            s,
+            3.0 * s * s
+        )
+    };
+    let (scene0, pts0) = sphere_and_slab(DVec3::ZERO, 1.0);
+    let (e0, r0) = run_illum(&pts0, &parse(&json(DVec3::ZERO, 1.0)), Some(&scene0));
+    assert!(r0.blocked > 1000, "{r0:?}");
+    for (o, s) in [
+        (DVec3::new(1e6, -1e6, 1e6), 1.0),
+        (DVec3::ZERO, 1e-4),
+        (DVec3::ZERO, 1e4),
+        (DVec3::new(3.0, 2.0, 1.0), 1e-4),
+    ] {
+        let (scene, pts) = sphere_and_slab(o, s);
+        let (e, r) = run_illum(&pts, &parse(&json(o, s)), Some(&scene));
+        assert_eq!(r.blocked, r0.blocked, "offset {o}, scale {s}");
+        for i in 0..e.len() {
+            for c in 0..3 {
+                assert!(
+                    close(e[i][c], e0[i][c], 1e-5),
+                    "offset {o}, scale {s}, point {i}: {:?} vs {:?}",
+                    e[i],
+                    e0[i]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn area_lights_match_their_closed_forms() {
+    // A disk of radius R facing a point on its axis at height h:
+    // E = Cl / (h^2 + R^2).
+    let mut pt = Cloud::with_points(1);
+    pt.points_mut()
+        .set_vec3("P", Role::Point, &[[0.0f64, 0.0, 0.0]])
+        .unwrap();
+    pt.points_mut()
+        .set_vec3("N", Role::Normal, &[[0.0f32, 0.0, 1.0]])
+        .unwrap();
+    for (h, r) in [(1.0, 0.5), (2.0, 2.0), (0.5, 3.0)] {
+        let l = parse(&format!(
+            r#"{{"lights": [{{"name": "d", "type": "disk", "position": [0, 0, {h}], "normal": [0, 0, -1], "radius": {r}, "intensity": 4, "samples": 4096}}]}}"#
+        ));
+        let (e, _) = run_illum(&pt, &l, None);
+        let want = 4.0 / (h * h + r * r);
+        assert!(
+            close(e[0][0], want, 2e-3),
+            "h {h} r {r}: {} vs {want}",
+            e[0][0]
+        );
+    }
+    // Small area lights of any shape equal the point light at their centre.
+    let point = parse(
+        r#"{"lights": [{"name": "p", "type": "point", "position": [0.4, 0.2, 3], "intensity": 2}]}"#,
+    );
+    let (want, _) = run_illum(&pt, &point, None);
+    for shape in [
+        r#""type": "rect", "u": [1e-4, 0, 0], "v": [0, 1e-4, 0], "two_sided": true"#,
+        r#""type": "disk", "normal": [-0.4, -0.2, -3], "radius": 1e-4"#,
+        r#""type": "sphere", "radius": 1e-4"#,
+    ] {
+        let l = parse(&format!(
+            r#"{{"lights": [{{"name": "a", {shape}, "position": [0.4, 0.2, 3], "intensity": 2, "samples": 64}}]}}"#
+        ));
+        let (e, _) = run_illum(&pt, &l, None);
+        // The disk faces the point: its emitter cosine is 1; the rect is
+        // tilted by the point's offset, so compare with its cosine.
+        let tilt = if shape.contains("rect") {
+            3.0 / DVec3::new(0.4, 0.2, 3.0).length()
+        } else {
+            1.0
+        };
+        assert!(
+            close(e[0][0], want[0][0] * tilt, 1e-3),
+            "{shape}: {:?} vs {:?}",
+            e[0],
+            want[0]
+        );
+    }
+}
+
+#[test]
+fn a_spot_lights_only_inside_its_cone() {
+    let mesh = plane(4, 20.0, DVec3::ZERO);
+    let pts = points_on(&mesh, 4000);
+    // Straight down from height 2, half-angle 30, soft edge 10 degrees.
+    let l = parse(
+        r#"{"lights": [{"name": "s", "type": "spot", "position": [0, 0, 2], "direction": [0, 0, -1], "cone_angle": 30, "cone_delta": 10, "intensity": 4}]}"#,
+    );
+    let (e, rep) = run_illum(&pts, &l, Some(&mesh));
+    let p = pts.points().vec3_f64("P").unwrap();
+    let mut inside = 0;
+    for (q, v) in p.iter().zip(&e) {
+        let r = (q[0] * q[0] + q[1] * q[1]).sqrt();
+        let a = r.atan2(2.0).to_degrees();
+        let d2 = r * r + 4.0;
+        let cos = 2.0 / d2.sqrt();
+        let full = 4.0 * cos / d2;
+        if a > 30.0 + 1e-6 {
+            assert_eq!(v[0], 0.0);
+        } else if a < 20.0 - 1e-6 {
+            assert!(close(v[0], full, 1e-6));
+            inside += 1;
+        } else {
+            assert!(v[0] > 0.0 && v[0] <= full * (1.0 + 1e-6));
+        }
+    }
+    assert!(inside > 10);
+    // Points outside the cone cast no ray.
+    let in_cone = p
+        .iter()
+        .filter(|q| (q[0] * q[0] + q[1] * q[1]).sqrt().atan2(2.0).to_degrees() < 30.0)
+        .count();
+    assert_eq!(rep.rays, in_cone as u64);
+}
+
+#[test]
+fn lights_files_with_mistakes_name_the_key() {
+    let cases: &[(&str, &str)] = &[
+        (
+            r#"{"lights": [{"name": "a", "type": "point", "position": [0,0,1], "intensity": -2}]}"#,
+            "lights[0].intensity: -2 is not finite and >= 0",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "point", "position": [0,0,1], "colour": [1,1,1]}]}"#,
+            "unknown field `colour`",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "point"}]}"#,
+            "missing field `position`",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "laser", "position": [0,0,1]}]}"#,
+            "unknown variant `laser`",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "point", "position": [0,0,1], "intensity": NaN}]}"#,
+            "lights[0].intensity",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "distant", "direction": [0,0,0]}]}"#,
+            "lights[0].direction: [0.0, 0.0, 0.0] has no direction",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "disk", "position": [0,0,1], "normal": [0,0,1], "radius": 0}]}"#,
+            "lights[0].radius",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "rect", "position": [0,0,1], "u": [1,0,0], "v": [2,0,0]}]}"#,
+            "span no area",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "sphere", "position": [0,0,1], "radius": 1, "samples": 0}]}"#,
+            "lights[0].samples: 0",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "spot", "position": [0,0,1], "direction": [0,0,-1], "cone_angle": 10, "cone_delta": 20}]}"#,
+            "lights[0].cone_delta",
+        ),
+        (
+            r#"{"lights": [{"name": "a", "type": "point", "position": [0,0,1]}, {"name": "a", "type": "point", "position": [0,0,2]}]}"#,
+            "lights[1].name: 'a' is already",
+        ),
+        (r#"{"light": []}"#, "unknown field `light`"),
+        (
+            r#"{"lights": [{"name": "", "type": "point", "position": [0,0,1]}]}"#,
+            "lights[0].name: is empty",
+        ),
+    ];
+    for (json, want) in cases {
+        let e = lights::parse(json, "scene.json").unwrap_err().to_string();
+        assert!(
+            e.contains("scene.json") && e.contains(want),
+            "'{e}' lacks '{want}'"
+        );
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+#[test]
+fn illum_runs_in_a_pipe_and_bad_input_is_a_clear_error() {
+    let d = tempdir();
+    let write =
+        |name: &str, c: &Cloud| std::fs::write(d.path().join(name), to_bytes(c, LE)).unwrap();
+    let sphere = uv_sphere(12, 24, 1.0, [0.0; 3]);
+    write("mesh.ply", &sphere);
+    let pts = points_on(&sphere, 3000);
+    write("cloud.ply", &pts);
+    let lights = fixtures().join("lights/three.json");
+    let lights = lights.to_str().unwrap();
+    // Equal bytes on one and two threads, from stdin to stdout.
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = std::process::Command::new(bin("illum"))
+            .args(["--lights", lights, "--mesh", "mesh.ply"])
+            .env("RAYON_NUM_THREADS", threads)
+            .current_dir(d.path())
+            .stdin(std::fs::File::open(d.path().join("cloud.ply")).unwrap())
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        outs.push(out.stdout);
+    }
+    assert_eq!(outs[0], outs[1]);
+    let c = from_bytes(&outs[0]);
+    assert!(c.points().has("illum") && c.points().has("ptarea") && c.points().has("sourceuv"));
+    assert_eq!(
+        c.detail("illum_lights"),
+        Some(&pcsss::cloud::DetailValue::Str("key,rim,fill_area".into()))
+    );
+    // Bad input.
+    let mut zero_n = pts.clone();
+    let mut n = zero_n.points().vec3_f32("N").unwrap();
+    n[17] = [0.0; 3];
+    zero_n.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+    write("zero_n.ply", &zero_n);
+    let mut no_n = pts.clone();
+    no_n.points_mut().remove("N");
+    write("no_n.ply", &no_n);
+    std::fs::write(
+        d.path().join("neg.json"),
+        r#"{"lights": [{"name": "a", "type": "point", "position": [0,0,3], "intensity": -1}]}"#,
+    )
+    .unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["no_n.ply", "--lights", lights, "--no-shadows"],
+            "missing point attribute 'N' (run 'facet' first",
+        ),
+        (
+            &["zero_n.ply", "--lights", lights, "--no-shadows"],
+            "zero_n.ply: invalid: point 17 has normal N [0.0, 0.0, 0.0]",
+        ),
+        (
+            &["cloud.ply", "--lights", "neg.json", "--no-shadows"],
+            "neg.json at lights[0].intensity",
+        ),
+        (
+            &[
+                "cloud.ply",
+                "--lights",
+                lights,
+                "--no-shadows",
+                "--lmask",
+                "nope*",
+            ],
+            "--lmask: 'nope*' selects no light (the lights are: key, rim, fill_area)",
+        ),
+        (
+            &["cloud.ply", "--lights", lights, "--mesh", "missing.ply"],
+            "missing.ply",
+        ),
+        (
+            &["cloud.ply", "--lights", "missing.json", "--no-shadows"],
+            "missing.json",
+        ),
+        (&["cloud.ply", "--lights", lights], "--mesh"),
+    ];
+    for (args, want) in cases {
+        let out = run_in(Some(d.path()), "illum", args, b"");
+        let e = stderr(&out);
+        assert_ne!(out.status.code(), Some(0), "{args:?}");
+        assert_eq!(e.trim().lines().count(), 1, "{args:?}: {e}");
+        assert!(e.contains(want), "{args:?}: '{e}' lacks '{want}'");
+    }
+}
