@@ -22,8 +22,13 @@ test: pyenv
 	PCSSS_REQUIRE_PYTHON=1 cargo test 2>&1 | tee target/test.log
 	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log
 
-## Benchmarks (figures in the README's performance section).
-bench: pyenv
+## Benchmarks (figures in the README's performance section), with the
+## bench-only Python packages (Embree through embreex).
+$(PY).bench.stamp: $(PY).stamp benches/requirements.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check -r benches/requirements.txt
+	touch $@
+
+bench: pyenv $(PY).bench.stamp
 	cargo bench
 
 ## What runs today: the geometry chain (pipelines/Makefile) on the embedded

@@ -3,6 +3,7 @@
 
 mod util;
 
+mod bvh;
 mod cli;
 mod geometry;
 mod illum;

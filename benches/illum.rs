@@ -1,0 +1,297 @@
+//! illum speed: shadow rays per second for 1,000,000 points on a bumpy
+//! sphere of ~100,000 triangles (it shadows itself) under 3 lights, on 1
+//! and 2 threads, beside Embree 4 (Python embreex, installed by `make
+//! bench`) tracing the very same rays in the same run; and the whole
+//! `illum` process. `cargo bench --bench illum`; results in
+//! target/bench/illum.txt.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::time::Instant;
+
+use common::*;
+use glam::DVec3;
+use obvhs::ray::Ray;
+use pcsss::bvh::Occluder;
+use pcsss::formats::{self, Format};
+use pcsss::lights;
+use pcsss::mesh::TriMesh;
+use pcsss::stages::facet;
+use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
+use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
+use rayon::prelude::*;
+
+/// A sphere with bumps `r = 1 + 0.15 sin(5 theta) cos(7 phi)`: valleys
+/// shadowed by ridges.
+fn bumpy(rings: usize, segs: usize) -> Cloud {
+    let mut p = Vec::new();
+    for i in 0..=rings {
+        let th = PI * i as f64 / rings as f64;
+        for j in 0..segs {
+            let ph = 2.0 * PI * j as f64 / segs as f64;
+            let r = 1.0 + 0.15 * (5.0 * th).sin() * (7.0 * ph).cos();
+            p.push([
+                (r * th.sin() * ph.cos()) as f32,
+                (r * th.sin() * ph.sin()) as f32,
+                (r * th.cos()) as f32,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
+    let mut items = Vec::new();
+    for i in 0..rings {
+        for j in 0..segs {
+            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let nf = items.len() / 3;
+    let mut c = Cloud::with_points(p.len());
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
+    l.offsets = (0..=nf).map(|f| 3 * f).collect();
+    l.items = Column::I32(items);
+    let mut e = Element::new("face", nf);
+    e.set(Attribute {
+        name: "vertex_indices".into(),
+        data: AttrData::List(l),
+    })
+    .unwrap();
+    c.elements.push(e);
+    c
+}
+
+const LIGHTS: &str = r#"{"lights": [
+  {"name": "key", "type": "distant", "direction": [-0.5, -1.0, -0.3], "intensity": 2},
+  {"name": "bulb", "type": "point", "position": [2.5, 1.0, 2.0], "intensity": 10},
+  {"name": "spot", "type": "spot", "position": [-1.0, 3.0, -2.0], "direction": [0.3, -1.0, 0.7],
+   "cone_angle": 45, "cone_delta": 10, "intensity": 12}
+]}"#;
+
+fn write(path: &std::path::Path, c: &Cloud) {
+    let mut w = BufWriter::new(File::create(path).unwrap());
+    formats::write_cloud(&mut w, c, Format::DEFAULT).unwrap();
+    w.flush().unwrap();
+}
+
+fn main() {
+    let n: usize = std::env::var("BENCH_POINTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
+    let dir = bench_dir();
+    let mesh = bumpy(158, 316);
+    let m = TriMesh::from_cloud(&mesh).unwrap();
+    let mut cloud = scatter::scatter(
+        &mesh,
+        &Params {
+            amount: Amount::Count(n),
+            seed: 1,
+            ptarea: PtareaMode::Prim,
+            relax: 0,
+        },
+    )
+    .unwrap();
+    facet::facet_points(
+        &mut cloud,
+        &m,
+        &facet::Params {
+            mode: facet::Mode::Smooth,
+            weight: facet::Weight::Angle,
+            cusp: 60.0,
+        },
+    )
+    .unwrap();
+    let mesh_path = dir.join("illum_mesh.ply");
+    let cloud_path = dir.join("illum_cloud.ply");
+    let lights_path = dir.join("illum_lights.json");
+    write(&mesh_path, &mesh);
+    write(&cloud_path, &cloud);
+    std::fs::write(&lights_path, LIGHTS).unwrap();
+
+    // The rays illum casts, built as illum builds them.
+    let t = Instant::now();
+    let occ = Occluder::new(&m);
+    let build = t.elapsed().as_secs_f64();
+    let lights = lights::parse(LIGHTS, "bench").unwrap();
+    let p = cloud.points().vec3_f64("P").unwrap();
+    let nn = cloud.points().vec3_f64("N").unwrap();
+    // Light by light, points in cloud order, as illum traces them.
+    let rays: Vec<Ray> = lights
+        .iter()
+        .flat_map(|l| {
+            p.par_iter()
+                .zip(&nn)
+                .flat_map_iter(|(p, n)| {
+                    let (p, n) = (DVec3::from_array(*p), DVec3::from_array(*n).normalize());
+                    let mut arr = Vec::new();
+                    l.arrivals(p, n, 0.5, 0.5, &mut arr);
+                    arr.into_iter()
+                        .map(|a| occ.shadow_ray(p, n, a.dir, a.dist))
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let trace = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut blocked = 0;
+        let secs = best(3, || {
+            blocked = pool.install(|| rays.par_iter().filter(|r| occ.occluded_ray(r)).count());
+        });
+        (secs, blocked)
+    };
+    let (t1, blocked) = trace(1);
+    let (t2, _) = trace(2);
+    // obvhs's own CWBVH traversal on the same triangles and rays (the
+    // first choice, kept to show why it was replaced).
+    let t = Instant::now();
+    let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+        occ.triangles(),
+        obvhs::BvhBuildParams::medium_build(),
+        &mut std::time::Duration::default(),
+    );
+    let cw_build = t.elapsed().as_secs_f64();
+    let cw_tris: Vec<_> = cw
+        .primitive_indices
+        .iter()
+        .map(|&i| occ.triangles()[i as usize])
+        .collect();
+    let cw_trace = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut blocked = 0;
+        let secs = best(3, || {
+            blocked = pool.install(|| {
+                rays.par_iter()
+                    .filter(|r| {
+                        // obvhs needs +0.0 for a zero direction component.
+                        let r = Ray::new(r.origin, r.direction + glam::Vec3A::ZERO, r.tmin, r.tmax);
+                        !cw.ray_traverse_miss(r, |r, i| cw_tris[i].intersect(r))
+                    })
+                    .count()
+            });
+        });
+        (secs, blocked)
+    };
+    let (c1, cw_blocked) = cw_trace(1);
+    let (c2, _) = cw_trace(2);
+
+    // The same rays and triangles for Embree.
+    let tris_bin = dir.join("illum_tris.f32");
+    let rays_bin = dir.join("illum_rays.f32");
+    let mut w = BufWriter::new(File::create(&tris_bin).unwrap());
+    for t in occ.triangles() {
+        for v in [t.v0, t.v1, t.v2] {
+            for x in v.to_array() {
+                w.write_all(&x.to_le_bytes()).unwrap();
+            }
+        }
+    }
+    w.flush().unwrap();
+    let mut w = BufWriter::new(File::create(&rays_bin).unwrap());
+    for r in &rays {
+        for x in r
+            .origin
+            .to_array()
+            .into_iter()
+            .chain(r.direction.to_array())
+            .chain([r.tmax])
+        {
+            w.write_all(&x.to_le_bytes()).unwrap();
+        }
+    }
+    w.flush().unwrap();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/embree_shadow.py");
+    let embree: Option<serde_json::Value> = std::process::Command::new(python())
+        .args([
+            script,
+            tris_bin.to_str().unwrap(),
+            rays_bin.to_str().unwrap(),
+        ])
+        .output()
+        .ok()
+        .filter(|o| {
+            if !o.status.success() {
+                eprintln!("embree: {}", String::from_utf8_lossy(&o.stderr));
+            }
+            o.status.success()
+        })
+        .and_then(|o| serde_json::from_slice(&o.stdout).ok());
+
+    let nr = rays.len() as f64;
+    let mut tab = Table::new(
+        &format!(
+            "illum: {n} points on a bumpy sphere of {} triangles, 3 lights, {} shadow rays ({} blocked); {}; best of 3",
+            occ.triangle_count(),
+            rays.len(),
+            blocked,
+            machine()
+        ),
+        "| case | build s | 1 thread | 2 threads |\n|---|---|---|---|",
+    );
+    tab.row(format!(
+        "| pcsss (4-wide BVH from obvhs's PLOC build), M rays/s | {build:.3} | {:.2} | {:.2} |",
+        nr / t1 / 1e6,
+        nr / t2 / 1e6
+    ));
+    tab.row(format!(
+        "| obvhs CWBVH traversal ({cw_blocked} blocked), M rays/s | {cw_build:.3} | {:.2} | {:.2} |",
+        nr / c1 / 1e6,
+        nr / c2 / 1e6
+    ));
+    match &embree {
+        Some(e) => {
+            let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
+            tab.row(format!(
+                "| Embree 4 (embreex, robust off; 2 = two processes), M rays/s | {:.3} | {:.2} | {:.2} |",
+                f("build"),
+                nr / f("seconds_1") / 1e6,
+                nr / f("seconds_2") / 1e6
+            ));
+            tab.row(format!(
+                "| pcsss / Embree | | {:.2} | {:.2} |",
+                f("seconds_1") / t1,
+                f("seconds_2") / t2
+            ));
+            tab.row(format!(
+                "| blocked rays: pcsss {blocked}, Embree {} | | | |",
+                e["blocked"]
+            ));
+        }
+        None => tab.row("| Embree (embreex) not available: run `make bench` | | | |".into()),
+    }
+    let b = std::path::Path::new(env!("CARGO_BIN_EXE_illum"));
+    let cmd = |threads: usize, shadows: &str| {
+        format!(
+            "RAYON_NUM_THREADS={threads} {} {} --lights {} {shadows} -o {}",
+            b.display(),
+            cloud_path.display(),
+            lights_path.display(),
+            dir.join("illum_out.ply").display()
+        )
+    };
+    let shadows = format!("--mesh {}", mesh_path.display());
+    let secs = |threads, s: &str| {
+        best_cmd(3, &cmd(threads, s)).map_or("failed".into(), |t| format!("{t:.2} s"))
+    };
+    tab.row(format!(
+        "| whole `illum` process, PLY in and out, with shadows | | {} | {} |",
+        secs(1, &shadows),
+        secs(2, &shadows)
+    ));
+    tab.row(format!(
+        "| whole `illum` process, `--no-shadows` | | {} | {} |",
+        secs(1, "--no-shadows"),
+        secs(2, "--no-shadows")
+    ));
+    tab.save("illum.txt");
+}

@@ -1,0 +1,143 @@
+//! The shadow-ray BVH against a brute-force f64 test of every triangle.
+
+use glam::{DVec3, Vec3A};
+use obvhs::ray::Ray;
+use pcsss::bvh::Occluder;
+use pcsss::mesh::TriMesh;
+use rand_core::RngCore;
+use rand_pcg::Pcg32;
+
+use crate::util::*;
+
+fn unit(r: &mut Pcg32) -> f64 {
+    r.next_u32() as f64 / 4294967296.0
+}
+
+/// The ray parameter of a hit of the segment `o + t d`, `t` in
+/// `[0, tmax]`, with `abc` in f64, and how far inside the triangle it is
+/// (the smallest barycentric weight) and from the segment's ends.
+fn hit64(o: DVec3, d: DVec3, tmax: f64, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64)> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-300 {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let t = e2.dot(q) / det;
+    let margin = u.min(v).min(1.0 - u - v);
+    (margin >= 0.0 && t >= 0.0 && t <= tmax).then_some((t, margin.min(t).min(tmax - t)))
+}
+
+#[test]
+fn any_hit_agrees_with_brute_force() {
+    let mut r = Pcg32::new(5, 0);
+    // A soup of 400 triangles in the unit cube, some long and thin.
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..400 {
+        let c = DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r));
+        let s = if k % 7 == 0 { 0.5 } else { 0.08 };
+        for _ in 0..3 {
+            let q = c + DVec3::new(unit(&mut r) - 0.5, unit(&mut r) - 0.5, unit(&mut r) - 0.5) * s;
+            p.push(q.to_array());
+        }
+        faces.push(vec![3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    let mesh = mesh_from(&p, &faces);
+    let m = TriMesh::from_cloud(&mesh).unwrap();
+    let occ = Occluder::new(&m);
+    assert_eq!(occ.triangle_count(), 400);
+    // The BVH works in its own unit frame: compare there, with the
+    // triangles it holds.
+    let tris: Vec<[DVec3; 3]> = occ
+        .triangles()
+        .iter()
+        .map(|t| [t.v0, t.v1, t.v2].map(|v| DVec3::from(Vec3A::to_array(&v).map(|x| x as f64))))
+        .collect();
+    let (mut checked, mut hits) = (0, 0);
+    for k in 0..20000 {
+        let o = DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r)) - 0.5;
+        let mut d = DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r)) - 0.5;
+        // Axis-aligned rays, with +0 and -0 components, every few.
+        match k % 5 {
+            0 => d = DVec3::new(0.0, -0.0, if d.z > 0.0 { 1.0 } else { -1.0 }),
+            1 => d = DVec3::new(-0.0, d.y.signum(), 0.0),
+            _ => d = d.normalize(),
+        }
+        let tmax = if k % 3 == 0 {
+            f64::INFINITY
+        } else {
+            unit(&mut r)
+        };
+        let o32 = o.as_vec3();
+        let o64 = DVec3::new(o32.x as f64, o32.y as f64, o32.z as f64);
+        let d32 = d.as_vec3();
+        let d64 = DVec3::new(d32.x as f64, d32.y as f64, d32.z as f64);
+        let hits64: Vec<(f64, f64)> = tris
+            .iter()
+            .filter_map(|t| hit64(o64, d64, tmax, *t))
+            .collect();
+        // Hits within 1e-5 of an edge or of the segment's ends can go
+        // either way in f32.
+        if hits64.iter().any(|h| h.1 < 1e-5) {
+            continue;
+        }
+        let near_miss = tris.iter().any(|t| {
+            let grown = hit64(o64, d64, tmax * (1.0 + 1e-5) + 1e-5, *t);
+            grown.is_some() && hit64(o64, d64, tmax, *t).is_none()
+        });
+        if near_miss {
+            continue;
+        }
+        let want = !hits64.is_empty();
+        let ray = Ray::new(o32.into(), d32.into(), 0.0, tmax as f32);
+        assert_eq!(occ.occluded_ray(&ray), want, "ray {k}: {o} {d} {tmax}");
+        checked += 1;
+        hits += want as usize;
+    }
+    assert!(
+        checked > 15000 && hits > 3000,
+        "{checked} checked, {hits} hits"
+    );
+}
+
+#[test]
+fn an_empty_or_degenerate_mesh_occludes_nothing() {
+    let mesh = mesh_from(
+        &[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+        &[vec![0, 1, 2]],
+    );
+    let occ = Occluder::new(&TriMesh::from_cloud(&mesh).unwrap());
+    assert_eq!(occ.triangle_count(), 0);
+    assert!(!occ.occluded(
+        DVec3::new(1.0, -1.0, 0.0),
+        DVec3::Y,
+        DVec3::Y,
+        f64::INFINITY
+    ));
+}
+
+#[test]
+fn thousands_of_coincident_triangles_are_traced_whole() {
+    // One triangle repeated: the tree over equal boxes is as deep as the
+    // builder makes it; every copy must still be reachable.
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..5000 {
+        p.extend([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        faces.push(vec![3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    p.push([5.0, 5.0, 5.0]); // widens the frame
+    let mesh = mesh_from(&p, &faces);
+    let occ = Occluder::new(&TriMesh::from_cloud(&mesh).unwrap());
+    assert_eq!(occ.triangle_count(), 5000);
+    let up = DVec3::Z;
+    assert!(occ.occluded(DVec3::new(0.2, 0.2, -1.0), -up, up, f64::INFINITY));
+    assert!(occ.occluded(DVec3::new(0.2, 0.2, -1.0), -up, up, 1.5));
+    assert!(!occ.occluded(DVec3::new(0.2, 0.2, -1.0), -up, up, 0.5));
+    assert!(!occ.occluded(DVec3::new(0.8, 0.8, -1.0), -up, up, f64::INFINITY));
+}
