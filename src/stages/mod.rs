@@ -6,3 +6,4 @@ pub mod illum;
 pub mod measure;
 pub mod promote;
 pub mod scatter;
+pub mod ssmulti;

@@ -12,3 +12,4 @@ mod pcdiff;
 mod ply_bad_input;
 mod ply_roundtrip;
 mod python_interop;
+mod ssmulti;

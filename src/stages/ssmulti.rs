@@ -1,0 +1,952 @@
+//! `ssmulti` (the seed's `ssIntegMulti`): multiple scattering at every
+//! cloud point, `ssM` (colour), exactly as `../shared/DESIGN.md` writes
+//! it:
+//!
+//! ```text
+//! ld = Rd * sd (per channel), ld1 = max(ld)
+//! for every point i with r = |Xo - Xi| <= ld1 (o itself included):
+//!     Li = (Xo - Xi) / ld1
+//!     kb = lerp(1, 1 - (1 - No.Ni) (1 - No.Li) / 2, bounce)
+//!     if kb > 0:
+//!         t_rgb: ssm[c] += kb illum_i[c] ptarea_i W(r, ld[c])
+//!         else:  ssm    += kb illum_i    ptarea_i W(r, ld1)
+//! not t_rgb: ssm *= Rd
+//! ssM = ssm / I(ld1), I(D) = the disk integral of W(., D)
+//! ```
+//!
+//! Normalisations (`Norm`): `Seed` is the above (Houdini's semantics: in
+//! t_rgb mode every channel by the largest distance's integral, no `Rd`);
+//! `Channel`: in t_rgb mode channel c by its own `I(ld[c])`, times
+//! `Rd[c]`; `Local`: by the kernel-weighted area present within reach,
+//! `A[c] = sum_i ptarea_i W(r, ld[c])` (no `kb`), times `Rd[c]`: an open
+//! edge or a thin part no longer goes dark.
+//!
+//! Falloffs (`Falloff`), all zero beyond `D`:
+//! - `Smooth`: `1 - smooth(0, D, r)`, `I = 3 pi D^2 / 10`.
+//! - `Exp { sigma }`: `exp(-sigma r / D)`,
+//!   `I = 2 pi D^2 (1 - e^-sigma (1 + sigma)) / sigma^2`, evaluated by its
+//!   series below sigma = 0.5 (the closed form cancels) and with
+//!   `expm1` above (never overflows: only `e^-sigma` appears).
+//! - `Burley { kappa }`: Christensen and Burley's normalised diffusion
+//!   profile, truncated at `D` and renormalised over the disk; see
+//!   [`burley`] for the derivation.
+//!
+//! The method: points sorted along a Morton curve into leaves of at most
+//! `LEAF` points, each leaf's points stored as f32 columns relative to the
+//! leaf's own origin (an f64); a receiver leaf finds the source leaves
+//! whose boxes come within `ld1` of its box once, and every receiver point
+//! then runs through those leaves' columns in blocks of eight lanes that
+//! the compiler vectorises (AVX2 and FMA when the CPU has them, chosen at
+//! run time). Pair differences are taken between two small local
+//! coordinates plus the leaves' offset, so a cloud 1e6 from the origin
+//! loses nothing when its positions are f64. Each block's eight lanes are
+//! summed into f64 accumulators after at most `LEAF` pairs: the rounding
+//! does not grow with the neighbour count. Points with zero `illum` are
+//! not sources (except for `Local`, which needs their area); a receiver's
+//! sums run in a fixed order, so the output bits do not depend on the
+//! thread count.
+
+// Numeric kernels index lanes and channels side by side.
+#![allow(clippy::needless_range_loop)]
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::cloud::{Cloud, DetailValue, Role};
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+
+/// The falloff kernel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Falloff {
+    /// `1 - smooth(0, D, r)` (the seed's).
+    Smooth,
+    /// `exp(-sigma r / D)` (the seed's alternative).
+    Exp { sigma: f64 },
+    /// Christensen-Burley, shape `d = D / kappa`, truncated at `D`.
+    Burley { kappa: f64 },
+}
+
+/// The default `kappa` of the Burley falloff, `d = D / kappa`: the
+/// profile's mean radius `2.5 d` equals the smooth falloff's `4 D / 9`
+/// (`kappa = 2.5 * 9 / 4`), so switching falloffs keeps the look's scale;
+/// 88% of the untruncated profile's energy lies within `D`. Larger values
+/// keep more of the tail but need denser clouds: the profile's core is
+/// `d` wide and wants many points across it.
+pub const BURLEY_KAPPA: f64 = 5.625;
+
+/// How the sum is normalised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Norm {
+    Seed,
+    Channel,
+    Local,
+}
+
+/// Parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// Diffuse reflectance per channel.
+    pub rd: [f64; 3],
+    /// Scattering distance.
+    pub sd: f64,
+    /// Bounce attenuation, 0 (off) to 1.
+    pub bounce: f64,
+    /// Per-channel distances (`t_rgb`).
+    pub rgb: bool,
+    pub falloff: Falloff,
+    pub norm: Norm,
+    /// 0: exact. Above: the approximate method's tolerance.
+    pub tolerance: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            rd: [1.0; 3],
+            sd: 1.0,
+            bounce: 0.0,
+            rgb: false,
+            falloff: Falloff::Smooth,
+            norm: Norm::Seed,
+            tolerance: 0.0,
+        }
+    }
+}
+
+/// What `ssmulti` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub points: usize,
+    /// Points that were sources.
+    pub sources: usize,
+    /// Point pairs evaluated (including those beyond reach in a block).
+    pub pairs: u64,
+}
+
+/// Points per leaf (a multiple of the lane count).
+pub const LEAF: usize = 64;
+const LANES: usize = 8;
+
+/// Checks the parameters; errors name the option.
+pub fn validate(p: &Params) -> Result<()> {
+    for (c, &x) in p.rd.iter().enumerate() {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(Error::param(
+                "--rd",
+                format!("channel {c} is {x}: not a finite number >= 0"),
+            ));
+        }
+    }
+    if !(p.sd.is_finite() && p.sd >= 0.0) {
+        return Err(Error::param(
+            "--sd",
+            format!("{} is not a finite number >= 0", p.sd),
+        ));
+    }
+    if !(p.bounce.is_finite() && (0.0..=1.0).contains(&p.bounce)) {
+        return Err(Error::param(
+            "--bounce",
+            format!("{} is not in [0, 1]", p.bounce),
+        ));
+    }
+    match p.falloff {
+        Falloff::Exp { sigma } if !(sigma.is_finite() && sigma > 0.0 && sigma <= 1e6) => {
+            return Err(Error::param(
+                "--sigma",
+                format!("{sigma} is not in (0, 1e6]"),
+            ));
+        }
+        Falloff::Burley { kappa } if !(kappa.is_finite() && kappa > 0.0 && kappa <= 1e6) => {
+            return Err(Error::param(
+                "--sigma",
+                format!("{kappa} is not in (0, 1e6]"),
+            ));
+        }
+        _ => {}
+    }
+    if !(p.tolerance.is_finite() && p.tolerance >= 0.0) {
+        return Err(Error::param(
+            "--tolerance",
+            format!("{} is not a finite number >= 0", p.tolerance),
+        ));
+    }
+    Ok(())
+}
+
+/// `(1 - e^-s (1 + s)) / s^2`, stable for every `s > 0`.
+pub fn exp_disk_factor(s: f64) -> f64 {
+    if s < 0.5 {
+        // sum_{k >= 2} (-1)^k (k - 1) / k! s^(k - 2)
+        let mut term: f64 = 0.5; // k = 2: 1 / 2!
+        let mut sum: f64 = 0.0;
+        let mut k: f64 = 2.0;
+        while term.abs() > 1e-18 * sum.abs().max(1e-300) || k < 4.0 {
+            sum += term;
+            // term_{k+1} / term_k = -s k / ((k + 1) (k - 1))
+            term *= -s * k / ((k + 1.0) * (k - 1.0));
+            k += 1.0;
+            if k > 60.0 {
+                break;
+            }
+        }
+        sum
+    } else {
+        (-(-s).exp_m1() - s * (-s).exp()) / (s * s)
+    }
+}
+
+/// The disk integral `I(D) = int_0^D W(r, D) 2 pi r dr` of a falloff.
+pub fn disk_integral(f: Falloff, d: f64) -> f64 {
+    match f {
+        Falloff::Smooth => 3.0 * PI * d * d / 10.0,
+        Falloff::Exp { sigma } => 2.0 * PI * d * d * exp_disk_factor(sigma),
+        Falloff::Burley { kappa } => burley::disk_integral(kappa, d),
+    }
+}
+
+/// The falloff at distance `r` in f64 (the reference the tests and the
+/// approximate method use); `rmin` is the Burley regularisation radius of
+/// the source point (see [`burley`]).
+pub fn falloff(f: Falloff, r: f64, d: f64, rmin: f64) -> f64 {
+    if r > d || d <= 0.0 {
+        return 0.0;
+    }
+    match f {
+        Falloff::Smooth => {
+            let t = r / d;
+            (1.0 - t) * (1.0 - t) * (1.0 + 2.0 * t)
+        }
+        Falloff::Exp { sigma } => (-sigma * r / d).exp(),
+        Falloff::Burley { kappa } => burley::profile(kappa, r, d, rmin),
+    }
+}
+
+/// The Christensen-Burley falloff.
+///
+/// Christensen and Burley ("Approximate Reflectance Profiles for Efficient
+/// Subsurface Scattering", 2015) fit the diffuse reflectance profile of
+/// a semi-infinite medium with
+///
+/// ```text
+/// R(r) = (e^(-r/d) + e^(-r/(3d))) / (8 pi d r)
+/// ```
+///
+/// normalised over the plane: `int_0^inf R 2 pi r dr = (d + 3d) / (4d) =
+/// 1`. Here its reach is the seed's scattering distance `D`: with shape
+/// `d = D / kappa` we keep `r <= D` and renormalise over that disk. The
+/// unnormalised kernel is `W(r) = e^(-r/d) + e^(-r/(3d))) / r` (constant
+/// factors cancel in `ssm / I`), and
+///
+/// ```text
+/// I(D) = int_0^D W(r) 2 pi r dr = 2 pi int_0^D (e^(-r/d) + e^(-r/(3d))) dr
+///      = 2 pi d ((1 - e^-kappa) + 3 (1 - e^(-kappa/3)))
+///      = -2 pi (D / kappa) (expm1(-kappa) + 3 expm1(-kappa/3))
+/// ```
+///
+/// so the truncated, renormalised profile integrates to exactly 1 over the
+/// disk. The fraction of the untruncated energy kept is
+/// `1 - e^-kappa / 4 - 3 e^(-kappa/3) / 4`: 88% at the default
+/// `kappa = 5.625` (see [`BURLEY_KAPPA`]).
+///
+/// Point sums and the `1/r` singularity: `int R dA` is finite, but a
+/// point at distance `r` contributes `ptarea R(r)`, unbounded as `r -> 0`
+/// (the receiver itself is at `r = 0`). A source point stands for a disk
+/// of area `a = ptarea`, radius `rho = sqrt(a / pi)`; for small `rho`,
+/// `int_disk W dA = 2 pi (rho + rho) = 4 pi rho` to first order, and
+/// `a W(r_min) = 2 pi rho^2 / r_min` equals it at `r_min = rho / 2`. So the
+/// kernel is evaluated at `max(r, r_min)`, `r_min = sqrt(ptarea / pi) / 2`:
+/// the self term is right to first order and near neighbours stay
+/// bounded; beyond `r_min` it is the exact profile.
+pub mod burley {
+    use std::f64::consts::PI;
+
+    /// `I(D)` for shape `d = D / kappa`.
+    pub fn disk_integral(kappa: f64, d: f64) -> f64 {
+        -2.0 * PI * (d / kappa) * ((-kappa).exp_m1() + 3.0 * (-kappa / 3.0).exp_m1())
+    }
+
+    /// `W(max(r, rmin))` for `r <= D`.
+    pub fn profile(kappa: f64, r: f64, d: f64, rmin: f64) -> f64 {
+        let s = d / kappa;
+        let r = r.max(rmin);
+        if r <= 0.0 {
+            return 0.0;
+        }
+        ((-r / s).exp() + (-r / (3.0 * s)).exp()) / r
+    }
+
+    /// The regularisation radius of a source of area `ptarea`.
+    pub fn rmin(ptarea: f64) -> f64 {
+        0.5 * (ptarea.max(0.0) / PI).sqrt()
+    }
+}
+
+// ---------------------------------------------------------------------
+// The cloud as leaves of Morton-ordered columns.
+
+/// A leaf: points `start..start + len` of the sorted order, sources first
+/// (`src` of them), columns padded to a multiple of `LANES` from
+/// `col..col + padded(len)`.
+#[derive(Clone, Copy, Debug)]
+struct Leaf {
+    col: usize,
+    len: usize,
+    src: usize,
+    origin: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+/// Source columns (f32, relative to the leaf origin), padded per leaf.
+#[derive(Default)]
+struct Columns {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    nx: Vec<f32>,
+    ny: Vec<f32>,
+    nz: Vec<f32>,
+    /// `illum[c] * ptarea`.
+    q: [Vec<f32>; 3],
+    /// `ptarea`.
+    a: Vec<f32>,
+    /// Burley's `r_min`.
+    rmin: Vec<f32>,
+    /// Original point index (u32::MAX for padding).
+    id: Vec<u32>,
+}
+
+/// A padding lane: far away, carrying nothing.
+const FAR: f32 = 1e18;
+
+fn padded(n: usize) -> usize {
+    n.div_ceil(LANES) * LANES
+}
+
+/// Interleaves the low 21 bits of `v` with two zero bits between each.
+fn spread(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f00000000ffff;
+    x = (x | x << 16) & 0x1f0000ff0000ff;
+    x = (x | x << 8) & 0x100f00f00f00f00f;
+    x = (x | x << 4) & 0x10c30c30c30c30c3;
+    x = (x | x << 2) & 0x1249249249249249;
+    x
+}
+
+struct Inputs {
+    pos: Vec<[f64; 3]>,
+    nrm: Vec<[f32; 3]>,
+    area: Vec<f64>,
+    illum: Vec<[f64; 3]>,
+}
+
+/// Sorts the points along a Morton curve and cuts them into leaves of at
+/// most `LEAF` points that share a prefix (equal codes are cut in runs).
+fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Columns) {
+    let n = inp.pos.len();
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in &inp.pos {
+        let p = DVec3::from_array(*p);
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let extent = (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    let scale = ((1u64 << 21) - 1) as f64 / extent;
+    let mut order: Vec<(u64, u32)> = inp
+        .pos
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = (DVec3::from_array(*p) - lo) * scale;
+            let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
+            (code, i as u32)
+        })
+        .collect();
+    order.par_sort_unstable();
+    let mut ranges = Vec::new();
+    split(&order, 0, n, 62, &mut ranges);
+    let mut leaves = Vec::with_capacity(ranges.len());
+    let mut cols = Columns::default();
+    for (start, end) in ranges {
+        let mut ids: Vec<u32> = order[start..end].iter().map(|o| o.1).collect();
+        // Sources first, each group in Morton order.
+        ids.sort_by_key(|&i| !is_source[i as usize]);
+        let src = ids.iter().filter(|&&i| is_source[i as usize]).count();
+        let mut llo = DVec3::splat(f64::INFINITY);
+        let mut lhi = DVec3::splat(f64::NEG_INFINITY);
+        for &i in &ids {
+            let p = DVec3::from_array(inp.pos[i as usize]);
+            llo = llo.min(p);
+            lhi = lhi.max(p);
+        }
+        let origin = (llo + lhi) * 0.5;
+        let col = cols.x.len();
+        for k in 0..padded(ids.len()) {
+            match ids.get(k) {
+                Some(&i) => {
+                    let i = i as usize;
+                    let p = DVec3::from_array(inp.pos[i]) - origin;
+                    cols.x.push(p.x as f32);
+                    cols.y.push(p.y as f32);
+                    cols.z.push(p.z as f32);
+                    let nn = inp.nrm[i];
+                    cols.nx.push(nn[0]);
+                    cols.ny.push(nn[1]);
+                    cols.nz.push(nn[2]);
+                    for c in 0..3 {
+                        cols.q[c].push((inp.illum[i][c] * inp.area[i]) as f32);
+                    }
+                    cols.a.push(inp.area[i] as f32);
+                    cols.rmin.push(if want_rmin {
+                        burley::rmin(inp.area[i]) as f32
+                    } else {
+                        0.0
+                    });
+                    cols.id.push(i as u32);
+                }
+                None => {
+                    cols.x.push(FAR);
+                    cols.y.push(FAR);
+                    cols.z.push(FAR);
+                    cols.nx.push(0.0);
+                    cols.ny.push(0.0);
+                    cols.nz.push(0.0);
+                    for c in 0..3 {
+                        cols.q[c].push(0.0);
+                    }
+                    cols.a.push(0.0);
+                    cols.rmin.push(0.0);
+                    cols.id.push(u32::MAX);
+                }
+            }
+        }
+        leaves.push(Leaf {
+            col,
+            len: ids.len(),
+            src,
+            origin,
+            lo: llo,
+            hi: lhi,
+        });
+    }
+    (leaves, cols)
+}
+
+/// Cuts the sorted `order[start..end]` at Morton bit `bit` and below.
+fn split(order: &[(u64, u32)], start: usize, end: usize, bit: i32, out: &mut Vec<(usize, usize)>) {
+    if end - start <= LEAF {
+        out.push((start, end));
+        return;
+    }
+    if bit < 0 {
+        // Equal codes (duplicate or very close points): runs of LEAF.
+        let mut s = start;
+        while s < end {
+            out.push((s, (s + LEAF).min(end)));
+            s += LEAF;
+        }
+        return;
+    }
+    let mask = 1u64 << bit;
+    let mid = start + order[start..end].partition_point(|o| o.0 & mask == 0);
+    if mid > start {
+        split(order, start, mid, bit - 1, out);
+    }
+    if mid < end {
+        split(order, mid, end, bit - 1, out);
+    }
+}
+
+/// Distance between two boxes.
+fn box_gap(alo: DVec3, ahi: DVec3, blo: DVec3, bhi: DVec3) -> f64 {
+    let d = (blo - ahi).max(alo - bhi).max(DVec3::ZERO);
+    d.length()
+}
+
+// ---------------------------------------------------------------------
+// The pair loop.
+
+/// What the pair loop needs to know about the run.
+#[derive(Clone, Copy)]
+struct Setup {
+    /// Channel distances (0: the channel gets nothing).
+    ld: [f32; 3],
+    ld1: f32,
+    inv_ld1: f32,
+    bounce: f32,
+    /// One kernel for all channels (not t_rgb, or equal distances).
+    single: bool,
+    local: bool,
+    falloff: Falloff,
+}
+
+/// A receiver, relative to the source leaf's origin.
+#[derive(Clone, Copy)]
+struct Receiver {
+    x: f32,
+    y: f32,
+    z: f32,
+    nx: f32,
+    ny: f32,
+    nz: f32,
+}
+
+/// Kernel values for eight lanes at `r` (inside `d`; caller masks).
+#[inline(always)]
+fn kernel8(f: Falloff, r: &[f32; LANES], rmin: &[f32], d: f32, out: &mut [f32; LANES]) {
+    match f {
+        Falloff::Smooth => {
+            let inv = 1.0 / d;
+            for k in 0..LANES {
+                // 1 - 3t^2 + 2t^3 = (1 - t)^2 (1 + 2t): no cancellation
+                // near the edge, where W is small.
+                let t = (r[k] * inv).min(1.0);
+                let u = 1.0 - t;
+                out[k] = u * u * (1.0 + 2.0 * t);
+            }
+        }
+        Falloff::Exp { sigma } => {
+            let c = -(sigma as f32) / d;
+            for k in 0..LANES {
+                out[k] = exp_approx(c * r[k]);
+            }
+        }
+        Falloff::Burley { kappa } => {
+            let a = -(kappa as f32) / d;
+            let b = a / 3.0;
+            for k in 0..LANES {
+                let rr = r[k].max(rmin[k]);
+                out[k] = if rr > 0.0 {
+                    (exp_approx(a * rr) + exp_approx(b * rr)) / rr
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+}
+
+/// `e^x` for `x <= 0` to about 2 ulp, branch-free so that it vectorises
+/// (Cephes' `expf`: `x = n ln 2 + g`, a degree-5 polynomial for `e^g`,
+/// times `2^n` built in the exponent bits).
+#[inline(always)]
+pub fn exp_approx(x: f32) -> f32 {
+    let x = x.clamp(-87.0, 0.0);
+    let n = (x * std::f32::consts::LOG2_E + 0.5).floor();
+    let g = x - n * 0.693_359_4 - n * -2.121_944_4e-4;
+    let p = 1.987_569_1e-4_f32;
+    let p = p * g + 1.398_199_9e-3;
+    let p = p * g + 8.333_452e-3;
+    let p = p * g + 4.166_579_6e-2;
+    let p = p * g + 0.166_666_66;
+    let p = p * g + 0.5;
+    let e = p * g * g + g + 1.0;
+    let bits = ((n as i32 + 127) as u32) << 23;
+    e * f32::from_bits(bits)
+}
+
+/// Sums one source block (`n` padded lanes from column `col`) into the
+/// receiver's accumulators: `acc[0..3]` the channels, `acc[3..6]` the
+/// local areas. Returns nothing; the block's partial sums are added in
+/// f64.
+#[inline(always)]
+fn block(s: &Setup, cols: &Columns, col: usize, n: usize, o: &Receiver, acc: &mut [f64; 6]) {
+    let r2max = s.ld1 * s.ld1;
+    let mut sum = [[0f32; LANES]; 6];
+    let mut r = [0f32; LANES];
+    let mut inside = [0f32; LANES];
+    let mut kb = [0f32; LANES];
+    let mut w = [0f32; LANES];
+    for c0 in (col..col + n).step_by(LANES) {
+        let x = &cols.x[c0..c0 + LANES];
+        let y = &cols.y[c0..c0 + LANES];
+        let z = &cols.z[c0..c0 + LANES];
+        let mut dx = [0f32; LANES];
+        let mut dy = [0f32; LANES];
+        let mut dz = [0f32; LANES];
+        for k in 0..LANES {
+            dx[k] = o.x - x[k];
+            dy[k] = o.y - y[k];
+            dz[k] = o.z - z[k];
+            let r2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
+            inside[k] = if r2 <= r2max { 1.0 } else { 0.0 };
+            r[k] = r2.min(r2max).sqrt();
+        }
+        if s.bounce > 0.0 {
+            let nx = &cols.nx[c0..c0 + LANES];
+            let ny = &cols.ny[c0..c0 + LANES];
+            let nz = &cols.nz[c0..c0 + LANES];
+            for k in 0..LANES {
+                let nn = o.nx * nx[k] + o.ny * ny[k] + o.nz * nz[k];
+                let nl = (o.nx * dx[k] + o.ny * dy[k] + o.nz * dz[k]) * s.inv_ld1;
+                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
+                let b = 1.0 + s.bounce * (b - 1.0);
+                kb[k] = b.max(0.0) * inside[k];
+            }
+        } else {
+            kb = inside;
+        }
+        let rmin = &cols.rmin[c0..c0 + LANES];
+        if s.single {
+            kernel8(s.falloff, &r, rmin, s.ld1, &mut w);
+            for c in 0..3 {
+                let q = &cols.q[c][c0..c0 + LANES];
+                for k in 0..LANES {
+                    sum[c][k] += q[k] * kb[k] * w[k];
+                }
+            }
+            if s.local {
+                let a = &cols.a[c0..c0 + LANES];
+                for k in 0..LANES {
+                    sum[3][k] += a[k] * inside[k] * w[k];
+                }
+            }
+        } else {
+            for c in 0..3 {
+                let d = s.ld[c];
+                if d <= 0.0 {
+                    continue;
+                }
+                kernel8(s.falloff, &r, rmin, d, &mut w);
+                let q = &cols.q[c][c0..c0 + LANES];
+                let a = &cols.a[c0..c0 + LANES];
+                let d2 = d * d;
+                for k in 0..LANES {
+                    let within = if r[k] * r[k] <= d2 { w[k] } else { 0.0 };
+                    sum[c][k] += q[k] * kb[k] * within;
+                    if s.local {
+                        sum[3 + c][k] += a[k] * inside[k] * within;
+                    }
+                }
+            }
+        }
+    }
+    for c in 0..6 {
+        // Pairwise in f64: the block's lanes hold at most LEAF / LANES
+        // terms each.
+        acc[c] += sum[c].iter().map(|&v| v as f64).sum::<f64>();
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_avx2(
+    s: &Setup,
+    cols: &Columns,
+    col: usize,
+    n: usize,
+    o: &Receiver,
+    acc: &mut [f64; 6],
+) {
+    block(s, cols, col, n, o, acc)
+}
+
+/// `block`, with AVX2 and FMA when the CPU has them.
+#[inline]
+fn run_block(
+    avx2: bool,
+    s: &Setup,
+    cols: &Columns,
+    col: usize,
+    n: usize,
+    o: &Receiver,
+    acc: &mut [f64; 6],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is true only when the CPU reports AVX2 and FMA.
+        unsafe { block_avx2(s, cols, col, n, o, acc) };
+        return;
+    }
+    let _ = avx2;
+    block(s, cols, col, n, o, acc)
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::env::var_os("PCSSS_NO_AVX2").is_none()
+            && is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+// ---------------------------------------------------------------------
+
+/// Reads and checks the inputs.
+fn inputs(cloud: &Cloud) -> Result<Inputs> {
+    let pts = cloud.points();
+    for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
+        if !pts.has(name) {
+            return Err(Error::missing("point", name, Some(stage)));
+        }
+    }
+    let pos = pts.vec3_f64("P")?;
+    let nrm64 = pts.vec3_f64("N")?;
+    let area = pts.scalar_f64("ptarea")?;
+    let illum = pts.vec3_f64("illum")?;
+    let bad3 = |v: &[[f64; 3]]| v.iter().position(|p| !p.iter().all(|x| x.is_finite()));
+    if let Some(i) = bad3(&pos) {
+        return Err(Error::invalid(format!(
+            "point {i}: P is {:?}, not finite",
+            pos[i]
+        )));
+    }
+    if let Some(i) = bad3(&illum) {
+        return Err(Error::invalid(format!(
+            "point {i}: illum is {:?}, not finite",
+            illum[i]
+        )));
+    }
+    if let Some(i) = area.iter().position(|a| !(a.is_finite() && *a >= 0.0)) {
+        return Err(Error::invalid(format!(
+            "point {i}: ptarea is {}, not a finite number >= 0",
+            area[i]
+        )));
+    }
+    let mut nrm = Vec::with_capacity(nrm64.len());
+    for (i, n) in nrm64.iter().enumerate() {
+        let v = DVec3::from_array(*n);
+        let u = if v.is_finite() {
+            v.normalize_or_zero()
+        } else {
+            DVec3::ZERO
+        };
+        if u == DVec3::ZERO {
+            return Err(Error::invalid(format!(
+                "point {i}: N is {n:?}, which has no direction"
+            )));
+        }
+        nrm.push(u.as_vec3().to_array());
+    }
+    Ok(Inputs {
+        pos,
+        nrm,
+        area,
+        illum,
+    })
+}
+
+/// Adds `ssM` to `cloud`.
+pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
+    validate(p)?;
+    let inp = inputs(cloud)?;
+    let n = inp.pos.len();
+    let ld = p.rd.map(|r| r * p.sd);
+    let ld1 = ld.iter().copied().fold(0.0, f64::max);
+    let mut out = vec![[0f32; 3]; n];
+    let mut report = Report {
+        points: n,
+        ..Report::default()
+    };
+    if n > 0 && ld1 > 0.0 {
+        let sums = if p.tolerance > 0.0 {
+            return Err(Error::unsupported(
+                "--tolerance > 0 (the approximate method) is not built yet; use 0",
+            ));
+        } else {
+            exact(&inp, p, ld, ld1, progress, &mut report)
+        };
+        finish(p, ld, ld1, &sums, &mut out);
+    }
+    cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
+    cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
+    cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
+    Ok(report)
+}
+
+/// Per receiver: the channel sums and (for `Local`) the area sums.
+type Sums = Vec<[f64; 6]>;
+
+/// A receiver leaf's results: (point, sums) and the pairs it evaluated.
+type LeafSums = (Vec<(u32, [f64; 6])>, u64);
+
+/// Normalises the sums into `ssM`.
+fn finish(p: &Params, ld: [f64; 3], ld1: f64, sums: &Sums, out: &mut [[f32; 3]]) {
+    let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
+    let i1 = disk_integral(p.falloff, ld1);
+    for (o, s) in out.iter_mut().zip(sums) {
+        for c in 0..3 {
+            let v = match (p.norm, p.rgb) {
+                (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] * s[c] / i1,
+                (Norm::Seed, true) => s[c] / i1,
+                (Norm::Channel, true) => {
+                    if ld[c] > 0.0 {
+                        p.rd[c] * s[c] / disk_integral(p.falloff, ld[c])
+                    } else {
+                        0.0
+                    }
+                }
+                (Norm::Local, _) => {
+                    let a = if single { s[3] } else { s[3 + c] };
+                    if a > 0.0 {
+                        p.rd[c] * s[c] / a
+                    } else {
+                        0.0
+                    }
+                }
+            };
+            o[c] = v as f32;
+        }
+    }
+}
+
+/// The exact method.
+fn exact(
+    inp: &Inputs,
+    p: &Params,
+    ld: [f64; 3],
+    ld1: f64,
+    progress: &Progress,
+    report: &mut Report,
+) -> Sums {
+    let n = inp.pos.len();
+    let local = p.norm == Norm::Local;
+    let is_source: Vec<bool> = (0..n)
+        .map(|i| local || inp.illum[i].iter().any(|&x| x != 0.0))
+        .collect();
+    report.sources = is_source.iter().filter(|&&s| s).count();
+    let want_rmin = matches!(p.falloff, Falloff::Burley { .. });
+    let (leaves, cols) = build(inp, &is_source, want_rmin);
+    let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
+    let setup = Setup {
+        ld: ld.map(|x| x as f32),
+        ld1: ld1 as f32,
+        inv_ld1: (1.0 / ld1) as f32,
+        bounce: p.bounce as f32,
+        single,
+        local,
+        falloff: p.falloff,
+    };
+    let avx2 = has_avx2();
+    // Source leaves in a coarse grid of cells of size ld1 (by box centre),
+    // so a receiver leaf looks only at nearby cells.
+    let sources: Vec<usize> = (0..leaves.len()).filter(|&l| leaves[l].src > 0).collect();
+    let grid = LeafGrid::new(&leaves, &sources, ld1);
+    progress.start("summing", n as u64);
+    let per_leaf: Vec<LeafSums> = leaves
+        .par_iter()
+        .map(|rl| {
+            let near = grid.near(&leaves, rl, ld1);
+            let mut res = Vec::with_capacity(rl.len);
+            let mut pairs = 0u64;
+            for k in 0..rl.len {
+                let c = rl.col + k;
+                let po =
+                    rl.origin + DVec3::new(cols.x[c] as f64, cols.y[c] as f64, cols.z[c] as f64);
+                let mut acc = [0f64; 6];
+                for &sl in &near {
+                    let s = &leaves[sl];
+                    // Cheap per-receiver cull of the whole block.
+                    let gap = (s.lo - po).max(po - s.hi).max(DVec3::ZERO).length();
+                    if gap > ld1 {
+                        continue;
+                    }
+                    // The receiver relative to the source leaf's origin:
+                    // two small numbers and the leaves' offset.
+                    let off = (rl.origin - s.origin).as_vec3();
+                    let o = Receiver {
+                        x: cols.x[c] + off.x,
+                        y: cols.y[c] + off.y,
+                        z: cols.z[c] + off.z,
+                        nx: cols.nx[c],
+                        ny: cols.ny[c],
+                        nz: cols.nz[c],
+                    };
+                    let m = padded(s.src);
+                    pairs += m as u64;
+                    run_block(avx2, &setup, &cols, s.col, m, &o, &mut acc);
+                }
+                res.push((cols.id[c], acc));
+            }
+            progress.inc(rl.len as u64);
+            (res, pairs)
+        })
+        .collect();
+    progress.finish();
+    let mut sums = vec![[0f64; 6]; n];
+    for (res, pairs) in per_leaf {
+        report.pairs += pairs;
+        for (i, acc) in res {
+            sums[i as usize] = acc;
+        }
+    }
+    sums
+}
+
+/// Source leaves bucketed by the cell of their box centre.
+struct LeafGrid {
+    cell: f64,
+    origin: DVec3,
+    map: std::collections::HashMap<[i64; 3], Vec<usize>>,
+    /// The largest half-diagonal of a source leaf's box.
+    reach: f64,
+}
+
+impl LeafGrid {
+    fn new(leaves: &[Leaf], sources: &[usize], ld1: f64) -> LeafGrid {
+        let origin = sources.first().map_or(DVec3::ZERO, |&l| leaves[l].origin);
+        let mut reach: f64 = 0.0;
+        for &l in sources {
+            reach = reach.max(((leaves[l].hi - leaves[l].lo) * 0.5).length());
+        }
+        // Cells no smaller than the reach, and not so small that a query
+        // looks at millions of empty ones.
+        let cell = ld1.max(reach).max(f64::MIN_POSITIVE);
+        let mut map: std::collections::HashMap<[i64; 3], Vec<usize>> =
+            std::collections::HashMap::new();
+        for &l in sources {
+            let k = key((leaves[l].origin - origin) / cell);
+            map.entry(k).or_default().push(l);
+        }
+        LeafGrid {
+            cell,
+            origin,
+            map,
+            reach,
+        }
+    }
+
+    /// Source leaves whose boxes come within `ld1` of `rl`'s box, in a
+    /// fixed order.
+    fn near(&self, leaves: &[Leaf], rl: &Leaf, ld1: f64) -> Vec<usize> {
+        let grow = DVec3::splat(ld1 + self.reach);
+        let a = key((rl.lo - grow - self.origin) / self.cell);
+        let b = key((rl.hi + grow - self.origin) / self.cell);
+        let mut out = Vec::new();
+        let cells =
+            (b[0] - a[0] + 1) as u128 * (b[1] - a[1] + 1) as u128 * (b[2] - a[2] + 1) as u128;
+        if cells as usize > self.map.len() {
+            // Fewer occupied cells than cells to look at: scan them.
+            for v in self.map.values() {
+                out.extend(v.iter().copied());
+            }
+        } else {
+            for x in a[0]..=b[0] {
+                for y in a[1]..=b[1] {
+                    for z in a[2]..=b[2] {
+                        if let Some(v) = self.map.get(&[x, y, z]) {
+                            out.extend(v.iter().copied());
+                        }
+                    }
+                }
+            }
+        }
+        out.retain(|&l| box_gap(rl.lo, rl.hi, leaves[l].lo, leaves[l].hi) <= ld1);
+        out.sort_unstable();
+        out
+    }
+}
+
+fn key(v: DVec3) -> [i64; 3] {
+    [v.x.floor() as i64, v.y.floor() as i64, v.z.floor() as i64]
+}

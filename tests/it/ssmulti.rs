@@ -1,0 +1,654 @@
+//! `ssmulti` against a plain f64 double loop written here, closed forms
+//! (the plane, the kernel integrals, the lit pole of a sphere),
+//! invariance under translation and scale, and bad input.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rand_core::RngCore;
+use rand_pcg::Pcg32;
+
+use crate::util::*;
+use pcsss::cloud::Role;
+use pcsss::progress::Progress;
+use pcsss::stages::ssmulti::{self, burley, Falloff, Norm, Params, BURLEY_KAPPA};
+use pcsss::Cloud;
+
+fn unit(r: &mut Pcg32) -> f64 {
+    r.next_u32() as f64 / 4294967296.0
+}
+
+/// A cloud from columns: f64 positions, f32 normals, ptarea, illum.
+fn cloud_of(p: &[[f64; 3]], n: &[[f64; 3]], a: &[f64], e: &[[f64; 3]]) -> Cloud {
+    let mut c = Cloud::with_points(p.len());
+    let pts = c.points_mut();
+    pts.set_vec3("P", Role::Point, p).unwrap();
+    let n32: Vec<[f32; 3]> = n.iter().map(|v| v.map(|x| x as f32)).collect();
+    pts.set_vec3("N", Role::Normal, &n32).unwrap();
+    pts.set_scalar("ptarea", a.iter().map(|&x| x as f32).collect::<Vec<f32>>())
+        .unwrap();
+    let e32: Vec<[f32; 3]> = e.iter().map(|v| v.map(|x| x as f32)).collect();
+    pts.set_vec3("illum", Role::Color, &e32).unwrap();
+    c
+}
+
+fn run(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
+    let mut c = c.clone();
+    ssmulti::ssmulti(&mut c, p, &Progress::hidden()).unwrap();
+    c.points().vec3_f64("ssM").unwrap()
+}
+
+/// DESIGN.md's loop, in f64, every pair, written from the text.
+fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
+    let pos = c.points().vec3_f64("P").unwrap();
+    let nrm = c.points().vec3_f64("N").unwrap();
+    let area = c.points().scalar_f64("ptarea").unwrap();
+    let illum = c.points().vec3_f64("illum").unwrap();
+    let ld: Vec<f64> = p.rd.iter().map(|r| r * p.sd).collect();
+    let ld1 = ld.iter().copied().fold(0.0, f64::max);
+    let w = |r: f64, d: f64, i: usize| ssmulti::falloff(p.falloff, r, d, burley::rmin(area[i]));
+    let mut out = Vec::new();
+    for o in 0..pos.len() {
+        let xo = DVec3::from_array(pos[o]);
+        let no = DVec3::from_array(nrm[o]).normalize();
+        let mut ssm = [0.0; 3];
+        let mut loc = [0.0; 3];
+        for i in 0..pos.len() {
+            let xi = DVec3::from_array(pos[i]);
+            let r = (xo - xi).length();
+            if r > ld1 || ld1 == 0.0 {
+                continue;
+            }
+            let ni = DVec3::from_array(nrm[i]).normalize();
+            let li = (xo - xi) / ld1;
+            let kb = 1.0 - (1.0 - no.dot(ni)) * (1.0 - no.dot(li)) / 2.0;
+            let kb = 1.0 + p.bounce * (kb - 1.0);
+            for c in 0..3 {
+                let d = if p.rgb { ld[c] } else { ld1 };
+                if d <= 0.0 || r > d {
+                    continue;
+                }
+                if kb > 0.0 {
+                    ssm[c] += kb * illum[i][c] * area[i] * w(r, d, i);
+                }
+                loc[c] += area[i] * w(r, d, i);
+            }
+        }
+        let i1 = ssmulti::disk_integral(p.falloff, ld1);
+        let mut v = [0.0; 3];
+        for c in 0..3 {
+            v[c] = match (p.norm, p.rgb) {
+                (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] * ssm[c] / i1,
+                (Norm::Seed, true) => ssm[c] / i1,
+                (Norm::Channel, true) if ld[c] > 0.0 => {
+                    p.rd[c] * ssm[c] / ssmulti::disk_integral(p.falloff, ld[c])
+                }
+                (Norm::Channel, true) => 0.0,
+                (Norm::Local, _) if loc[c] > 0.0 => p.rd[c] * ssm[c] / loc[c],
+                (Norm::Local, _) => 0.0,
+            };
+        }
+        out.push(v);
+    }
+    out
+}
+
+/// A wavy sheet folded into a half-tube: neighbours facing many ways
+/// (bounce matters), f64 positions around `offset`, random areas and
+/// light, some points unlit.
+fn wavy(n: usize, offset: DVec3, scale: f64, seed: u64) -> Cloud {
+    let mut r = Pcg32::new(seed, 0);
+    let (mut p, mut nn, mut a, mut e) = (vec![], vec![], vec![], vec![]);
+    for k in 0..n {
+        let u = unit(&mut r) * PI;
+        let v = unit(&mut r) * 2.0;
+        let rad = 1.0 + 0.1 * (5.0 * v).sin();
+        let q = DVec3::new(rad * u.cos(), v, rad * u.sin());
+        p.push((offset + q * scale).to_array());
+        nn.push([u.cos(), 0.1 * (unit(&mut r) - 0.5), u.sin()]);
+        a.push((0.5 + unit(&mut r)) * 2.0 * PI / n as f64 * scale * scale);
+        if k % 5 == 0 {
+            e.push([0.0; 3]);
+        } else {
+            e.push([unit(&mut r), unit(&mut r), 2.0 * unit(&mut r)]);
+        }
+    }
+    cloud_of(&p, &nn, &a, &e)
+}
+
+fn falloffs() -> [Falloff; 4] {
+    [
+        Falloff::Smooth,
+        Falloff::Exp { sigma: 3.0 },
+        Falloff::Exp { sigma: 1e-6 },
+        Falloff::Burley {
+            kappa: BURLEY_KAPPA,
+        },
+    ]
+}
+
+fn rel_err(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1e-30)
+}
+
+#[test]
+fn exact_method_equals_the_f64_double_loop_for_every_setting() {
+    let c = wavy(700, DVec3::ZERO, 1.0, 1);
+    let mut worst: f64 = 0.0;
+    for falloff in falloffs() {
+        for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
+            for (rgb, rd) in [
+                (false, [0.8, 0.5, 0.3]),
+                (true, [0.8, 0.5, 0.3]),
+                (true, [0.6, 0.6, 0.6]),
+                (true, [0.7, 0.0, 0.35]),
+            ] {
+                for bounce in [0.0, 0.5, 1.0] {
+                    let p = Params {
+                        rd,
+                        sd: 0.6,
+                        bounce,
+                        rgb,
+                        falloff,
+                        norm,
+                        tolerance: 0.0,
+                    };
+                    let got = run(&c, &p);
+                    let want = brute(&c, &p);
+                    // f32 pair arithmetic puts ~1e-7 ld1 of error on each
+                    // distance: a receiver whose sum is all near-edge
+                    // pairs (unlit itself, small value) sees that
+                    // relatively magnified, so values below the channel's
+                    // mean are judged against the mean.
+                    let mean: Vec<f64> = (0..3)
+                        .map(|ch| want.iter().map(|v| v[ch].abs()).sum::<f64>() / want.len() as f64)
+                        .collect();
+                    // Burley's 1/r weighs the nearest pairs most, whose
+                    // f32 distances are the least precise relative to
+                    // themselves (~5e-7 at one spacing): 2e-6 there.
+                    let tol = match falloff {
+                        Falloff::Burley { .. } => 2e-6,
+                        _ => 1e-6,
+                    };
+                    for (g, w) in got.iter().zip(&want) {
+                        for ch in 0..3 {
+                            let e = (g[ch] - w[ch]).abs() / w[ch].abs().max(mean[ch]).max(1e-30);
+                            worst = worst.max(e);
+                            assert!(
+                                e < tol,
+                                "{falloff:?} {norm:?} rgb {rgb} rd {rd:?} bounce {bounce}: {g:?} vs {w:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("worst relative difference {worst:e}");
+}
+
+/// A square grid of `k` x `k` points of spacing `h` on z = 0, area `h^2`
+/// each, uniform light `e`.
+fn grid(k: usize, h: f64, e: [f64; 3], jitter: f64, seed: u64) -> Cloud {
+    let mut r = Pcg32::new(seed, 1);
+    let (mut p, mut n, mut a, mut l) = (vec![], vec![], vec![], vec![]);
+    for i in 0..k {
+        for j in 0..k {
+            let dx = jitter * (unit(&mut r) - 0.5) * h;
+            let dy = jitter * (unit(&mut r) - 0.5) * h;
+            p.push([i as f64 * h + dx, j as f64 * h + dy, 0.0]);
+            n.push([0.0, 0.0, 1.0]);
+            a.push(h * h);
+            l.push(e);
+        }
+    }
+    cloud_of(&p, &n, &a, &l)
+}
+
+#[test]
+fn a_flat_evenly_lit_plane_gives_rd_times_e() {
+    let e = [2.0, 1.0, 0.5];
+    let rd = [0.9, 0.5, 0.2];
+    let (k, h, sd) = (200usize, 0.005, 0.25);
+    let ld1 = 0.9 * sd;
+    let interior = |q: &[f64; 3], k: usize, h: f64| {
+        let m = (k - 1) as f64 * h;
+        q[0] > ld1 && q[0] < m - ld1 && q[1] > ld1 && q[1] < m - ld1
+    };
+    // The regular grid's own quadrature error is 1.8e-6 at 22 points per
+    // ld1 (h = 0.01, measured with an f64 sum) and falls as h^3: at 45
+    // points per ld1 it is below 3e-7, and f32 pairs add about 1.5e-7.
+    for (jitter, tol) in [(0.0, 1e-6), (1.0, 1e-3)] {
+        let c = grid(k, h, e, jitter, 3);
+        let p = Params {
+            rd,
+            sd,
+            ..Params::default()
+        };
+        let got = run(&c, &p);
+        let pos = c.points().vec3_f64("P").unwrap();
+        let mut worst: f64 = 0.0;
+        for (q, v) in pos.iter().zip(&got) {
+            if interior(q, k, h) {
+                for ch in 0..3 {
+                    worst = worst.max(rel_err(v[ch], rd[ch] * e[ch]));
+                }
+            }
+        }
+        assert!(worst < tol, "jitter {jitter}: worst {worst:e}");
+    }
+    // Every falloff and normalisation on a coarser regular grid.
+    let (k, h) = (120usize, 0.01);
+    let c = grid(k, h, e, 0.0, 3);
+    let pos = c.points().vec3_f64("P").unwrap();
+    for falloff in falloffs() {
+        for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
+            let p = Params {
+                rd,
+                sd,
+                falloff,
+                norm,
+                ..Params::default()
+            };
+            let got = run(&c, &p);
+            // The seed's exp falloff and the truncated Burley profile jump
+            // to 0 at D: which grid points fall inside the disk is Gauss's
+            // circle problem, an error of O((h / D)^(3/2)) times the jump
+            // (4e-3 for exp with sigma -> 0, 22 points per D). Local
+            // normalisation divides the same sum by itself: exact.
+            let tol = match (falloff, norm) {
+                (_, Norm::Local) => 1e-5,
+                (Falloff::Smooth, _) => 1e-5,
+                _ => 1e-2,
+            };
+            for (q, v) in pos.iter().zip(&got) {
+                if interior(q, k, h) {
+                    for ch in 0..3 {
+                        let err = rel_err(v[ch], rd[ch] * e[ch]);
+                        assert!(err < tol, "{falloff:?} {norm:?}: {v:?}, error {err:e}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Composite Gauss-Legendre (5 points) of `f` on [0, d] in `m` pieces.
+fn quad(f: impl Fn(f64) -> f64, d: f64, m: usize) -> f64 {
+    let x = [
+        0.0,
+        -0.538_469_310_105_683,
+        0.538_469_310_105_683,
+        -0.906_179_845_938_664,
+        0.906_179_845_938_664,
+    ];
+    let w = [
+        0.568_888_888_888_889,
+        0.478_628_670_499_366,
+        0.478_628_670_499_366,
+        0.236_926_885_056_189,
+        0.236_926_885_056_189,
+    ];
+    let h = d / m as f64;
+    let mut s = 0.0;
+    for k in 0..m {
+        let c = (k as f64 + 0.5) * h;
+        for j in 0..5 {
+            s += w[j] * f(c + x[j] * h / 2.0) * h / 2.0;
+        }
+    }
+    s
+}
+
+#[test]
+#[allow(clippy::excessive_precision)] // the decimal digits as computed
+fn every_falloff_integrates_to_its_disk_integral() {
+    for d in [1e-3, 1.0, 7.0] {
+        let mut cases = vec![Falloff::Smooth];
+        for sigma in [1e-8, 1e-4, 0.3, 0.5, 0.7, 1.0, 5.0, 30.0, 1e3] {
+            cases.push(Falloff::Exp { sigma });
+        }
+        for kappa in [0.5, 3.0, BURLEY_KAPPA, 40.0] {
+            cases.push(Falloff::Burley { kappa });
+        }
+        for f in cases {
+            // Fine pieces near 0, where exp and Burley are steep.
+            let g = |r: f64| ssmulti::falloff(f, r, d, 0.0) * 2.0 * PI * r;
+            let num = quad(g, d * 1e-3, 2000) + quad(|r| g(r + d * 1e-3), d * (1.0 - 1e-3), 20000);
+            let exact = ssmulti::disk_integral(f, d);
+            assert!(
+                rel_err(num, exact) < 1e-9,
+                "{f:?} D {d}: quadrature {num} vs {exact}"
+            );
+            assert!(exact.is_finite() && exact > 0.0);
+        }
+    }
+    // The limits: sigma -> 0 is pi D^2; large sigma is 2 pi D^2 / sigma^2.
+    assert!(
+        rel_err(
+            ssmulti::disk_integral(Falloff::Exp { sigma: 1e-12 }, 1.0),
+            PI
+        ) < 1e-11
+    );
+    assert!(
+        rel_err(
+            ssmulti::disk_integral(Falloff::Exp { sigma: 1e3 }, 1.0),
+            2.0 * PI / 1e6
+        ) < 1e-12
+    );
+    // (1 - e^-s (1 + s)) / s^2 against 50-digit values (Python decimal,
+    // 80 terms of the exponential series): the series below 0.5, the
+    // closed form above.
+    for (s, want) in [
+        (1e-8, 0.499_999_996_666_666_679_166_666_633_333_333_4),
+        (0.001, 0.499_666_791_633_340_276_587_475_176_369_322_941_7),
+        (0.25, 0.423_984_338_571_902_635_096_594_660_433_587_054_1),
+        (0.4999, 0.360_839_062_849_747_469_749_348_304_581_673_987),
+        (0.5, 0.360_816_041_724_199_458_377_202_790_052_917_279_3),
+        (2.0, 0.148_498_537_572_540_481_079_500_378_770_636_697_4),
+    ] {
+        let got = ssmulti::exp_disk_factor(s);
+        assert!(rel_err(got, want) < 4e-16, "{s}: {got} vs {want}");
+    }
+}
+
+#[test]
+fn translation_and_scale_change_nothing() {
+    let base = wavy(1500, DVec3::ZERO, 1.0, 2);
+    for falloff in falloffs() {
+        let p = Params {
+            rd: [0.9, 0.6, 0.3],
+            sd: 0.4,
+            bounce: 0.5,
+            rgb: true,
+            falloff,
+            norm: Norm::Channel,
+            tolerance: 0.0,
+        };
+        let want = run(&base, &p);
+        for (offset, scale) in [
+            (DVec3::new(1e6, -1e6, 1e6), 1.0),
+            (DVec3::ZERO, 1e-4),
+            (DVec3::ZERO, 1e4),
+        ] {
+            let c = wavy(1500, offset, scale, 2);
+            let got = run(
+                &c,
+                &Params {
+                    sd: p.sd * scale,
+                    ..p
+                },
+            );
+            for (g, w) in got.iter().zip(&want) {
+                for ch in 0..3 {
+                    assert!(
+                        (g[ch] - w[ch]).abs() <= 1e-5 * w[ch].abs().max(1e-3),
+                        "{falloff:?} offset {offset} scale {scale}: {g:?} vs {w:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn local_normalisation_keeps_an_open_edge_lit() {
+    // A half-plane: x >= 0. At the edge the seed's normalisation sees half
+    // the disk (exactly half the kernel's integral): 0.5 Rd E; the local
+    // one divides by the area present: Rd E.
+    let (k, h, sd) = (140usize, 0.01, 0.3);
+    let c = grid(k, h, [1.0; 3], 0.0, 0);
+    let pos = c.points().vec3_f64("P").unwrap();
+    let mid = (k - 1) as f64 * h / 2.0;
+    for (norm, want) in [(Norm::Seed, 0.5), (Norm::Local, 1.0)] {
+        let got = run(
+            &c,
+            &Params {
+                sd,
+                norm,
+                ..Params::default()
+            },
+        );
+        let edge: Vec<f64> = pos
+            .iter()
+            .zip(&got)
+            .filter(|(q, _)| q[0] == 0.0 && (q[1] - mid).abs() < 0.2)
+            .map(|(_, v)| v[0])
+            .collect();
+        assert!(!edge.is_empty());
+        for v in edge {
+            // The edge points sit on the boundary: their own row counts
+            // half, so the seed's value is 0.5 plus half a row's share.
+            assert!((v - want).abs() < 0.03, "{norm:?}: {v} vs {want}");
+        }
+    }
+}
+
+#[test]
+fn the_lit_pole_of_a_sphere_matches_the_continuous_integral() {
+    // The independent value: sd 0.3, Rd (1, 0.5, 0.25), bounce 0,
+    // smooth, seed normalisation, a distant light of colour 1 along -z on
+    // the unit sphere: at the lit pole (0.989286, 0.494643, 0.247321).
+    let sphere = uv_sphere(200, 400, 1.0, [0.0; 3]);
+    let mut cloud = pcsss::stages::scatter::scatter(
+        &sphere,
+        &pcsss::stages::scatter::Params {
+            amount: pcsss::stages::scatter::Amount::Count(200_000),
+            seed: 4,
+            ptarea: pcsss::stages::scatter::PtareaMode::Voronoi,
+            relax: 5,
+        },
+    )
+    .unwrap();
+    let p = cloud.points().vec3_f64("P").unwrap();
+    let a = cloud.points().scalar_f64("ptarea").unwrap();
+    let total: f64 = a.iter().sum();
+    let n: Vec<[f32; 3]> = p
+        .iter()
+        .map(|q| DVec3::from_array(*q).normalize().as_vec3().to_array())
+        .collect();
+    let e: Vec<[f32; 3]> = n.iter().map(|v| [v[2].max(0.0); 3]).collect();
+    let scaled: Vec<f32> = a.iter().map(|x| (x * 4.0 * PI / total) as f32).collect();
+    let pts = cloud.points_mut();
+    pts.set_vec3("N", Role::Normal, &n).unwrap();
+    pts.set_vec3("illum", Role::Color, &e).unwrap();
+    pts.set_scalar("ptarea", scaled).unwrap();
+    let got = run(
+        &cloud,
+        &Params {
+            rd: [1.0, 0.5, 0.25],
+            sd: 0.3,
+            ..Params::default()
+        },
+    );
+    let want = [0.989286, 0.494643, 0.247321];
+    // Points within 0.02 of the pole: the value changes by less than
+    // 1e-4 there.
+    let near: Vec<&[f64; 3]> = p
+        .iter()
+        .zip(&got)
+        .filter(|(q, _)| q[2] > 0.9998)
+        .map(|(_, v)| v)
+        .collect();
+    assert!(near.len() > 3);
+    for v in near {
+        for c in 0..3 {
+            assert!(rel_err(v[c], want[c]) < 2e-3, "{v:?} vs {want:?}");
+        }
+    }
+}
+
+#[test]
+fn the_scene_decides_the_work() {
+    let c = wavy(2000, DVec3::ZERO, 1.0, 5);
+    let mut copy = c.clone();
+    let rep = ssmulti::ssmulti(
+        &mut copy,
+        &Params {
+            sd: 0.5,
+            ..Params::default()
+        },
+        &Progress::hidden(),
+    )
+    .unwrap();
+    // Every fifth point is unlit: not a source.
+    assert_eq!(rep.sources, 1600);
+    // Local normalisation needs every point's area.
+    let rep = ssmulti::ssmulti(
+        &mut copy,
+        &Params {
+            sd: 0.5,
+            norm: Norm::Local,
+            ..Params::default()
+        },
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert_eq!(rep.sources, 2000);
+    // All distances zero: nothing to do, zeros out.
+    let rep = ssmulti::ssmulti(
+        &mut copy,
+        &Params {
+            sd: 0.0,
+            ..Params::default()
+        },
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert_eq!(rep.pairs, 0);
+    assert!(copy
+        .points()
+        .vec3_f64("ssM")
+        .unwrap()
+        .iter()
+        .all(|v| *v == [0.0; 3]));
+}
+
+#[test]
+fn sd_below_the_spacing_leaves_each_point_alone() {
+    // Each point sees only itself: ssM = Rd illum ptarea W(0) / I(ld1).
+    let c = grid(10, 1.0, [1.0, 2.0, 3.0], 0.0, 0);
+    let got = run(
+        &c,
+        &Params {
+            rd: [0.5; 3],
+            sd: 0.1,
+            ..Params::default()
+        },
+    );
+    let i1 = ssmulti::disk_integral(Falloff::Smooth, 0.05);
+    for v in got {
+        for ch in 0..3 {
+            let want = 0.5 * (ch + 1) as f64 / i1;
+            assert!(rel_err(v[ch], want) < 1e-6, "{v:?}");
+        }
+    }
+}
+
+#[test]
+fn ssmulti_in_a_pipe_same_bits_on_any_thread_count_and_bad_input() {
+    let d = tempdir();
+    let write =
+        |name: &str, c: &Cloud| std::fs::write(d.path().join(name), to_bytes(c, LE)).unwrap();
+    let c = wavy(5000, DVec3::ZERO, 1.0, 6);
+    write("c.ply", &c);
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = std::process::Command::new(bin("ssmulti"))
+            .args([
+                "--rd",
+                "0.9,0.5,0.3",
+                "--sd",
+                "0.4",
+                "--bounce",
+                "0.5",
+                "--rgb",
+            ])
+            .env("RAYON_NUM_THREADS", threads)
+            .stdin(std::fs::File::open(d.path().join("c.ply")).unwrap())
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        outs.push(out.stdout);
+    }
+    assert_eq!(outs[0], outs[1]);
+    let back = from_bytes(&outs[0]);
+    assert!(back.points().has("ssM") && back.points().has("illum"));
+    // An empty cloud writes an empty cloud.
+    write("empty.ply", &cloud_of(&[], &[], &[], &[]));
+    let out = run_in(Some(d.path()), "ssmulti", &["empty.ply", "--sd", "1"], b"");
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(from_bytes(&out.stdout).len(), 0);
+    // Duplicate points: finite, and equal to each other.
+    let dup = cloud_of(
+        &[[0.0; 3]; 200],
+        &[[0.0, 0.0, 1.0]; 200],
+        &[0.01; 200],
+        &[[1.0; 3]; 200],
+    );
+    let got = run(&dup, &Params::default());
+    assert!(got.iter().all(|v| v[0].is_finite() && v[0] == got[0][0]));
+    // Bad input.
+    let mut nan = c.clone();
+    let mut e = nan.points().vec3_f32("illum").unwrap();
+    e[42] = [f32::NAN, 0.0, 0.0];
+    nan.points_mut().set_vec3("illum", Role::Color, &e).unwrap();
+    write("nan.ply", &nan);
+    let mut zero = c.clone();
+    let mut n = zero.points().vec3_f32("N").unwrap();
+    n[7] = [0.0; 3];
+    zero.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+    write("zero_n.ply", &zero);
+    let mut no_illum = c.clone();
+    no_illum.points_mut().remove("illum");
+    write("no_illum.ply", &no_illum);
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["nan.ply", "--sd", "1"],
+            "point 42: illum is [NaN, 0.0, 0.0]",
+        ),
+        (
+            &["zero_n.ply", "--sd", "1"],
+            "point 7: N is [0.0, 0.0, 0.0]",
+        ),
+        (
+            &["no_illum.ply", "--sd", "1"],
+            "missing point attribute 'illum' (run 'illum' first",
+        ),
+        (&["c.ply", "--sd=-1"], "--sd"),
+        (&["c.ply", "--sd", "NaN"], "--sd"),
+        (&["c.ply", "--sd", "1", "--rd", "1,-0.5,1"], "--rd"),
+        (&["c.ply", "--sd", "1", "--rd", "1,NaN,1"], "--rd"),
+        (&["c.ply", "--sd", "1", "--rd", "1,2"], "--rd"),
+        (&["c.ply", "--sd", "1", "--bounce", "2"], "--bounce"),
+        (
+            &["c.ply", "--sd", "1", "--falloff", "exp", "--sigma", "0"],
+            "--sigma",
+        ),
+        (
+            &["c.ply", "--sd", "1", "--falloff", "exp", "--sigma", "NaN"],
+            "--sigma",
+        ),
+    ];
+    for (args, want) in cases {
+        let out = run_in(Some(d.path()), "ssmulti", args, b"");
+        let e = stderr(&out);
+        assert_ne!(out.status.code(), Some(0), "{args:?}");
+        assert_eq!(e.trim().lines().count(), 1, "{args:?}: {e}");
+        assert!(e.contains(want), "{args:?}: '{e}' lacks '{want}'");
+    }
+}
+
+#[test]
+fn exp_approx_is_within_two_ulp() {
+    let mut worst: f64 = 0.0;
+    let mut x = -87.0f32;
+    while x <= 0.0 {
+        let got = ssmulti::exp_approx(x) as f64;
+        let want = (x as f64).exp();
+        worst = worst.max((got - want).abs() / want);
+        x += 1e-4;
+    }
+    eprintln!("exp_approx worst relative error {worst:e}");
+    assert!(worst < 1.2e-7, "{worst:e}");
+}
