@@ -317,6 +317,11 @@ struct Columns {
     rmin: Vec<f32>,
     /// Original point index (u32::MAX for padding).
     id: Vec<u32>,
+    /// Per group of `LANES`: bounding sphere centre (leaf-local) and radius.
+    gx: Vec<f32>,
+    gy: Vec<f32>,
+    gz: Vec<f32>,
+    gr: Vec<f32>,
 }
 
 /// A padding lane: far away, carrying nothing.
@@ -425,6 +430,30 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
                 }
             }
         }
+        // Bounding spheres of the groups of LANES (sources and receivers
+        // alike; padding lanes left out).
+        for g in (0..padded(ids.len())).step_by(LANES) {
+            let m = (ids.len() - g).min(LANES);
+            let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+            for k in col + g..col + g + m {
+                for (a, v) in [cols.x[k], cols.y[k], cols.z[k]].into_iter().enumerate() {
+                    glo[a] = glo[a].min(v);
+                    ghi[a] = ghi[a].max(v);
+                }
+            }
+            let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
+            let mut r: f32 = 0.0;
+            for k in col + g..col + g + m {
+                let d = [cols.x[k] - c[0], cols.y[k] - c[1], cols.z[k] - c[2]];
+                r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
+            }
+            cols.gx.push(c[0]);
+            cols.gy.push(c[1]);
+            cols.gz.push(c[2]);
+            // Rounding of the receiver's offset and of this sum: a margin.
+            cols.gr
+                .push(r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs()));
+        }
         leaves.push(Leaf {
             col,
             len: ids.len(),
@@ -482,7 +511,6 @@ struct Setup {
     /// One kernel for all channels (not t_rgb, or equal distances).
     single: bool,
     local: bool,
-    falloff: Falloff,
 }
 
 /// A receiver, relative to the source leaf's origin.
@@ -496,38 +524,53 @@ struct Receiver {
     nz: f32,
 }
 
-/// Kernel values for eight lanes at `r` (inside `d`; caller masks).
-#[inline(always)]
-fn kernel8(f: Falloff, r: &[f32; LANES], rmin: &[f32], d: f32, out: &mut [f32; LANES]) {
-    match f {
-        Falloff::Smooth => {
-            let inv = 1.0 / d;
-            for k in 0..LANES {
-                // 1 - 3t^2 + 2t^3 = (1 - t)^2 (1 + 2t): no cancellation
-                // near the edge, where W is small.
-                let t = (r[k] * inv).min(1.0);
-                let u = 1.0 - t;
-                out[k] = u * u * (1.0 + 2.0 * t);
-            }
-        }
-        Falloff::Exp { sigma } => {
-            let c = -(sigma as f32) / d;
-            for k in 0..LANES {
-                out[k] = exp_approx(c * r[k]);
-            }
-        }
-        Falloff::Burley { kappa } => {
-            let a = -(kappa as f32) / d;
-            let b = a / 3.0;
-            for k in 0..LANES {
-                let rr = r[k].max(rmin[k]);
-                out[k] = if rr > 0.0 {
-                    (exp_approx(a * rr) + exp_approx(b * rr)) / rr
-                } else {
-                    0.0
-                };
-            }
-        }
+/// A falloff in f32 for the pair loop, at `r <= D` (the caller masks
+/// what lies beyond).
+trait Kern: Copy {
+    fn w(&self, r: f32, rmin: f32) -> f32;
+}
+
+#[derive(Clone, Copy)]
+struct SmoothK {
+    inv: f32,
+}
+
+impl Kern for SmoothK {
+    #[inline(always)]
+    fn w(&self, r: f32, _: f32) -> f32 {
+        // 1 - 3t^2 + 2t^3 = (1 - t)^2 (1 + 2t): no cancellation near the
+        // edge, where W is small.
+        let t = (r * self.inv).min(1.0);
+        let u = 1.0 - t;
+        u * u * (1.0 + 2.0 * t)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct ExpK {
+    c: f32,
+}
+
+impl Kern for ExpK {
+    #[inline(always)]
+    fn w(&self, r: f32, _: f32) -> f32 {
+        exp_approx(self.c * r)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct BurleyK {
+    a: f32,
+    b: f32,
+}
+
+impl Kern for BurleyK {
+    #[inline(always)]
+    fn w(&self, r: f32, rmin: f32) -> f32 {
+        // A zero-area source (rmin 0) at r 0 carries nothing: a finite
+        // huge weight times 0.
+        let rr = r.max(rmin).max(1e-30);
+        (exp_approx(self.a * rr) + exp_approx(self.b * rr)) / rr
     }
 }
 
@@ -550,86 +593,195 @@ pub fn exp_approx(x: f32) -> f32 {
     e * f32::from_bits(bits)
 }
 
-/// Sums one source block (`n` padded lanes from column `col`) into the
-/// receiver's accumulators: `acc[0..3]` the channels, `acc[3..6]` the
-/// local areas. Returns nothing; the block's partial sums are added in
-/// f64.
+/// A receiver block's sums: lanes of f32, added into f64 per block.
+type Lanes = [f32; LANES];
+
+/// Sums source columns `col..col + n` (padded, a multiple of `LANES`)
+/// into `acc` (`acc[0..3]` the channels, `acc[3..6]` the local areas).
+/// Groups of eight whose bounding sphere lies beyond reach are skipped.
+/// `K` is the kernel at `ld1` (`SINGLE`) or per channel (`ks`, `d2`).
 #[inline(always)]
-fn block(s: &Setup, cols: &Columns, col: usize, n: usize, o: &Receiver, acc: &mut [f64; 6]) {
+#[allow(clippy::too_many_arguments)]
+fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
+    s: &Setup,
+    ks: &[K; 3],
+    cols: &Columns,
+    col: usize,
+    n: usize,
+    o: &Receiver,
+    acc: &mut [f64; 6],
+) -> u64 {
     let r2max = s.ld1 * s.ld1;
-    let mut sum = [[0f32; LANES]; 6];
-    let mut r = [0f32; LANES];
-    let mut inside = [0f32; LANES];
-    let mut kb = [0f32; LANES];
-    let mut w = [0f32; LANES];
-    for c0 in (col..col + n).step_by(LANES) {
-        let x = &cols.x[c0..c0 + LANES];
-        let y = &cols.y[c0..c0 + LANES];
-        let z = &cols.z[c0..c0 + LANES];
-        let mut dx = [0f32; LANES];
-        let mut dy = [0f32; LANES];
-        let mut dz = [0f32; LANES];
+    let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
+    let mut s0: Lanes = [0.0; LANES];
+    let mut s1: Lanes = [0.0; LANES];
+    let mut s2: Lanes = [0.0; LANES];
+    let mut a0: Lanes = [0.0; LANES];
+    let mut a1: Lanes = [0.0; LANES];
+    let mut a2: Lanes = [0.0; LANES];
+    let mut visited = 0u64;
+    for g in (col..col + n).step_by(LANES) {
+        let gi = g / LANES;
+        let (cx, cy, cz, cr) = (
+            cols.gx[gi] - o.x,
+            cols.gy[gi] - o.y,
+            cols.gz[gi] - o.z,
+            cols.gr[gi],
+        );
+        let reach = s.ld1 + cr;
+        if cx * cx + cy * cy + cz * cz > reach * reach {
+            continue;
+        }
+        visited += LANES as u64;
+        let x: &Lanes = cols.x[g..g + LANES].try_into().expect("a group");
+        let y: &Lanes = cols.y[g..g + LANES].try_into().expect("a group");
+        let z: &Lanes = cols.z[g..g + LANES].try_into().expect("a group");
+        let q0: &Lanes = cols.q[0][g..g + LANES].try_into().expect("a group");
+        let q1: &Lanes = cols.q[1][g..g + LANES].try_into().expect("a group");
+        let q2: &Lanes = cols.q[2][g..g + LANES].try_into().expect("a group");
+        let ar: &Lanes = cols.a[g..g + LANES].try_into().expect("a group");
+        let rm: &Lanes = cols.rmin[g..g + LANES].try_into().expect("a group");
+        let nx: &Lanes = cols.nx[g..g + LANES].try_into().expect("a group");
+        let ny: &Lanes = cols.ny[g..g + LANES].try_into().expect("a group");
+        let nz: &Lanes = cols.nz[g..g + LANES].try_into().expect("a group");
         for k in 0..LANES {
-            dx[k] = o.x - x[k];
-            dy[k] = o.y - y[k];
-            dz[k] = o.z - z[k];
-            let r2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
-            inside[k] = if r2 <= r2max { 1.0 } else { 0.0 };
-            r[k] = r2.min(r2max).sqrt();
-        }
-        if s.bounce > 0.0 {
-            let nx = &cols.nx[c0..c0 + LANES];
-            let ny = &cols.ny[c0..c0 + LANES];
-            let nz = &cols.nz[c0..c0 + LANES];
-            for k in 0..LANES {
+            let dx = o.x - x[k];
+            let dy = o.y - y[k];
+            let dz = o.z - z[k];
+            let r2 = dx * dx + dy * dy + dz * dz;
+            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
+            let r = r2.min(r2max).sqrt();
+            let kb = if BOUNCE {
                 let nn = o.nx * nx[k] + o.ny * ny[k] + o.nz * nz[k];
-                let nl = (o.nx * dx[k] + o.ny * dy[k] + o.nz * dz[k]) * s.inv_ld1;
+                let nl = (o.nx * dx + o.ny * dy + o.nz * dz) * s.inv_ld1;
                 let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
-                let b = 1.0 + s.bounce * (b - 1.0);
-                kb[k] = b.max(0.0) * inside[k];
-            }
-        } else {
-            kb = inside;
-        }
-        let rmin = &cols.rmin[c0..c0 + LANES];
-        if s.single {
-            kernel8(s.falloff, &r, rmin, s.ld1, &mut w);
-            for c in 0..3 {
-                let q = &cols.q[c][c0..c0 + LANES];
-                for k in 0..LANES {
-                    sum[c][k] += q[k] * kb[k] * w[k];
+                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
+            } else {
+                m
+            };
+            if SINGLE {
+                let w = ks[0].w(r, rm[k]);
+                let kw = kb * w;
+                s0[k] += q0[k] * kw;
+                s1[k] += q1[k] * kw;
+                s2[k] += q2[k] * kw;
+                if LOCAL {
+                    a0[k] += ar[k] * m * w;
                 }
-            }
-            if s.local {
-                let a = &cols.a[c0..c0 + LANES];
-                for k in 0..LANES {
-                    sum[3][k] += a[k] * inside[k] * w[k];
-                }
-            }
-        } else {
-            for c in 0..3 {
-                let d = s.ld[c];
-                if d <= 0.0 {
-                    continue;
-                }
-                kernel8(s.falloff, &r, rmin, d, &mut w);
-                let q = &cols.q[c][c0..c0 + LANES];
-                let a = &cols.a[c0..c0 + LANES];
-                let d2 = d * d;
-                for k in 0..LANES {
-                    let within = if r[k] * r[k] <= d2 { w[k] } else { 0.0 };
-                    sum[c][k] += q[k] * kb[k] * within;
-                    if s.local {
-                        sum[3 + c][k] += a[k] * inside[k] * within;
-                    }
+            } else {
+                // Per channel: inside its own distance (0 costs nothing:
+                // its kernel is never used, its mask is 0).
+                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
+                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
+                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
+                let w0 = if s.ld[0] > 0.0 {
+                    ks[0].w(r, rm[k]) * m0
+                } else {
+                    0.0
+                };
+                let w1 = if s.ld[1] > 0.0 {
+                    ks[1].w(r, rm[k]) * m1
+                } else {
+                    0.0
+                };
+                let w2 = if s.ld[2] > 0.0 {
+                    ks[2].w(r, rm[k]) * m2
+                } else {
+                    0.0
+                };
+                s0[k] += q0[k] * kb * w0;
+                s1[k] += q1[k] * kb * w1;
+                s2[k] += q2[k] * kb * w2;
+                if LOCAL {
+                    a0[k] += ar[k] * w0;
+                    a1[k] += ar[k] * w1;
+                    a2[k] += ar[k] * w2;
                 }
             }
         }
     }
-    for c in 0..6 {
-        // Pairwise in f64: the block's lanes hold at most LEAF / LANES
-        // terms each.
-        acc[c] += sum[c].iter().map(|&v| v as f64).sum::<f64>();
+    let add = |l: &Lanes| l.iter().map(|&v| v as f64).sum::<f64>();
+    acc[0] += add(&s0);
+    acc[1] += add(&s1);
+    acc[2] += add(&s2);
+    if LOCAL {
+        acc[3] += add(&a0);
+        acc[4] += add(&a1);
+        acc[5] += add(&a2);
+    }
+    visited
+}
+
+/// The kernels of a run, monomorphised.
+#[derive(Clone, Copy)]
+enum Kernels {
+    Smooth([SmoothK; 3]),
+    Exp([ExpK; 3]),
+    Burley([BurleyK; 3]),
+}
+
+impl Kernels {
+    fn new(f: Falloff, ld: [f32; 3], ld1: f32, single: bool) -> Kernels {
+        let d = |c: usize| if single { ld1 } else { ld[c] };
+        let safe = |d: f32| if d > 0.0 { d } else { 1.0 };
+        match f {
+            Falloff::Smooth => Kernels::Smooth([0, 1, 2].map(|c| SmoothK {
+                inv: 1.0 / safe(d(c)),
+            })),
+            Falloff::Exp { sigma } => Kernels::Exp([0, 1, 2].map(|c| ExpK {
+                c: -(sigma as f32) / safe(d(c)),
+            })),
+            Falloff::Burley { kappa } => Kernels::Burley([0, 1, 2].map(|c| {
+                let a = -(kappa as f32) / safe(d(c));
+                BurleyK { a, b: a / 3.0 }
+            })),
+        }
+    }
+}
+
+/// One block with the run's kernel and switches.
+#[inline(always)]
+fn block(
+    s: &Setup,
+    kern: &Kernels,
+    cols: &Columns,
+    col: usize,
+    n: usize,
+    o: &Receiver,
+    acc: &mut [f64; 6],
+) -> u64 {
+    macro_rules! go {
+        ($ks:expr) => {
+            match (s.single, s.bounce > 0.0, s.local) {
+                (true, false, false) => {
+                    block_g::<_, true, false, false>(s, $ks, cols, col, n, o, acc)
+                }
+                (true, false, true) => {
+                    block_g::<_, true, false, true>(s, $ks, cols, col, n, o, acc)
+                }
+                (true, true, false) => {
+                    block_g::<_, true, true, false>(s, $ks, cols, col, n, o, acc)
+                }
+                (true, true, true) => block_g::<_, true, true, true>(s, $ks, cols, col, n, o, acc),
+                (false, false, false) => {
+                    block_g::<_, false, false, false>(s, $ks, cols, col, n, o, acc)
+                }
+                (false, false, true) => {
+                    block_g::<_, false, false, true>(s, $ks, cols, col, n, o, acc)
+                }
+                (false, true, false) => {
+                    block_g::<_, false, true, false>(s, $ks, cols, col, n, o, acc)
+                }
+                (false, true, true) => {
+                    block_g::<_, false, true, true>(s, $ks, cols, col, n, o, acc)
+                }
+            }
+        };
+    }
+    match kern {
+        Kernels::Smooth(k) => go!(k),
+        Kernels::Exp(k) => go!(k),
+        Kernels::Burley(k) => go!(k),
     }
 }
 
@@ -637,34 +789,36 @@ fn block(s: &Setup, cols: &Columns, col: usize, n: usize, o: &Receiver, acc: &mu
 #[target_feature(enable = "avx2,fma")]
 unsafe fn block_avx2(
     s: &Setup,
+    kern: &Kernels,
     cols: &Columns,
     col: usize,
     n: usize,
     o: &Receiver,
     acc: &mut [f64; 6],
-) {
-    block(s, cols, col, n, o, acc)
+) -> u64 {
+    block(s, kern, cols, col, n, o, acc)
 }
 
 /// `block`, with AVX2 and FMA when the CPU has them.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn run_block(
     avx2: bool,
     s: &Setup,
+    kern: &Kernels,
     cols: &Columns,
     col: usize,
     n: usize,
     o: &Receiver,
     acc: &mut [f64; 6],
-) {
+) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `avx2` is true only when the CPU reports AVX2 and FMA.
-        unsafe { block_avx2(s, cols, col, n, o, acc) };
-        return;
+        return unsafe { block_avx2(s, kern, cols, col, n, o, acc) };
     }
     let _ = avx2;
-    block(s, cols, col, n, o, acc)
+    block(s, kern, cols, col, n, o, acc)
 }
 
 fn has_avx2() -> bool {
@@ -825,9 +979,9 @@ fn exact(
         bounce: p.bounce as f32,
         single,
         local,
-        falloff: p.falloff,
     };
     let avx2 = has_avx2();
+    let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     // Source leaves in a coarse grid of cells of size ld1 (by box centre),
     // so a receiver leaf looks only at nearby cells.
     let sources: Vec<usize> = (0..leaves.len()).filter(|&l| leaves[l].src > 0).collect();
@@ -836,35 +990,50 @@ fn exact(
     let per_leaf: Vec<LeafSums> = leaves
         .par_iter()
         .map(|rl| {
-            let near = grid.near(&leaves, rl, ld1);
+            // The source leaves in reach of this leaf, each with the
+            // offset between the two origins and its box in its own frame
+            // (f32, grown a little for rounding).
+            let near: Vec<Near> = grid
+                .near(&leaves, rl, ld1)
+                .into_iter()
+                .map(|sl| {
+                    let s = &leaves[sl];
+                    let grow = 1e-5 * (s.hi - s.lo).max_element() + 1e-6 * ld1;
+                    Near {
+                        col: s.col,
+                        n: padded(s.src),
+                        off: (rl.origin - s.origin).as_vec3().to_array(),
+                        lo: (s.lo - s.origin - grow).as_vec3().to_array(),
+                        hi: (s.hi - s.origin + grow).as_vec3().to_array(),
+                    }
+                })
+                .collect();
+            let r2max = (ld1 * (1.0 + 1e-6)) as f32;
+            let r2max = r2max * r2max;
             let mut res = Vec::with_capacity(rl.len);
             let mut pairs = 0u64;
             for k in 0..rl.len {
                 let c = rl.col + k;
-                let po =
-                    rl.origin + DVec3::new(cols.x[c] as f64, cols.y[c] as f64, cols.z[c] as f64);
                 let mut acc = [0f64; 6];
-                for &sl in &near {
-                    let s = &leaves[sl];
-                    // Cheap per-receiver cull of the whole block.
-                    let gap = (s.lo - po).max(po - s.hi).max(DVec3::ZERO).length();
-                    if gap > ld1 {
-                        continue;
-                    }
+                for nb in &near {
                     // The receiver relative to the source leaf's origin:
                     // two small numbers and the leaves' offset.
-                    let off = (rl.origin - s.origin).as_vec3();
                     let o = Receiver {
-                        x: cols.x[c] + off.x,
-                        y: cols.y[c] + off.y,
-                        z: cols.z[c] + off.z,
+                        x: cols.x[c] + nb.off[0],
+                        y: cols.y[c] + nb.off[1],
+                        z: cols.z[c] + nb.off[2],
                         nx: cols.nx[c],
                         ny: cols.ny[c],
                         nz: cols.nz[c],
                     };
-                    let m = padded(s.src);
-                    pairs += m as u64;
-                    run_block(avx2, &setup, &cols, s.col, m, &o, &mut acc);
+                    // The whole leaf beyond reach of this receiver?
+                    let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
+                    let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
+                    let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
+                    if gx * gx + gy * gy + gz * gz > r2max {
+                        continue;
+                    }
+                    pairs += run_block(avx2, &setup, &kern, &cols, nb.col, nb.n, &o, &mut acc);
                 }
                 res.push((cols.id[c], acc));
             }
@@ -881,6 +1050,15 @@ fn exact(
         }
     }
     sums
+}
+
+/// A source leaf as a receiver leaf sees it.
+struct Near {
+    col: usize,
+    n: usize,
+    off: [f32; 3],
+    lo: [f32; 3],
+    hi: [f32; 3],
 }
 
 /// Source leaves bucketed by the cell of their box centre.
