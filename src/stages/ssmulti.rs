@@ -703,12 +703,57 @@ pub fn exp_approx(x: f32) -> f32 {
 /// A receiver block's sums: lanes of f32, added into f64 per block.
 type Lanes = [f32; LANES];
 
+/// A receiver's sums: lanes of f32, flushed into f64 every `FLUSH`
+/// groups, so no lane ever holds more than `FLUSH` terms and the rounding
+/// does not grow with the neighbour count.
+struct Acc {
+    s: [Lanes; 6],
+    groups: u32,
+    total: [f64; 6],
+}
+
+/// Groups of `LANES` summed in f32 before a flush into f64.
+const FLUSH: u32 = 64;
+
+impl Acc {
+    fn new() -> Acc {
+        Acc {
+            s: [[0.0; LANES]; 6],
+            groups: 0,
+            total: [0.0; 6],
+        }
+    }
+
+    /// Adds a block's lanes (`groups` groups of terms each).
+    #[inline(always)]
+    fn spill(&mut self, lanes: [&Lanes; 6], groups: u32) {
+        for c in 0..6 {
+            for k in 0..LANES {
+                self.s[c][k] += lanes[c][k];
+            }
+        }
+        self.groups += groups;
+        if self.groups >= FLUSH {
+            self.flush();
+        }
+    }
+
+    #[inline(always)]
+    fn flush(&mut self) {
+        for c in 0..6 {
+            self.total[c] += self.s[c].iter().map(|&v| v as f64).sum::<f64>();
+            self.s[c] = [0.0; LANES];
+        }
+        self.groups = 0;
+    }
+}
+
 /// Sums source columns `col..col + n` (padded, a multiple of `LANES`)
-/// into `acc` (`acc[0..3]` the channels, `acc[3..6]` the local areas).
-/// Groups of eight whose bounding sphere lies beyond reach are skipped.
-/// `K` is the kernel at `ld1` (`SINGLE`) or per channel (`ks`, `d2`).
+/// into `acc` (`s[0..3]` the channels, `s[3..6]` the local areas). Groups
+/// of eight whose bounding sphere lies beyond reach are skipped. `K` is
+/// the kernel at `ld1` (`SINGLE`) or per channel. Returns the pairs
+/// evaluated.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     s: &Setup,
     ks: &[K; 3],
@@ -716,25 +761,23 @@ fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     col: usize,
     n: usize,
     o: &Receiver,
-    acc: &mut [f64; 6],
+    acc: &mut Acc,
 ) -> u64 {
     let r2max = s.ld1 * s.ld1;
     let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
+    let mut visited = 0u64;
+    // Local lanes (registers); spilled into `acc` at the end, and every
+    // FLUSH groups in a long block.
     let mut s0: Lanes = [0.0; LANES];
     let mut s1: Lanes = [0.0; LANES];
     let mut s2: Lanes = [0.0; LANES];
     let mut a0: Lanes = [0.0; LANES];
     let mut a1: Lanes = [0.0; LANES];
     let mut a2: Lanes = [0.0; LANES];
-    let mut visited = 0u64;
+    let mut count = 0u32;
     for g in (col..col + n).step_by(LANES) {
         let gi = g / LANES;
-        let (cx, cy, cz, cr) = (
-            cols.gx[gi] - o.x,
-            cols.gy[gi] - o.y,
-            cols.gz[gi] - o.z,
-            cols.gr[gi],
-        );
+        let (cx, cy, cz, cr) = (cols.gx[gi] - o.x, cols.gy[gi] - o.y, cols.gz[gi] - o.z, cols.gr[gi]);
         let reach = s.ld1 + cr;
         if cx * cx + cy * cy + cz * cz > reach * reach {
             continue;
@@ -806,17 +849,73 @@ fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
                 }
             }
         }
+        count += 1;
+        if count >= FLUSH {
+            acc.spill([&s0, &s1, &s2, &a0, &a1, &a2], count);
+            for l in [&mut s0, &mut s1, &mut s2, &mut a0, &mut a1, &mut a2] {
+                *l = [0.0; LANES];
+            }
+            count = 0;
+        }
     }
-    let add = |l: &Lanes| l.iter().map(|&v| v as f64).sum::<f64>();
-    acc[0] += add(&s0);
-    acc[1] += add(&s1);
-    acc[2] += add(&s2);
-    if LOCAL {
-        acc[3] += add(&a0);
-        acc[4] += add(&a1);
-        acc[5] += add(&a2);
-    }
+    acc.spill([&s0, &s1, &s2, &a0, &a1, &a2], count);
     visited
+}
+
+/// Sums every receiver of leaf `rl`: the source leaves `near` (each in its
+/// own frame, culled per receiver by its box) and the pseudo-sources `ps`
+/// (in `rl`'s frame). Pushes (point, sums) to `res`; returns the pairs.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
+    s: &Setup,
+    ks: &[K; 3],
+    cols: &Columns,
+    rl: &Leaf,
+    near: &[Near],
+    ps: Option<&Columns>,
+    res: &mut Vec<(u32, [f64; 6])>,
+) -> u64 {
+    let r2max = s.ld1 * (1.0 + 1e-6);
+    let r2max = r2max * r2max;
+    let mut pairs = 0u64;
+    for c in rl.col..rl.col + rl.len {
+        let mut acc = Acc::new();
+        for nb in near {
+            // The receiver relative to the source leaf's origin: two small
+            // numbers and the leaves' offset.
+            let o = Receiver {
+                x: cols.x[c] + nb.off[0],
+                y: cols.y[c] + nb.off[1],
+                z: cols.z[c] + nb.off[2],
+                nx: cols.nx[c],
+                ny: cols.ny[c],
+                nz: cols.nz[c],
+            };
+            // The whole leaf beyond reach of this receiver?
+            let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
+            let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
+            let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
+            if gx * gx + gy * gy + gz * gz > r2max {
+                continue;
+            }
+            pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, cols, nb.col, nb.n, &o, &mut acc);
+        }
+        if let Some(ps) = ps {
+            let o = Receiver {
+                x: cols.x[c],
+                y: cols.y[c],
+                z: cols.z[c],
+                nx: cols.nx[c],
+                ny: cols.ny[c],
+                nz: cols.nz[c],
+            };
+            pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, ps, 0, ps.x.len(), &o, &mut acc);
+        }
+        acc.flush();
+        res.push((cols.id[c], acc.total));
+    }
+    pairs
 }
 
 /// The kernels of a run, monomorphised.
@@ -846,42 +945,29 @@ impl Kernels {
     }
 }
 
-/// One block with the run's kernel and switches.
+/// One receiver leaf with the run's kernel and switches.
 #[inline(always)]
-fn block(
+#[allow(clippy::too_many_arguments)]
+fn leaf(
     s: &Setup,
     kern: &Kernels,
     cols: &Columns,
-    col: usize,
-    n: usize,
-    o: &Receiver,
-    acc: &mut [f64; 6],
+    rl: &Leaf,
+    near: &[Near],
+    ps: Option<&Columns>,
+    res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
     macro_rules! go {
         ($ks:expr) => {
             match (s.single, s.bounce > 0.0, s.local) {
-                (true, false, false) => {
-                    block_g::<_, true, false, false>(s, $ks, cols, col, n, o, acc)
-                }
-                (true, false, true) => {
-                    block_g::<_, true, false, true>(s, $ks, cols, col, n, o, acc)
-                }
-                (true, true, false) => {
-                    block_g::<_, true, true, false>(s, $ks, cols, col, n, o, acc)
-                }
-                (true, true, true) => block_g::<_, true, true, true>(s, $ks, cols, col, n, o, acc),
-                (false, false, false) => {
-                    block_g::<_, false, false, false>(s, $ks, cols, col, n, o, acc)
-                }
-                (false, false, true) => {
-                    block_g::<_, false, false, true>(s, $ks, cols, col, n, o, acc)
-                }
-                (false, true, false) => {
-                    block_g::<_, false, true, false>(s, $ks, cols, col, n, o, acc)
-                }
-                (false, true, true) => {
-                    block_g::<_, false, true, true>(s, $ks, cols, col, n, o, acc)
-                }
+                (true, false, false) => leaf_g::<_, true, false, false>(s, $ks, cols, rl, near, ps, res),
+                (true, false, true) => leaf_g::<_, true, false, true>(s, $ks, cols, rl, near, ps, res),
+                (true, true, false) => leaf_g::<_, true, true, false>(s, $ks, cols, rl, near, ps, res),
+                (true, true, true) => leaf_g::<_, true, true, true>(s, $ks, cols, rl, near, ps, res),
+                (false, false, false) => leaf_g::<_, false, false, false>(s, $ks, cols, rl, near, ps, res),
+                (false, false, true) => leaf_g::<_, false, false, true>(s, $ks, cols, rl, near, ps, res),
+                (false, true, false) => leaf_g::<_, false, true, false>(s, $ks, cols, rl, near, ps, res),
+                (false, true, true) => leaf_g::<_, false, true, true>(s, $ks, cols, rl, near, ps, res),
             }
         };
     }
@@ -894,38 +980,38 @@ fn block(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn block_avx2(
+#[allow(clippy::too_many_arguments)]
+unsafe fn leaf_avx2(
     s: &Setup,
     kern: &Kernels,
     cols: &Columns,
-    col: usize,
-    n: usize,
-    o: &Receiver,
-    acc: &mut [f64; 6],
+    rl: &Leaf,
+    near: &[Near],
+    ps: Option<&Columns>,
+    res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
-    block(s, kern, cols, col, n, o, acc)
+    leaf(s, kern, cols, rl, near, ps, res)
 }
 
-/// `block`, with AVX2 and FMA when the CPU has them.
-#[inline]
+/// `leaf`, with AVX2 and FMA when the CPU has them.
 #[allow(clippy::too_many_arguments)]
-fn run_block(
+fn run_leaf(
     avx2: bool,
     s: &Setup,
     kern: &Kernels,
     cols: &Columns,
-    col: usize,
-    n: usize,
-    o: &Receiver,
-    acc: &mut [f64; 6],
+    rl: &Leaf,
+    near: &[Near],
+    ps: Option<&Columns>,
+    res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `avx2` is true only when the CPU reports AVX2 and FMA.
-        return unsafe { block_avx2(s, kern, cols, col, n, o, acc) };
+        return unsafe { leaf_avx2(s, kern, cols, rl, near, ps, res) };
     }
     let _ = avx2;
-    block(s, kern, cols, col, n, o, acc)
+    leaf(s, kern, cols, rl, near, ps, res)
 }
 
 fn has_avx2() -> bool {
@@ -1115,47 +1201,8 @@ fn sum_all(
                     }
                 })
                 .collect();
-            let r2max = (ld1 * (1.0 + 1e-6)) as f32;
-            let r2max = r2max * r2max;
             let mut res = Vec::with_capacity(rl.len);
-            let mut pairs = 0u64;
-            for k in 0..rl.len {
-                let c = rl.col + k;
-                let mut acc = [0f64; 6];
-                for nb in &near {
-                    // The receiver relative to the source leaf's origin:
-                    // two small numbers and the leaves' offset.
-                    let o = Receiver {
-                        x: cols.x[c] + nb.off[0],
-                        y: cols.y[c] + nb.off[1],
-                        z: cols.z[c] + nb.off[2],
-                        nx: cols.nx[c],
-                        ny: cols.ny[c],
-                        nz: cols.nz[c],
-                    };
-                    // The whole leaf beyond reach of this receiver?
-                    let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
-                    let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
-                    let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
-                    if gx * gx + gy * gy + gz * gz > r2max {
-                        continue;
-                    }
-                    pairs += run_block(avx2, &setup, &kern, &cols, nb.col, nb.n, &o, &mut acc);
-                }
-                if let Some(ps) = &pseudo {
-                    // Pseudo-sources are in this leaf's own frame.
-                    let o = Receiver {
-                        x: cols.x[c],
-                        y: cols.y[c],
-                        z: cols.z[c],
-                        nx: cols.nx[c],
-                        ny: cols.ny[c],
-                        nz: cols.nz[c],
-                    };
-                    pairs += run_block(avx2, &setup, &kern, ps, 0, ps.x.len(), &o, &mut acc);
-                }
-                res.push((cols.id[c], acc));
-            }
+            let pairs = run_leaf(avx2, &setup, &kern, &cols, rl, &near, pseudo.as_ref(), &mut res);
             progress.inc(rl.len as u64);
             (res, pairs)
         })
