@@ -137,7 +137,12 @@ fn npy(path: &Path, shape: &[usize], data: &[f64]) {
 
 /// The Python baseline on `subset` receivers: (pairs/s, our values vs
 /// its values RMS relative difference).
-fn python_baseline(c: &Cloud, p: &Params, subset: usize, ours: &[[f64; 3]]) -> Option<(f64, f64, usize)> {
+fn python_baseline(
+    c: &Cloud,
+    p: &Params,
+    subset: usize,
+    ours: &[[f64; 3]],
+) -> Option<(f64, f64, usize)> {
     let dir = bench_dir().join("ssmulti_py");
     std::fs::create_dir_all(&dir).unwrap();
     let pos = c.points().vec3_f64("P").unwrap();
@@ -181,13 +186,20 @@ fn python_baseline(c: &Cloud, p: &Params, subset: usize, ours: &[[f64; 3]]) -> O
     let text = String::from_utf8_lossy(&cmp.stdout);
     let (mut mine, mut theirs) = (Vec::new(), Vec::new());
     for line in text.lines() {
-        let f: Vec<f64> = line.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+        let f: Vec<f64> = line
+            .split_whitespace()
+            .filter_map(|x| x.parse().ok())
+            .collect();
         if f.len() == 4 {
             mine.push(ours[f[0] as usize]);
             theirs.push([f[1], f[2], f[3]]);
         }
     }
-    Some((pairs / secs, rms_rel(&mine, &theirs), v["receivers"].as_u64()? as usize))
+    Some((
+        pairs / secs,
+        rms_rel(&mine, &theirs),
+        v["receivers"].as_u64()? as usize,
+    ))
 }
 
 /// The continuous integral on the unit sphere, not t_rgb, smooth, seed
@@ -262,7 +274,11 @@ fn main() {
         ),
         "| points | neighbours | exact s | exact M pairs/s | Python cKDTree M pairs/s | x Python | tol 0.1: s, error | tol 0.2: s, error | tol 0.4: s, error |\n|---|---|---|---|---|---|---|---|---|",
     );
-    let sizes: &[usize] = if quick { &[100_000, 1_000_000] } else { &[100_000, 1_000_000, 4_000_000] };
+    let sizes: &[usize] = if quick {
+        &[100_000, 1_000_000]
+    } else {
+        &[100_000, 1_000_000, 4_000_000]
+    };
     for &n in sizes {
         let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
         for nb in [200usize, 2000, 20000] {
@@ -281,7 +297,13 @@ fn main() {
             let py = python_baseline(&cloud, &p, (20_000_000 / nb).clamp(500, n), &exact);
             let mut cells = Vec::new();
             for tol in [0.1, 0.2, 0.4] {
-                let (approx, s, _) = run(&cloud, &Params { tolerance: tol, ..p });
+                let (approx, s, _) = run(
+                    &cloud,
+                    &Params {
+                        tolerance: tol,
+                        ..p
+                    },
+                );
                 let err = rms_rel(&approx, &exact);
                 csv.push_str(&format!("{n},{nb},approx,{tol},{s},{err}\n"));
                 cells.push(format!("{s:.3}, {err:.1e}"));

@@ -376,96 +376,161 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
     let mut ranges = Vec::new();
     let mut nodes = Vec::new();
     split(&order, 0, n, 62, &mut ranges, &mut nodes);
-    let mut leaves = Vec::with_capacity(ranges.len());
-    let mut cols = Columns::default();
-    for (start, end) in ranges {
-        let mut ids: Vec<u32> = order[start..end].iter().map(|o| o.1).collect();
-        // Sources first, each group in Morton order.
-        ids.sort_by_key(|&i| !is_source[i as usize]);
-        let src = ids.iter().filter(|&&i| is_source[i as usize]).count();
-        let mut llo = DVec3::splat(f64::INFINITY);
-        let mut lhi = DVec3::splat(f64::NEG_INFINITY);
-        for &i in &ids {
-            let p = DVec3::from_array(inp.pos[i as usize]);
-            llo = llo.min(p);
-            lhi = lhi.max(p);
-        }
-        let origin = (llo + lhi) * 0.5;
-        let col = cols.x.len();
-        for k in 0..padded(ids.len()) {
-            match ids.get(k) {
-                Some(&i) => {
-                    let i = i as usize;
-                    let p = DVec3::from_array(inp.pos[i]) - origin;
-                    cols.x.push(p.x as f32);
-                    cols.y.push(p.y as f32);
-                    cols.z.push(p.z as f32);
-                    let nn = inp.nrm[i];
-                    cols.nx.push(nn[0]);
-                    cols.ny.push(nn[1]);
-                    cols.nz.push(nn[2]);
-                    for c in 0..3 {
-                        cols.q[c].push((inp.illum[i][c] * inp.area[i]) as f32);
-                    }
-                    cols.a.push(inp.area[i] as f32);
-                    cols.rmin.push(if want_rmin {
-                        burley::rmin(inp.area[i]) as f32
-                    } else {
-                        0.0
-                    });
-                    cols.id.push(i as u32);
-                }
-                None => {
-                    cols.x.push(FAR);
-                    cols.y.push(FAR);
-                    cols.z.push(FAR);
-                    cols.nx.push(0.0);
-                    cols.ny.push(0.0);
-                    cols.nz.push(0.0);
-                    for c in 0..3 {
-                        cols.q[c].push(0.0);
-                    }
-                    cols.a.push(0.0);
-                    cols.rmin.push(0.0);
-                    cols.id.push(u32::MAX);
-                }
-            }
-        }
-        // Bounding spheres of the groups of LANES (sources and receivers
-        // alike; padding lanes left out).
-        for g in (0..padded(ids.len())).step_by(LANES) {
-            let m = (ids.len() - g).min(LANES);
-            let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-            for k in col + g..col + g + m {
-                for (a, v) in [cols.x[k], cols.y[k], cols.z[k]].into_iter().enumerate() {
-                    glo[a] = glo[a].min(v);
-                    ghi[a] = ghi[a].max(v);
-                }
-            }
-            let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
-            let mut r: f32 = 0.0;
-            for k in col + g..col + g + m {
-                let d = [cols.x[k] - c[0], cols.y[k] - c[1], cols.z[k] - c[2]];
-                r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
-            }
-            cols.gx.push(c[0]);
-            cols.gy.push(c[1]);
-            cols.gz.push(c[2]);
-            // Rounding of the receiver's offset and of this sum: a margin.
-            cols.gr
-                .push(r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs()));
-        }
-        leaves.push(Leaf {
-            col,
-            len: ids.len(),
-            src,
-            origin,
-            lo: llo,
-            hi: lhi,
-        });
+    // Each leaf's columns in parallel, then laid end to end.
+    let parts: Vec<(Leaf, Columns)> = ranges
+        .par_iter()
+        .map(|&(start, end)| leaf_columns(&order[start..end], inp, is_source, want_rmin))
+        .collect();
+    let mut leaves = Vec::with_capacity(parts.len());
+    let mut cols = Columns::with_capacity(parts.iter().map(|p| p.1.x.len()).sum());
+    for (mut leaf, part) in parts {
+        leaf.col = cols.x.len();
+        cols.append(part);
+        leaves.push(leaf);
     }
     aggregate(&mut nodes, &leaves, &cols);
     (leaves, cols, nodes)
+}
+
+/// One leaf's points (a run of the Morton order): sources first, f32
+/// columns relative to the leaf's origin, padded to whole groups, with the
+/// groups' bounding spheres.
+fn leaf_columns(
+    run: &[(u64, u32)],
+    inp: &Inputs,
+    is_source: &[bool],
+    want_rmin: bool,
+) -> (Leaf, Columns) {
+    let mut cols = Columns::with_capacity(padded(run.len()));
+    let mut ids: Vec<u32> = run.iter().map(|o| o.1).collect();
+    // Sources first, each group in Morton order.
+    ids.sort_by_key(|&i| !is_source[i as usize]);
+    let src = ids.iter().filter(|&&i| is_source[i as usize]).count();
+    let mut llo = DVec3::splat(f64::INFINITY);
+    let mut lhi = DVec3::splat(f64::NEG_INFINITY);
+    for &i in &ids {
+        let p = DVec3::from_array(inp.pos[i as usize]);
+        llo = llo.min(p);
+        lhi = lhi.max(p);
+    }
+    let origin = (llo + lhi) * 0.5;
+    let col = 0;
+    for k in 0..padded(ids.len()) {
+        match ids.get(k) {
+            Some(&i) => {
+                let i = i as usize;
+                let p = DVec3::from_array(inp.pos[i]) - origin;
+                cols.x.push(p.x as f32);
+                cols.y.push(p.y as f32);
+                cols.z.push(p.z as f32);
+                let nn = inp.nrm[i];
+                cols.nx.push(nn[0]);
+                cols.ny.push(nn[1]);
+                cols.nz.push(nn[2]);
+                for c in 0..3 {
+                    cols.q[c].push((inp.illum[i][c] * inp.area[i]) as f32);
+                }
+                cols.a.push(inp.area[i] as f32);
+                cols.rmin.push(if want_rmin {
+                    burley::rmin(inp.area[i]) as f32
+                } else {
+                    0.0
+                });
+                cols.id.push(i as u32);
+            }
+            None => {
+                cols.x.push(FAR);
+                cols.y.push(FAR);
+                cols.z.push(FAR);
+                cols.nx.push(0.0);
+                cols.ny.push(0.0);
+                cols.nz.push(0.0);
+                for c in 0..3 {
+                    cols.q[c].push(0.0);
+                }
+                cols.a.push(0.0);
+                cols.rmin.push(0.0);
+                cols.id.push(u32::MAX);
+            }
+        }
+    }
+    // Bounding spheres of the groups of LANES (sources and receivers
+    // alike; padding lanes left out).
+    for g in (0..padded(ids.len())).step_by(LANES) {
+        let m = (ids.len() - g).min(LANES);
+        let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for k in col + g..col + g + m {
+            for (a, v) in [cols.x[k], cols.y[k], cols.z[k]].into_iter().enumerate() {
+                glo[a] = glo[a].min(v);
+                ghi[a] = ghi[a].max(v);
+            }
+        }
+        let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
+        let mut r: f32 = 0.0;
+        for k in col + g..col + g + m {
+            let d = [cols.x[k] - c[0], cols.y[k] - c[1], cols.z[k] - c[2]];
+            r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
+        }
+        cols.gx.push(c[0]);
+        cols.gy.push(c[1]);
+        cols.gz.push(c[2]);
+        // Rounding of the receiver's offset and of this sum: a margin.
+        cols.gr
+            .push(r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs()));
+    }
+    let leaf = Leaf {
+        col,
+        len: ids.len(),
+        src,
+        origin,
+        lo: llo,
+        hi: lhi,
+    };
+    (leaf, cols)
+}
+
+impl Columns {
+    /// Room for `n` lanes.
+    fn with_capacity(n: usize) -> Columns {
+        let f = || Vec::with_capacity(n);
+        let g = || Vec::with_capacity(n / LANES);
+        Columns {
+            x: f(),
+            y: f(),
+            z: f(),
+            nx: f(),
+            ny: f(),
+            nz: f(),
+            q: [f(), f(), f()],
+            a: f(),
+            rmin: f(),
+            id: Vec::with_capacity(n),
+            gx: g(),
+            gy: g(),
+            gz: g(),
+            gr: g(),
+        }
+    }
+
+    /// Appends `o`'s columns after these.
+    fn append(&mut self, mut o: Columns) {
+        self.x.append(&mut o.x);
+        self.y.append(&mut o.y);
+        self.z.append(&mut o.z);
+        self.nx.append(&mut o.nx);
+        self.ny.append(&mut o.ny);
+        self.nz.append(&mut o.nz);
+        for c in 0..3 {
+            self.q[c].append(&mut o.q[c]);
+        }
+        self.a.append(&mut o.a);
+        self.rmin.append(&mut o.rmin);
+        self.id.append(&mut o.id);
+        self.gx.append(&mut o.gx);
+        self.gy.append(&mut o.gy);
+        self.gz.append(&mut o.gz);
+        self.gr.append(&mut o.gr);
+    }
 }
 
 /// A node of the binary tree the Morton splits make over the leaves: its
@@ -777,7 +842,12 @@ fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     let mut count = 0u32;
     for g in (col..col + n).step_by(LANES) {
         let gi = g / LANES;
-        let (cx, cy, cz, cr) = (cols.gx[gi] - o.x, cols.gy[gi] - o.y, cols.gz[gi] - o.z, cols.gr[gi]);
+        let (cx, cy, cz, cr) = (
+            cols.gx[gi] - o.x,
+            cols.gy[gi] - o.y,
+            cols.gz[gi] - o.z,
+            cols.gr[gi],
+        );
         let reach = s.ld1 + cr;
         if cx * cx + cy * cy + cz * cz > reach * reach {
             continue;
@@ -960,14 +1030,30 @@ fn leaf(
     macro_rules! go {
         ($ks:expr) => {
             match (s.single, s.bounce > 0.0, s.local) {
-                (true, false, false) => leaf_g::<_, true, false, false>(s, $ks, cols, rl, near, ps, res),
-                (true, false, true) => leaf_g::<_, true, false, true>(s, $ks, cols, rl, near, ps, res),
-                (true, true, false) => leaf_g::<_, true, true, false>(s, $ks, cols, rl, near, ps, res),
-                (true, true, true) => leaf_g::<_, true, true, true>(s, $ks, cols, rl, near, ps, res),
-                (false, false, false) => leaf_g::<_, false, false, false>(s, $ks, cols, rl, near, ps, res),
-                (false, false, true) => leaf_g::<_, false, false, true>(s, $ks, cols, rl, near, ps, res),
-                (false, true, false) => leaf_g::<_, false, true, false>(s, $ks, cols, rl, near, ps, res),
-                (false, true, true) => leaf_g::<_, false, true, true>(s, $ks, cols, rl, near, ps, res),
+                (true, false, false) => {
+                    leaf_g::<_, true, false, false>(s, $ks, cols, rl, near, ps, res)
+                }
+                (true, false, true) => {
+                    leaf_g::<_, true, false, true>(s, $ks, cols, rl, near, ps, res)
+                }
+                (true, true, false) => {
+                    leaf_g::<_, true, true, false>(s, $ks, cols, rl, near, ps, res)
+                }
+                (true, true, true) => {
+                    leaf_g::<_, true, true, true>(s, $ks, cols, rl, near, ps, res)
+                }
+                (false, false, false) => {
+                    leaf_g::<_, false, false, false>(s, $ks, cols, rl, near, ps, res)
+                }
+                (false, false, true) => {
+                    leaf_g::<_, false, false, true>(s, $ks, cols, rl, near, ps, res)
+                }
+                (false, true, false) => {
+                    leaf_g::<_, false, true, false>(s, $ks, cols, rl, near, ps, res)
+                }
+                (false, true, true) => {
+                    leaf_g::<_, false, true, true>(s, $ks, cols, rl, near, ps, res)
+                }
             }
         };
     }
@@ -1202,7 +1288,16 @@ fn sum_all(
                 })
                 .collect();
             let mut res = Vec::with_capacity(rl.len);
-            let pairs = run_leaf(avx2, &setup, &kern, &cols, rl, &near, pseudo.as_ref(), &mut res);
+            let pairs = run_leaf(
+                avx2,
+                &setup,
+                &kern,
+                &cols,
+                rl,
+                &near,
+                pseudo.as_ref(),
+                &mut res,
+            );
             progress.inc(rl.len as u64);
             (res, pairs)
         })

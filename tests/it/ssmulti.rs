@@ -525,6 +525,28 @@ fn the_scene_decides_the_work() {
 }
 
 #[test]
+fn sd_beyond_the_whole_object_sums_every_pair() {
+    let c = wavy(700, DVec3::ZERO, 1.0, 3);
+    for falloff in falloffs() {
+        let p = Params {
+            rd: [1.0, 0.5, 0.25],
+            sd: 50.0,
+            bounce: 0.5,
+            falloff,
+            ..Params::default()
+        };
+        let got = run(&c, &p);
+        let want = brute(&c, &p);
+        for (g, w) in got.iter().zip(&want) {
+            for ch in 0..3 {
+                assert!(rel_err(g[ch], w[ch]) < 2e-6, "{falloff:?}: {g:?} vs {w:?}");
+                assert!(g[ch].is_finite());
+            }
+        }
+    }
+}
+
+#[test]
 fn sd_below_the_spacing_leaves_each_point_alone() {
     // Each point sees only itself: ssM = Rd illum ptarea W(0) / I(ld1).
     let c = grid(10, 1.0, [1.0, 2.0, 3.0], 0.0, 0);
