@@ -1182,8 +1182,7 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
         ..Report::default()
     };
     if n > 0 && ld1 > 0.0 {
-        let sums = sum_all(&inp, p, ld, ld1, progress, &mut report);
-        finish(p, ld, ld1, &sums, &mut out);
+        sum_all(&inp, p, ld, ld1, progress, &mut report, &mut out);
     }
     cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
     cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
@@ -1191,17 +1190,15 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
     Ok(report)
 }
 
-/// Per receiver: the channel sums and (for `Local`) the area sums.
-type Sums = Vec<[f64; 6]>;
-
-/// A receiver leaf's results: (point, sums) and the pairs it evaluated.
-type LeafSums = (Vec<(u32, [f64; 6])>, u64);
+/// A receiver leaf's results: (point, ssM) and the pairs it evaluated.
+type LeafSums = (Vec<(u32, [f32; 3])>, u64);
 
 /// Normalises the sums into `ssM`.
-fn finish(p: &Params, ld: [f64; 3], ld1: f64, sums: &Sums, out: &mut [[f32; 3]]) {
+fn finish(p: &Params, ld: [f64; 3], ld1: f64, s: &[f64; 6]) -> [f32; 3] {
     let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
     let i1 = disk_integral(p.falloff, ld1);
-    for (o, s) in out.iter_mut().zip(sums) {
+    let mut o = [0f32; 3];
+    {
         for c in 0..3 {
             let v = match (p.norm, p.rgb) {
                 (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] * s[c] / i1,
@@ -1225,6 +1222,7 @@ fn finish(p: &Params, ld: [f64; 3], ld1: f64, sums: &Sums, out: &mut [[f32; 3]])
             o[c] = v as f32;
         }
     }
+    o
 }
 
 /// The exact method (`tolerance == 0`) or the approximate one.
@@ -1235,7 +1233,8 @@ fn sum_all(
     ld1: f64,
     progress: &Progress,
     report: &mut Report,
-) -> Sums {
+    out: &mut [[f32; 3]],
+) {
     let n = inp.pos.len();
     let local = p.norm == Norm::Local;
     let is_source: Vec<bool> = (0..n)
@@ -1255,10 +1254,6 @@ fn sum_all(
     };
     let avx2 = has_avx2();
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
-    // Source leaves in a coarse grid of cells of size ld1 (by box centre),
-    // so a receiver leaf looks only at nearby cells.
-    let sources: Vec<usize> = (0..leaves.len()).filter(|&l| leaves[l].src > 0).collect();
-    let grid = LeafGrid::new(&leaves, &sources, ld1);
     progress.start("summing", n as u64);
     let per_leaf: Vec<LeafSums> = leaves
         .par_iter()
@@ -1271,7 +1266,7 @@ fn sum_all(
                 let (ex, ps) = approx_plan(&nodes, rl, p, ld, ld1);
                 (ex, Some(ps))
             } else {
-                (grid.near(&leaves, rl, ld1), None)
+                (near_leaves(&nodes, rl, ld1), None)
             };
             let near: Vec<Near> = exact_leaves
                 .into_iter()
@@ -1299,18 +1294,21 @@ fn sum_all(
                 &mut res,
             );
             progress.inc(rl.len as u64);
+            // Normalised here: a leaf's results are 16 bytes a point.
+            let res: Vec<(u32, [f32; 3])> = res
+                .into_iter()
+                .map(|(i, acc)| (i, finish(p, ld, ld1, &acc)))
+                .collect();
             (res, pairs)
         })
         .collect();
     progress.finish();
-    let mut sums = vec![[0f64; 6]; n];
     for (res, pairs) in per_leaf {
         report.pairs += pairs;
-        for (i, acc) in res {
-            sums[i as usize] = acc;
+        for (i, v) in res {
+            out[i as usize] = v;
         }
     }
-    sums
 }
 
 /// For receiver leaf `rl`: the source leaves to sum exactly, and the
@@ -1419,70 +1417,23 @@ struct Near {
     hi: [f32; 3],
 }
 
-/// Source leaves bucketed by the cell of their box centre.
-struct LeafGrid {
-    cell: f64,
-    origin: DVec3,
-    map: std::collections::HashMap<[i64; 3], Vec<usize>>,
-    /// The largest half-diagonal of a source leaf's box.
-    reach: f64,
-}
-
-impl LeafGrid {
-    fn new(leaves: &[Leaf], sources: &[usize], ld1: f64) -> LeafGrid {
-        let origin = sources.first().map_or(DVec3::ZERO, |&l| leaves[l].origin);
-        let mut reach: f64 = 0.0;
-        for &l in sources {
-            reach = reach.max(((leaves[l].hi - leaves[l].lo) * 0.5).length());
+/// The leaves with sources whose boxes come within `ld1` of `rl`'s box,
+/// in order: the Morton tree walked from the root, skipping subtrees out
+/// of reach (their sources' box is farther than `ld1`).
+fn near_leaves(nodes: &[TNode], rl: &Leaf, ld1: f64) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut stack = vec![nodes.len() - 1];
+    while let Some(t) = stack.pop() {
+        let node = &nodes[t];
+        if node.sources == 0 || box_gap(rl.lo, rl.hi, node.lo, node.hi) > ld1 {
+            continue;
         }
-        // Cells no smaller than the reach, and not so small that a query
-        // looks at millions of empty ones.
-        let cell = ld1.max(reach).max(f64::MIN_POSITIVE);
-        let mut map: std::collections::HashMap<[i64; 3], Vec<usize>> =
-            std::collections::HashMap::new();
-        for &l in sources {
-            let k = key((leaves[l].origin - origin) / cell);
-            map.entry(k).or_default().push(l);
-        }
-        LeafGrid {
-            cell,
-            origin,
-            map,
-            reach,
-        }
-    }
-
-    /// Source leaves whose boxes come within `ld1` of `rl`'s box, in a
-    /// fixed order.
-    fn near(&self, leaves: &[Leaf], rl: &Leaf, ld1: f64) -> Vec<usize> {
-        let grow = DVec3::splat(ld1 + self.reach);
-        let a = key((rl.lo - grow - self.origin) / self.cell);
-        let b = key((rl.hi + grow - self.origin) / self.cell);
-        let mut out = Vec::new();
-        let cells =
-            (b[0] - a[0] + 1) as u128 * (b[1] - a[1] + 1) as u128 * (b[2] - a[2] + 1) as u128;
-        if cells as usize > self.map.len() {
-            // Fewer occupied cells than cells to look at: scan them.
-            for v in self.map.values() {
-                out.extend(v.iter().copied());
-            }
+        if node.kids.is_empty() {
+            out.push(node.first);
         } else {
-            for x in a[0]..=b[0] {
-                for y in a[1]..=b[1] {
-                    for z in a[2]..=b[2] {
-                        if let Some(v) = self.map.get(&[x, y, z]) {
-                            out.extend(v.iter().copied());
-                        }
-                    }
-                }
-            }
+            stack.extend(node.kids.iter().copied());
         }
-        out.retain(|&l| box_gap(rl.lo, rl.hi, leaves[l].lo, leaves[l].hi) <= ld1);
-        out.sort_unstable();
-        out
     }
-}
-
-fn key(v: DVec3) -> [i64; 3] {
-    [v.x.floor() as i64, v.y.floor() as i64, v.z.floor() as i64]
+    out.sort_unstable();
+    out
 }
