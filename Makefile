@@ -31,8 +31,8 @@ $(PY).bench.stamp: $(PY).stamp benches/requirements.txt
 bench: pyenv $(PY).bench.stamp
 	cargo bench
 
-## What runs today: the geometry chain (pipelines/Makefile) on the embedded
-## cube, summarised. Becomes the bunny bake when illum/ssmulti/filter land.
+## What runs today: the chain up to ssmulti (pipelines/Makefile) on the
+## embedded cube, summarised. Becomes the bunny bake when filter lands.
 demo:
 	$(MAKE) -C pipelines info
 

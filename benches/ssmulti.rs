@@ -288,7 +288,12 @@ fn main() {
                 sd: ld1,
                 ..Params::default()
             };
-            let (exact, secs, rep) = run(&cloud, &p);
+            // Best of two when short: the first run in a process pays the
+            // kernel for fresh pages (at 4M points, 13% of the time).
+            let (exact, mut secs, rep) = run(&cloud, &p);
+            if secs < 5.0 {
+                secs = secs.min(run(&cloud, &p).1);
+            }
             // Pairs within reach: each source is within ld1 of nb
             // receivers on average.
             let pairs = rep.sources as f64 * nb as f64;
