@@ -345,8 +345,8 @@ fn spread(v: u64) -> u64 {
 struct Inputs {
     pos: Vec<[f64; 3]>,
     nrm: Vec<[f32; 3]>,
-    area: Vec<f64>,
-    illum: Vec<[f64; 3]>,
+    area: Vec<f32>,
+    illum: Vec<[f32; 3]>,
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
@@ -372,6 +372,9 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
             (code, i as u32)
         })
         .collect();
+    // (A radix sort, rdst, took 51-78 ms here against 45 ms: kept the
+    // comparison sort.) The point index makes every key distinct, so the
+    // order is the same on any thread count.
     order.par_sort_unstable();
     let mut ranges = Vec::new();
     let mut nodes = Vec::new();
@@ -427,12 +430,13 @@ fn leaf_columns(
                 cols.nx.push(nn[0]);
                 cols.ny.push(nn[1]);
                 cols.nz.push(nn[2]);
+                let a = inp.area[i] as f64;
                 for c in 0..3 {
-                    cols.q[c].push((inp.illum[i][c] * inp.area[i]) as f32);
+                    cols.q[c].push((inp.illum[i][c] as f64 * a) as f32);
                 }
-                cols.a.push(inp.area[i] as f32);
+                cols.a.push(inp.area[i]);
                 cols.rmin.push(if want_rmin {
-                    burley::rmin(inp.area[i]) as f32
+                    burley::rmin(a) as f32
                 } else {
                     0.0
                 });
@@ -1123,18 +1127,20 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
             return Err(Error::missing("point", name, Some(stage)));
         }
     }
+    // Positions in f64 (leaf origins keep their precision); the rest as
+    // the f32 columns the pair loop uses (an f64 value beyond f32's range
+    // is reported as not finite).
     let pos = pts.vec3_f64("P")?;
-    let nrm64 = pts.vec3_f64("N")?;
-    let area = pts.scalar_f64("ptarea")?;
-    let illum = pts.vec3_f64("illum")?;
-    let bad3 = |v: &[[f64; 3]]| v.iter().position(|p| !p.iter().all(|x| x.is_finite()));
-    if let Some(i) = bad3(&pos) {
+    let nrm32 = pts.vec3_f32("N")?;
+    let area = pts.scalar_f32("ptarea")?;
+    let illum = pts.vec3_f32("illum")?;
+    if let Some(i) = pos.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
         return Err(Error::invalid(format!(
             "point {i}: P is {:?}, not finite",
             pos[i]
         )));
     }
-    if let Some(i) = bad3(&illum) {
+    if let Some(i) = illum.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
         return Err(Error::invalid(format!(
             "point {i}: illum is {:?}, not finite",
             illum[i]
@@ -1146,9 +1152,9 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
             area[i]
         )));
     }
-    let mut nrm = Vec::with_capacity(nrm64.len());
-    for (i, n) in nrm64.iter().enumerate() {
-        let v = DVec3::from_array(*n);
+    let mut nrm = Vec::with_capacity(nrm32.len());
+    for (i, n) in nrm32.iter().enumerate() {
+        let v = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
         let u = if v.is_finite() {
             v.normalize_or_zero()
         } else {
