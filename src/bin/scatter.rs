@@ -62,7 +62,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         PtareaArg::Knn => PtareaMode::Knn,
         PtareaArg::Voronoi => PtareaMode::Voronoi,
     };
-    let cloud = scatter::scatter(
+    let progress = msg.progress();
+    let cloud = scatter::scatter_with(
         &mesh,
         &Params {
             amount,
@@ -70,6 +71,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             ptarea,
             relax: args.relax,
         },
+        &progress,
     )
     .map_err(cli::at(&name))?;
     msg.info(format!("{} points", cloud.len()));

@@ -44,6 +44,7 @@ use crate::column::ScalarType;
 use crate::error::{Error, Result};
 use crate::geom::{self, Sum};
 use crate::mesh::{ClosestPoint, TriMesh};
+use crate::progress::Progress;
 use std::num::NonZero;
 
 /// How `ptarea` is estimated.
@@ -105,6 +106,11 @@ fn uniform(r: &mut Pcg32) -> f64 {
 
 /// Scatters points on `mesh` (a cloud with faces).
 pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
+    scatter_with(mesh, p, &Progress::hidden())
+}
+
+/// `scatter`, counting the relaxation's iterations on `progress`.
+pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Cloud> {
     // Parameters first: an absurd one is reported before any geometry work.
     if let Amount::Density(d) = p.amount {
         count_for_density(d, 0.0)?;
@@ -164,7 +170,9 @@ pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
         })
         .collect();
     if p.relax > 0 && n > 1 {
-        relax(&m, &mut samples, p.relax, p.seed, total);
+        progress.start("relaxing", p.relax as u64);
+        relax(&m, &mut samples, p.relax, p.seed, total, progress);
+        progress.finish();
     }
     let ptarea: Vec<f32> = match p.ptarea {
         PtareaMode::Prim => prim_area(&m, &areas, &samples),
@@ -286,7 +294,14 @@ fn hex_spacing(area: f64, n: usize) -> f64 {
 /// half the spacing, then puts it back on the mesh at the closest point.
 /// Moves are computed from the previous iteration's positions only
 /// (Jacobi), so the result does not depend on the thread count.
-fn relax(m: &TriMesh, samples: &mut Vec<Sample>, iters: u32, seed: u64, total: f64) {
+fn relax(
+    m: &TriMesh,
+    samples: &mut Vec<Sample>,
+    iters: u32,
+    seed: u64,
+    total: f64,
+    progress: &Progress,
+) {
     let Some(cp) = ClosestPoint::new(m) else {
         return;
     };
@@ -354,6 +369,7 @@ fn relax(m: &TriMesh, samples: &mut Vec<Sample>, iters: u32, seed: u64, total: f
             })
             .collect();
         *samples = next;
+        progress.inc(1);
     }
 }
 
