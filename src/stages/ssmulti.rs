@@ -32,19 +32,23 @@
 //!   [`burley`] for the derivation.
 //!
 //! The method: points sorted along a Morton curve into leaves of at most
-//! `LEAF` points, each leaf's points stored as f32 columns relative to the
-//! leaf's own origin (an f64); a receiver leaf finds the source leaves
-//! whose boxes come within `ld1` of its box once, and every receiver point
-//! then runs through those leaves' columns in blocks of eight lanes that
-//! the compiler vectorises (AVX2 and FMA when the CPU has them, chosen at
-//! run time). Pair differences are taken between two small local
-//! coordinates plus the leaves' offset, so a cloud 1e6 from the origin
-//! loses nothing when its positions are f64. Each block's eight lanes are
-//! summed into f64 accumulators after at most `LEAF` pairs: the rounding
-//! does not grow with the neighbour count. Points with zero `illum` are
-//! not sources (except for `Local`, which needs their area); a receiver's
-//! sums run in a fixed order, so the output bits do not depend on the
-//! thread count.
+//! `LEAF` points (a binary tree over them from the same splits), each
+//! leaf's points stored as f32 columns relative to the leaf's own origin
+//! (an f64), sources first, in groups of eight with a bounding sphere per
+//! group. A receiver leaf walks the tree once for the source leaves whose
+//! boxes come within `ld1` of its box; every receiver point then runs
+//! through those leaves (culled by box, then by group sphere) in groups of
+//! eight lanes that the compiler vectorises (AVX2 and FMA when the CPU has
+//! them, chosen at run time, one compiled loop per kernel and switch).
+//! Pair differences are taken between two small local coordinates plus
+//! the leaves' offset, so a cloud 1e6 from the origin loses nothing when
+//! its positions are f64. The f32 lanes are added into f64 every `FLUSH`
+//! groups: the rounding does not grow with the neighbour count. Points
+//! with zero `illum` are not sources (except for `Local`, which needs
+//! their area); a receiver's sums run in a fixed order, so the output bits
+//! do not depend on the thread count. The approximate method
+//! (`tolerance > 0`, see `approx_plan`) replaces far enough clusters of
+//! the tree by one pseudo-source each and runs the same loop.
 
 // Numeric kernels index lanes and channels side by side.
 #![allow(clippy::needless_range_loop)]
