@@ -940,6 +940,173 @@ fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     visited
 }
 
+/// `block_g` for two receivers at once: each group's columns are loaded
+/// once for both (the pair loop is load-bound at small neighbourhoods).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
+    s: &Setup,
+    ks: &[K; 3],
+    cols: &Columns,
+    col: usize,
+    n: usize,
+    oa: &Receiver,
+    ob: &Receiver,
+    acc: &mut [Acc; 2],
+) -> u64 {
+    let r2max = s.ld1 * s.ld1;
+    let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
+    let mut visited = 0u64;
+    let z8: Lanes = [0.0; LANES];
+    let (mut s0a, mut s1a, mut s2a, mut a0a, mut a1a, mut a2a) = (z8, z8, z8, z8, z8, z8);
+    let (mut s0b, mut s1b, mut s2b, mut a0b, mut a1b, mut a2b) = (z8, z8, z8, z8, z8, z8);
+    let mut count = 0u32;
+    for g in (col..col + n).step_by(LANES) {
+        let gi = g / LANES;
+        let reach = s.ld1 + cols.gr[gi];
+        let near = |o: &Receiver| {
+            let (cx, cy, cz) = (cols.gx[gi] - o.x, cols.gy[gi] - o.y, cols.gz[gi] - o.z);
+            cx * cx + cy * cy + cz * cz <= reach * reach
+        };
+        if !near(oa) && !near(ob) {
+            continue;
+        }
+        visited += 2 * LANES as u64;
+        let x: &Lanes = cols.x[g..g + LANES].try_into().expect("a group");
+        let y: &Lanes = cols.y[g..g + LANES].try_into().expect("a group");
+        let z: &Lanes = cols.z[g..g + LANES].try_into().expect("a group");
+        let q0: &Lanes = cols.q[0][g..g + LANES].try_into().expect("a group");
+        let q1: &Lanes = cols.q[1][g..g + LANES].try_into().expect("a group");
+        let q2: &Lanes = cols.q[2][g..g + LANES].try_into().expect("a group");
+        let ar: &Lanes = cols.a[g..g + LANES].try_into().expect("a group");
+        let rm: &Lanes = cols.rmin[g..g + LANES].try_into().expect("a group");
+        let nx: &Lanes = cols.nx[g..g + LANES].try_into().expect("a group");
+        let ny: &Lanes = cols.ny[g..g + LANES].try_into().expect("a group");
+        let nz: &Lanes = cols.nz[g..g + LANES].try_into().expect("a group");
+        for k in 0..LANES {
+            let dx = oa.x - x[k];
+            let dy = oa.y - y[k];
+            let dz = oa.z - z[k];
+            let r2 = dx * dx + dy * dy + dz * dz;
+            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
+            let r = r2.min(r2max).sqrt();
+            let kb = if BOUNCE {
+                let nn = oa.nx * nx[k] + oa.ny * ny[k] + oa.nz * nz[k];
+                let nl = (oa.nx * dx + oa.ny * dy + oa.nz * dz) * s.inv_ld1;
+                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
+                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
+            } else {
+                m
+            };
+            if SINGLE {
+                let w = ks[0].w(r, rm[k]);
+                let kw = kb * w;
+                s0a[k] += q0[k] * kw;
+                s1a[k] += q1[k] * kw;
+                s2a[k] += q2[k] * kw;
+                if LOCAL {
+                    a0a[k] += ar[k] * m * w;
+                }
+            } else {
+                // Per channel: inside its own distance (0 costs nothing:
+                // its kernel is never used, its mask is 0).
+                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
+                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
+                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
+                let w0 = if s.ld[0] > 0.0 {
+                    ks[0].w(r, rm[k]) * m0
+                } else {
+                    0.0
+                };
+                let w1 = if s.ld[1] > 0.0 {
+                    ks[1].w(r, rm[k]) * m1
+                } else {
+                    0.0
+                };
+                let w2 = if s.ld[2] > 0.0 {
+                    ks[2].w(r, rm[k]) * m2
+                } else {
+                    0.0
+                };
+                s0a[k] += q0[k] * kb * w0;
+                s1a[k] += q1[k] * kb * w1;
+                s2a[k] += q2[k] * kb * w2;
+                if LOCAL {
+                    a0a[k] += ar[k] * w0;
+                    a1a[k] += ar[k] * w1;
+                    a2a[k] += ar[k] * w2;
+                }
+            }
+        }
+        for k in 0..LANES {
+            let dx = ob.x - x[k];
+            let dy = ob.y - y[k];
+            let dz = ob.z - z[k];
+            let r2 = dx * dx + dy * dy + dz * dz;
+            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
+            let r = r2.min(r2max).sqrt();
+            let kb = if BOUNCE {
+                let nn = ob.nx * nx[k] + ob.ny * ny[k] + ob.nz * nz[k];
+                let nl = (ob.nx * dx + ob.ny * dy + ob.nz * dz) * s.inv_ld1;
+                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
+                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
+            } else {
+                m
+            };
+            if SINGLE {
+                let w = ks[0].w(r, rm[k]);
+                let kw = kb * w;
+                s0b[k] += q0[k] * kw;
+                s1b[k] += q1[k] * kw;
+                s2b[k] += q2[k] * kw;
+                if LOCAL {
+                    a0b[k] += ar[k] * m * w;
+                }
+            } else {
+                // Per channel: inside its own distance (0 costs nothing:
+                // its kernel is never used, its mask is 0).
+                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
+                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
+                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
+                let w0 = if s.ld[0] > 0.0 {
+                    ks[0].w(r, rm[k]) * m0
+                } else {
+                    0.0
+                };
+                let w1 = if s.ld[1] > 0.0 {
+                    ks[1].w(r, rm[k]) * m1
+                } else {
+                    0.0
+                };
+                let w2 = if s.ld[2] > 0.0 {
+                    ks[2].w(r, rm[k]) * m2
+                } else {
+                    0.0
+                };
+                s0b[k] += q0[k] * kb * w0;
+                s1b[k] += q1[k] * kb * w1;
+                s2b[k] += q2[k] * kb * w2;
+                if LOCAL {
+                    a0b[k] += ar[k] * w0;
+                    a1b[k] += ar[k] * w1;
+                    a2b[k] += ar[k] * w2;
+                }
+            }
+        }
+        count += 1;
+        if count >= FLUSH {
+            acc[0].spill([&s0a, &s1a, &s2a, &a0a, &a1a, &a2a], count);
+            acc[1].spill([&s0b, &s1b, &s2b, &a0b, &a1b, &a2b], count);
+            (s0a, s1a, s2a, a0a, a1a, a2a) = (z8, z8, z8, z8, z8, z8);
+            (s0b, s1b, s2b, a0b, a1b, a2b) = (z8, z8, z8, z8, z8, z8);
+            count = 0;
+        }
+    }
+    acc[0].spill([&s0a, &s1a, &s2a, &a0a, &a1a, &a2a], count);
+    acc[1].spill([&s0b, &s1b, &s2b, &a0b, &a1b, &a2b], count);
+    visited
+}
+
 /// Sums every receiver of leaf `rl`: the source leaves `near` (each in its
 /// own frame, culled per receiver by its box) and the pseudo-sources `ps`
 /// (in `rl`'s frame). Pushes (point, sums) to `res`; returns the pairs.
@@ -957,37 +1124,82 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     let r2max = s.ld1 * (1.0 + 1e-6);
     let r2max = r2max * r2max;
     let mut pairs = 0u64;
-    for c in rl.col..rl.col + rl.len {
-        let mut acc = Acc::new();
+    let end = rl.col + rl.len;
+    let recv = |c: usize, off: [f32; 3]| Receiver {
+        x: cols.x[c] + off[0],
+        y: cols.y[c] + off[1],
+        z: cols.z[c] + off[2],
+        nx: cols.nx[c],
+        ny: cols.ny[c],
+        nz: cols.nz[c],
+    };
+    // Is leaf `nb` beyond reach of receiver `o` (in `nb`'s frame)?
+    let beyond = |nb: &Near, o: &Receiver| {
+        let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
+        let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
+        let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
+        gx * gx + gy * gy + gz * gz > r2max
+    };
+    let mut c = rl.col;
+    // Two receivers at a time; the receiver pairs are fixed by the leaf's
+    // order, so the sums do not depend on the thread count.
+    while c + 1 < end {
+        let mut acc = [Acc::new(), Acc::new()];
         for nb in near {
-            // The receiver relative to the source leaf's origin: two small
-            // numbers and the leaves' offset.
-            let o = Receiver {
-                x: cols.x[c] + nb.off[0],
-                y: cols.y[c] + nb.off[1],
-                z: cols.z[c] + nb.off[2],
-                nx: cols.nx[c],
-                ny: cols.ny[c],
-                nz: cols.nz[c],
-            };
-            // The whole leaf beyond reach of this receiver?
-            let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
-            let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
-            let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
-            if gx * gx + gy * gy + gz * gz > r2max {
-                continue;
+            let (oa, ob) = (recv(c, nb.off), recv(c + 1, nb.off));
+            match (beyond(nb, &oa), beyond(nb, &ob)) {
+                (true, true) => {}
+                (false, true) => {
+                    pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(
+                        s,
+                        ks,
+                        cols,
+                        nb.col,
+                        nb.n,
+                        &oa,
+                        &mut acc[0],
+                    );
+                }
+                (true, false) => {
+                    pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(
+                        s,
+                        ks,
+                        cols,
+                        nb.col,
+                        nb.n,
+                        &ob,
+                        &mut acc[1],
+                    );
+                }
+                (false, false) => {
+                    pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
+                        s, ks, cols, nb.col, nb.n, &oa, &ob, &mut acc,
+                    );
+                }
             }
-            pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, cols, nb.col, nb.n, &o, &mut acc);
         }
         if let Some(ps) = ps {
-            let o = Receiver {
-                x: cols.x[c],
-                y: cols.y[c],
-                z: cols.z[c],
-                nx: cols.nx[c],
-                ny: cols.ny[c],
-                nz: cols.nz[c],
-            };
+            let (oa, ob) = (recv(c, [0.0; 3]), recv(c + 1, [0.0; 3]));
+            pairs +=
+                block2_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, ps, 0, ps.x.len(), &oa, &ob, &mut acc);
+        }
+        for (k, a) in acc.iter_mut().enumerate() {
+            a.flush();
+            res.push((cols.id[c + k], a.total));
+        }
+        c += 2;
+    }
+    if c < end {
+        let mut acc = Acc::new();
+        for nb in near {
+            let o = recv(c, nb.off);
+            if !beyond(nb, &o) {
+                pairs +=
+                    block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, cols, nb.col, nb.n, &o, &mut acc);
+            }
+        }
+        if let Some(ps) = ps {
+            let o = recv(c, [0.0; 3]);
             pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, ps, 0, ps.x.len(), &o, &mut acc);
         }
         acc.flush();
