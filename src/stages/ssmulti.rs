@@ -390,33 +390,116 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
     let mut nodes = Vec::new();
     let top = (idx_bits + 3 * axis_bits) as i32 - 1;
     split(&order, 0, n, top, idx_bits as i32, &mut ranges, &mut nodes);
-    // Each leaf's columns in parallel, then laid end to end.
-    let parts: Vec<(Leaf, Columns)> = ranges
-        .par_iter()
-        .map(|&(start, end)| leaf_columns(&order[start..end], idx_mask, inp, is_source, want_rmin))
-        .collect();
-    let mut leaves = Vec::with_capacity(parts.len());
-    let mut cols = Columns::with_capacity(parts.iter().map(|p| p.1.x.len()).sum());
-    for (mut leaf, part) in parts {
-        leaf.col = cols.x.len();
-        cols.append(part);
-        leaves.push(leaf);
+    // Every leaf's columns written in parallel, in place (fresh zeroed
+    // pages are first touched by the thread that fills them).
+    let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
+    let glens: Vec<usize> = lens.iter().map(|l| l / LANES).collect();
+    let total: usize = lens.iter().sum();
+    let mut cols = Columns::zeroed(total);
+    let mut leaves: Vec<Leaf> = {
+        let Columns {
+            x,
+            y,
+            z,
+            nx,
+            ny,
+            nz,
+            q: [q0, q1, q2],
+            a,
+            rmin,
+            id,
+            gx,
+            gy,
+            gz,
+            gr,
+        } = &mut cols;
+        let (mut px, mut py, mut pz) = (pieces(x, &lens), pieces(y, &lens), pieces(z, &lens));
+        let (mut pnx, mut pny, mut pnz) = (pieces(nx, &lens), pieces(ny, &lens), pieces(nz, &lens));
+        let (mut pq0, mut pq1, mut pq2) = (pieces(q0, &lens), pieces(q1, &lens), pieces(q2, &lens));
+        let (mut pa, mut prm, mut pid) = (pieces(a, &lens), pieces(rmin, &lens), pieces(id, &lens));
+        let (mut pgx, mut pgy) = (pieces(gx, &glens), pieces(gy, &glens));
+        let (mut pgz, mut pgr) = (pieces(gz, &glens), pieces(gr, &glens));
+        let mut shares = Vec::with_capacity(ranges.len());
+        for _ in 0..ranges.len() {
+            shares.push(ColsMut {
+                x: px.next().expect("one piece a leaf"),
+                y: py.next().expect("one piece a leaf"),
+                z: pz.next().expect("one piece a leaf"),
+                nx: pnx.next().expect("one piece a leaf"),
+                ny: pny.next().expect("one piece a leaf"),
+                nz: pnz.next().expect("one piece a leaf"),
+                q0: pq0.next().expect("one piece a leaf"),
+                q1: pq1.next().expect("one piece a leaf"),
+                q2: pq2.next().expect("one piece a leaf"),
+                a: pa.next().expect("one piece a leaf"),
+                rmin: prm.next().expect("one piece a leaf"),
+                id: pid.next().expect("one piece a leaf"),
+                gx: pgx.next().expect("one piece a leaf"),
+                gy: pgy.next().expect("one piece a leaf"),
+                gz: pgz.next().expect("one piece a leaf"),
+                gr: pgr.next().expect("one piece a leaf"),
+            });
+        }
+        shares
+            .into_par_iter()
+            .zip(ranges.par_iter())
+            .map(|(cm, &(start, end))| {
+                leaf_columns(cm, &order[start..end], idx_mask, inp, is_source, want_rmin)
+            })
+            .collect()
+    };
+    let mut col = 0;
+    for (leaf, len) in leaves.iter_mut().zip(&lens) {
+        leaf.col = col;
+        col += len;
     }
     aggregate(&mut nodes, &leaves, &cols);
     (leaves, cols, nodes)
 }
 
-/// One leaf's points (a run of the Morton order): sources first, f32
-/// columns relative to the leaf's origin, padded to whole groups, with the
-/// groups' bounding spheres.
+/// One leaf's share of the columns, written in place.
+struct ColsMut<'a> {
+    x: &'a mut [f32],
+    y: &'a mut [f32],
+    z: &'a mut [f32],
+    nx: &'a mut [f32],
+    ny: &'a mut [f32],
+    nz: &'a mut [f32],
+    q0: &'a mut [f32],
+    q1: &'a mut [f32],
+    q2: &'a mut [f32],
+    a: &'a mut [f32],
+    rmin: &'a mut [f32],
+    id: &'a mut [u32],
+    gx: &'a mut [f32],
+    gy: &'a mut [f32],
+    gz: &'a mut [f32],
+    gr: &'a mut [f32],
+}
+
+/// `v` cut into consecutive pieces of the given sizes.
+fn pieces<'a, T>(v: &'a mut [T], sizes: &[usize]) -> std::vec::IntoIter<&'a mut [T]> {
+    let mut out = Vec::with_capacity(sizes.len());
+    let mut rest = v;
+    for &n in sizes {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(n);
+        out.push(head);
+        rest = tail;
+    }
+    out.into_iter()
+}
+
+/// One leaf's points (a run of the Morton order) into its columns:
+/// sources first, f32 relative to the leaf's origin, padded to whole
+/// groups, with the groups' bounding spheres.
 fn leaf_columns(
+    cm: ColsMut,
     run: &[u64],
     idx_mask: u64,
     inp: &Inputs,
     is_source: &[bool],
     want_rmin: bool,
-) -> (Leaf, Columns) {
-    let mut cols = Columns::with_capacity(padded(run.len()));
+) -> Leaf {
     let mut ids: Vec<u32> = run.iter().map(|&k| (k & idx_mask) as u32).collect();
     // Sources first, each group in Morton order.
     ids.sort_by_key(|&i| !is_source[i as usize]);
@@ -429,87 +512,72 @@ fn leaf_columns(
         lhi = lhi.max(p);
     }
     let origin = (llo + lhi) * 0.5;
-    let col = 0;
-    for k in 0..padded(ids.len()) {
+    for k in 0..cm.x.len() {
         match ids.get(k) {
             Some(&i) => {
                 let i = i as usize;
                 let p = DVec3::from_array(inp.pos[i]) - origin;
-                cols.x.push(p.x as f32);
-                cols.y.push(p.y as f32);
-                cols.z.push(p.z as f32);
+                (cm.x[k], cm.y[k], cm.z[k]) = (p.x as f32, p.y as f32, p.z as f32);
                 let nn = inp.nrm[i];
-                cols.nx.push(nn[0]);
-                cols.ny.push(nn[1]);
-                cols.nz.push(nn[2]);
+                (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
                 let a = inp.area[i] as f64;
-                for c in 0..3 {
-                    cols.q[c].push((inp.illum[i][c] as f64 * a) as f32);
-                }
-                cols.a.push(inp.area[i]);
-                cols.rmin.push(if want_rmin {
+                let e = inp.illum[i];
+                cm.q0[k] = (e[0] as f64 * a) as f32;
+                cm.q1[k] = (e[1] as f64 * a) as f32;
+                cm.q2[k] = (e[2] as f64 * a) as f32;
+                cm.a[k] = inp.area[i];
+                cm.rmin[k] = if want_rmin {
                     burley::rmin(a) as f32
                 } else {
                     0.0
-                });
-                cols.id.push(i as u32);
+                };
+                cm.id[k] = i as u32;
             }
             None => {
-                cols.x.push(FAR);
-                cols.y.push(FAR);
-                cols.z.push(FAR);
-                cols.nx.push(0.0);
-                cols.ny.push(0.0);
-                cols.nz.push(0.0);
-                for c in 0..3 {
-                    cols.q[c].push(0.0);
-                }
-                cols.a.push(0.0);
-                cols.rmin.push(0.0);
-                cols.id.push(u32::MAX);
+                (cm.x[k], cm.y[k], cm.z[k]) = (FAR, FAR, FAR);
+                (cm.nx[k], cm.ny[k], cm.nz[k]) = (0.0, 0.0, 0.0);
+                (cm.q0[k], cm.q1[k], cm.q2[k]) = (0.0, 0.0, 0.0);
+                (cm.a[k], cm.rmin[k]) = (0.0, 0.0);
+                cm.id[k] = u32::MAX;
             }
         }
     }
     // Bounding spheres of the groups of LANES (sources and receivers
     // alike; padding lanes left out).
-    for g in (0..padded(ids.len())).step_by(LANES) {
+    for (gi, g) in (0..cm.x.len()).step_by(LANES).enumerate() {
         let m = (ids.len() - g).min(LANES);
         let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        for k in col + g..col + g + m {
-            for (a, v) in [cols.x[k], cols.y[k], cols.z[k]].into_iter().enumerate() {
+        for k in g..g + m {
+            for (a, v) in [cm.x[k], cm.y[k], cm.z[k]].into_iter().enumerate() {
                 glo[a] = glo[a].min(v);
                 ghi[a] = ghi[a].max(v);
             }
         }
         let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
         let mut r: f32 = 0.0;
-        for k in col + g..col + g + m {
-            let d = [cols.x[k] - c[0], cols.y[k] - c[1], cols.z[k] - c[2]];
+        for k in g..g + m {
+            let d = [cm.x[k] - c[0], cm.y[k] - c[1], cm.z[k] - c[2]];
             r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
         }
-        cols.gx.push(c[0]);
-        cols.gy.push(c[1]);
-        cols.gz.push(c[2]);
+        (cm.gx[gi], cm.gy[gi], cm.gz[gi]) = (c[0], c[1], c[2]);
         // Rounding of the receiver's offset and of this sum: a margin.
-        cols.gr
-            .push(r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs()));
+        cm.gr[gi] = r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
     }
-    let leaf = Leaf {
-        col,
+    Leaf {
+        col: 0,
         len: ids.len(),
         src,
         origin,
         lo: llo,
         hi: lhi,
-    };
-    (leaf, cols)
+    }
 }
 
 impl Columns {
-    /// Room for `n` lanes.
-    fn with_capacity(n: usize) -> Columns {
-        let f = || Vec::with_capacity(n);
-        let g = || Vec::with_capacity(n / LANES);
+    /// `n` zeroed lanes (and their groups).
+    fn zeroed(n: usize) -> Columns {
+        let f = || vec![0f32; n];
+        let g = || vec![0f32; n / LANES];
         Columns {
             x: f(),
             y: f(),
@@ -520,32 +588,12 @@ impl Columns {
             q: [f(), f(), f()],
             a: f(),
             rmin: f(),
-            id: Vec::with_capacity(n),
+            id: vec![0u32; n],
             gx: g(),
             gy: g(),
             gz: g(),
             gr: g(),
         }
-    }
-
-    /// Appends `o`'s columns after these.
-    fn append(&mut self, mut o: Columns) {
-        self.x.append(&mut o.x);
-        self.y.append(&mut o.y);
-        self.z.append(&mut o.z);
-        self.nx.append(&mut o.nx);
-        self.ny.append(&mut o.ny);
-        self.nz.append(&mut o.nz);
-        for c in 0..3 {
-            self.q[c].append(&mut o.q[c]);
-        }
-        self.a.append(&mut o.a);
-        self.rmin.append(&mut o.rmin);
-        self.id.append(&mut o.id);
-        self.gx.append(&mut o.gx);
-        self.gy.append(&mut o.gy);
-        self.gz.append(&mut o.gz);
-        self.gr.append(&mut o.gr);
     }
 }
 
