@@ -771,3 +771,29 @@ fn the_approximate_method_does_less_work_and_keeps_its_bits_on_any_thread_count(
     let r2 = two.install(|| run(&c, &p));
     assert_eq!(r1, r2);
 }
+
+#[test]
+fn one_and_two_point_clouds_are_summed_exactly() {
+    for n in [1usize, 2] {
+        let p: Vec<[f64; 3]> = (0..n).map(|k| [k as f64 * 0.1, 0.0, 0.0]).collect();
+        let c = cloud_of(
+            &p,
+            &vec![[0.0, 0.0, 1.0]; n],
+            &vec![0.5; n],
+            &vec![[1.0, 2.0, 4.0]; n],
+        );
+        let params = Params {
+            rd: [0.5; 3],
+            sd: 1.0,
+            bounce: 1.0,
+            ..Params::default()
+        };
+        let got = run(&c, &params);
+        let want = brute(&c, &params);
+        for (g, w) in got.iter().zip(&want) {
+            for ch in 0..3 {
+                assert!(rel_err(g[ch], w[ch]) < 1e-6, "{n}: {g:?} vs {w:?}");
+            }
+        }
+    }
+}
