@@ -596,6 +596,32 @@ fn ssmulti_in_a_pipe_same_bits_on_any_thread_count_and_bad_input() {
     assert_eq!(outs[0], outs[1]);
     let back = from_bytes(&outs[0]);
     assert!(back.points().has("ssM") && back.points().has("illum"));
+    // Without AVX2/FMA (the baseline loop): the same sums to rounding.
+    let plain = std::process::Command::new(bin("ssmulti"))
+        .args([
+            "--rd",
+            "0.9,0.5,0.3",
+            "--sd",
+            "0.4",
+            "--bounce",
+            "0.5",
+            "--rgb",
+        ])
+        .env("PCSSS_NO_AVX2", "1")
+        .stdin(std::fs::File::open(d.path().join("c.ply")).unwrap())
+        .output()
+        .unwrap();
+    assert!(plain.status.success());
+    let a = back.points().vec3_f64("ssM").unwrap();
+    let b = from_bytes(&plain.stdout).points().vec3_f64("ssM").unwrap();
+    for (x, y) in a.iter().zip(&b) {
+        for ch in 0..3 {
+            assert!(
+                (x[ch] - y[ch]).abs() <= 1e-6 * x[ch].abs().max(1e-3),
+                "{x:?} vs {y:?}"
+            );
+        }
+    }
     // An empty cloud writes an empty cloud.
     write("empty.ply", &cloud_of(&[], &[], &[], &[]));
     let out = run_in(Some(d.path()), "ssmulti", &["empty.ply", "--sd", "1"], b"");
