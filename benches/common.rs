@@ -97,3 +97,56 @@ impl Table {
         println!("saved {}", p.display());
     }
 }
+
+/// A UV sphere mesh: `rings` x `segs` quads as two triangles each, the
+/// vertex at polar angle `th` and azimuth `ph` at radius `radius(th, ph)`;
+/// positions in f64 or f32.
+pub fn uv_sphere(
+    rings: usize,
+    segs: usize,
+    f64_positions: bool,
+    radius: impl Fn(f64, f64) -> f64,
+) -> pcsss::Cloud {
+    use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
+    use std::f64::consts::PI;
+    let mut p: Vec<[f64; 3]> = Vec::new();
+    for i in 0..=rings {
+        let th = PI * i as f64 / rings as f64;
+        for j in 0..segs {
+            let ph = 2.0 * PI * j as f64 / segs as f64;
+            let r = radius(th, ph);
+            p.push([
+                r * th.sin() * ph.cos(),
+                r * th.sin() * ph.sin(),
+                r * th.cos(),
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
+    let mut items = Vec::new();
+    for i in 0..rings {
+        for j in 0..segs {
+            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let nf = items.len() / 3;
+    let mut c = Cloud::with_points(p.len());
+    if f64_positions {
+        c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    } else {
+        let p32: Vec<[f32; 3]> = p.iter().map(|v| v.map(|x| x as f32)).collect();
+        c.points_mut().set_vec3("P", Role::Point, &p32).unwrap();
+    }
+    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
+    l.offsets = (0..=nf).map(|f| 3 * f).collect();
+    l.items = Column::I32(items);
+    let mut e = Element::new("face", nf);
+    e.set(Attribute {
+        name: "vertex_indices".into(),
+        data: AttrData::List(l),
+    })
+    .unwrap();
+    c.elements.push(e);
+    c
+}

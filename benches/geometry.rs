@@ -5,51 +5,11 @@
 
 mod common;
 
-use std::f64::consts::PI;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 
 use common::*;
 use pcsss::formats::{self, Format};
-use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
-
-/// A UV sphere: rings x segs vertices, two triangles per quad.
-fn sphere(rings: usize, segs: usize) -> Cloud {
-    let mut p = Vec::new();
-    for i in 0..=rings {
-        let th = PI * i as f64 / rings as f64;
-        for j in 0..segs {
-            let ph = 2.0 * PI * j as f64 / segs as f64;
-            p.push([
-                (th.sin() * ph.cos()) as f32,
-                (th.sin() * ph.sin()) as f32,
-                th.cos() as f32,
-            ]);
-        }
-    }
-    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
-    let mut items = Vec::new();
-    for i in 0..rings {
-        for j in 0..segs {
-            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let nf = items.len() / 3;
-    let mut c = Cloud::with_points(p.len());
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
-    l.offsets = (0..=nf).map(|f| 3 * f).collect();
-    l.items = Column::I32(items);
-    let mut e = Element::new("face", nf);
-    e.set(Attribute {
-        name: "vertex_indices".into(),
-        data: AttrData::List(l),
-    })
-    .unwrap();
-    c.elements.push(e);
-    c
-}
 
 fn main() {
     let n: usize = std::env::var("BENCH_POINTS")
@@ -57,7 +17,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(1_000_000);
     let dir = bench_dir();
-    let mesh = sphere(500, 1000);
+    let mesh = uv_sphere(500, 1000, false, |_, _| 1.0);
     let tris = mesh.faces().unwrap().len();
     let path = dir.join("sphere_1m.ply");
     let mut w = BufWriter::new(File::create(&path).unwrap());

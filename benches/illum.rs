@@ -7,7 +7,6 @@
 
 mod common;
 
-use std::f64::consts::PI;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::time::Instant;
@@ -21,48 +20,8 @@ use pcsss::lights;
 use pcsss::mesh::TriMesh;
 use pcsss::stages::facet;
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
-use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
+use pcsss::Cloud;
 use rayon::prelude::*;
-
-/// A sphere with bumps `r = 1 + 0.15 sin(5 theta) cos(7 phi)`: valleys
-/// shadowed by ridges.
-fn bumpy(rings: usize, segs: usize) -> Cloud {
-    let mut p = Vec::new();
-    for i in 0..=rings {
-        let th = PI * i as f64 / rings as f64;
-        for j in 0..segs {
-            let ph = 2.0 * PI * j as f64 / segs as f64;
-            let r = 1.0 + 0.15 * (5.0 * th).sin() * (7.0 * ph).cos();
-            p.push([
-                (r * th.sin() * ph.cos()) as f32,
-                (r * th.sin() * ph.sin()) as f32,
-                (r * th.cos()) as f32,
-            ]);
-        }
-    }
-    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
-    let mut items = Vec::new();
-    for i in 0..rings {
-        for j in 0..segs {
-            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let nf = items.len() / 3;
-    let mut c = Cloud::with_points(p.len());
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
-    l.offsets = (0..=nf).map(|f| 3 * f).collect();
-    l.items = Column::I32(items);
-    let mut e = Element::new("face", nf);
-    e.set(Attribute {
-        name: "vertex_indices".into(),
-        data: AttrData::List(l),
-    })
-    .unwrap();
-    c.elements.push(e);
-    c
-}
 
 const LIGHTS: &str = r#"{"lights": [
   {"name": "key", "type": "distant", "direction": [-0.5, -1.0, -0.3], "intensity": 2},
@@ -83,7 +42,10 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(1_000_000);
     let dir = bench_dir();
-    let mesh = bumpy(158, 316);
+    // A sphere with bumps: valleys shadowed by ridges.
+    let mesh = uv_sphere(158, 316, false, |th, ph| {
+        1.0 + 0.15 * (5.0 * th).sin() * (7.0 * ph).cos()
+    });
     let m = TriMesh::from_cloud(&mesh).unwrap();
     let mut cloud = scatter::scatter(
         &mesh,

@@ -29,41 +29,7 @@ use glam::DVec3;
 use pcsss::progress::Progress;
 use pcsss::stages::scatter::{self, Amount, PtareaMode};
 use pcsss::stages::ssmulti::{self, Params};
-use pcsss::{AttrData, Attribute, Cloud, Column, Element, ListColumn, Role, ScalarType};
-
-/// A UV sphere mesh with f64 positions.
-fn sphere_mesh(rings: usize, segs: usize) -> Cloud {
-    let mut p = Vec::new();
-    for i in 0..=rings {
-        let th = PI * i as f64 / rings as f64;
-        for j in 0..segs {
-            let ph = 2.0 * PI * j as f64 / segs as f64;
-            p.push([th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()]);
-        }
-    }
-    let id = |i: usize, j: usize| (i * segs + j % segs) as i32;
-    let mut items = Vec::new();
-    for i in 0..rings {
-        for j in 0..segs {
-            items.extend([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            items.extend([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let nf = items.len() / 3;
-    let mut c = Cloud::with_points(p.len());
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    let mut l = ListColumn::new(ScalarType::U8, ScalarType::I32);
-    l.offsets = (0..=nf).map(|f| 3 * f).collect();
-    l.items = Column::I32(items);
-    let mut e = Element::new("face", nf);
-    e.set(Attribute {
-        name: "vertex_indices".into(),
-        data: AttrData::List(l),
-    })
-    .unwrap();
-    c.elements.push(e);
-    c
-}
+use pcsss::{Cloud, Role};
 
 /// `n` points on the unit sphere: radial normals, `illum = max(0, z)`,
 /// `ptarea` summing to 4 pi.
@@ -265,7 +231,7 @@ fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 fn main() {
     let quick = std::env::var_os("BENCH_QUICK").is_some();
     let dir = bench_dir();
-    let mesh = sphere_mesh(500, 1000);
+    let mesh = uv_sphere(500, 1000, true, |_, _| 1.0);
     let mut csv = String::from("points,neighbours,method,tolerance,seconds,error\n");
     let mut tab = Table::new(
         &format!(
