@@ -42,7 +42,9 @@ fn default_delta() -> f64 {
     5.0
 }
 
-/// A light as the file writes it.
+/// A light as the file writes it. Every variant repeats `name`, `color`
+/// and `intensity`: serde cannot `flatten` a shared struct into an
+/// internally tagged enum and still refuse unknown keys.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 enum Spec {
