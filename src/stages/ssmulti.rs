@@ -1472,36 +1472,49 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
 /// A receiver leaf's results: (point, ssM) and the pairs it evaluated.
 type LeafSums = (Vec<(u32, [f32; 3])>, u64);
 
-/// Normalises the sums into `ssM`.
-fn finish(p: &Params, ld: [f64; 3], ld1: f64, s: &[f64; 6]) -> [f32; 3] {
-    let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
-    let i1 = disk_integral(p.falloff, ld1);
-    let mut o = [0f32; 3];
-    {
-        for c in 0..3 {
-            let v = match (p.norm, p.rgb) {
-                (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] * s[c] / i1,
-                (Norm::Seed, true) => s[c] / i1,
-                (Norm::Channel, true) => {
-                    if ld[c] > 0.0 {
-                        p.rd[c] * s[c] / disk_integral(p.falloff, ld[c])
-                    } else {
-                        0.0
-                    }
-                }
-                (Norm::Local, _) => {
-                    let a = if single { s[3] } else { s[3 + c] };
-                    if a > 0.0 {
-                        p.rd[c] * s[c] / a
-                    } else {
-                        0.0
-                    }
-                }
-            };
-            o[c] = v as f32;
+/// Turns a receiver's sums into `ssM`: the normalisation, worked out once
+/// per run.
+struct Normaliser {
+    /// Per channel, what the sum is multiplied by (not `Local`).
+    factor: [f64; 3],
+    rd: [f64; 3],
+    local: bool,
+    /// `Local` with one kernel: the area sum is `s[3]` for every channel.
+    single: bool,
+}
+
+impl Normaliser {
+    fn new(p: &Params, ld: [f64; 3], ld1: f64) -> Normaliser {
+        let i1 = disk_integral(p.falloff, ld1);
+        let factor = [0, 1, 2].map(|c| match (p.norm, p.rgb) {
+            (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] / i1,
+            (Norm::Seed, true) => 1.0 / i1,
+            (Norm::Channel, true) if ld[c] > 0.0 => p.rd[c] / disk_integral(p.falloff, ld[c]),
+            _ => 0.0,
+        });
+        Normaliser {
+            factor,
+            rd: p.rd,
+            local: p.norm == Norm::Local,
+            single: !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]),
         }
     }
-    o
+
+    fn apply(&self, s: &[f64; 6]) -> [f32; 3] {
+        [0, 1, 2].map(|c| {
+            let v = if self.local {
+                let a = if self.single { s[3] } else { s[3 + c] };
+                if a > 0.0 {
+                    self.rd[c] * s[c] / a
+                } else {
+                    0.0
+                }
+            } else {
+                s[c] * self.factor[c]
+            };
+            v as f32
+        })
+    }
 }
 
 /// The exact method (`tolerance == 0`) or the approximate one.
@@ -1532,6 +1545,7 @@ fn sum_all(
         local,
     };
     let avx2 = has_avx2();
+    let norm = Normaliser::new(p, ld, ld1);
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     progress.start("summing", n as u64);
     let per_leaf: Vec<LeafSums> = leaves
@@ -1576,7 +1590,7 @@ fn sum_all(
             // Normalised here: a leaf's results are 16 bytes a point.
             let res: Vec<(u32, [f32; 3])> = res
                 .into_iter()
-                .map(|(i, acc)| (i, finish(p, ld, ld1, &acc)))
+                .map(|(i, acc)| (i, norm.apply(&acc)))
                 .collect();
             (res, pairs)
         })
