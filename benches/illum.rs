@@ -30,6 +30,20 @@ const LIGHTS: &str = r#"{"lights": [
    "cone_angle": 45, "cone_delta": 10, "intensity": 12}
 ]}"#;
 
+/// Best of 3 seconds to trace every ray on `threads` threads, and how
+/// many were blocked.
+fn trace(rays: &[Ray], threads: usize, hit: impl Fn(&Ray) -> bool + Sync) -> (f64, usize) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut blocked = 0;
+    let secs = best(3, || {
+        blocked = pool.install(|| rays.par_iter().filter(|r| hit(r)).count());
+    });
+    (secs, blocked)
+}
+
 fn write(path: &std::path::Path, c: &Cloud) {
     let mut w = BufWriter::new(File::create(path).unwrap());
     formats::write_cloud(&mut w, c, Format::DEFAULT).unwrap();
@@ -98,19 +112,8 @@ fn main() {
                 .collect::<Vec<_>>()
         })
         .collect();
-    let trace = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        let mut blocked = 0;
-        let secs = best(3, || {
-            blocked = pool.install(|| rays.par_iter().filter(|r| occ.occluded_ray(r)).count());
-        });
-        (secs, blocked)
-    };
-    let (t1, blocked) = trace(1);
-    let (t2, _) = trace(2);
+    let (t1, blocked) = trace(&rays, 1, |r| occ.occluded_ray(r));
+    let (t2, _) = trace(&rays, 2, |r| occ.occluded_ray(r));
     // obvhs's own CWBVH traversal on the same triangles and rays (the
     // first choice, kept to show why it was replaced).
     let t = Instant::now();
@@ -125,27 +128,13 @@ fn main() {
         .iter()
         .map(|&i| occ.triangles()[i as usize])
         .collect();
-    let cw_trace = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        let mut blocked = 0;
-        let secs = best(3, || {
-            blocked = pool.install(|| {
-                rays.par_iter()
-                    .filter(|r| {
-                        // obvhs needs +0.0 for a zero direction component.
-                        let r = Ray::new(r.origin, r.direction + glam::Vec3A::ZERO, r.tmin, r.tmax);
-                        !cw.ray_traverse_miss(r, |r, i| cw_tris[i].intersect(r))
-                    })
-                    .count()
-            });
-        });
-        (secs, blocked)
+    // obvhs needs +0.0 for a zero direction component.
+    let cw_hit = |r: &Ray| {
+        let r = Ray::new(r.origin, r.direction + glam::Vec3A::ZERO, r.tmin, r.tmax);
+        !cw.ray_traverse_miss(r, |r, i| cw_tris[i].intersect(r))
     };
-    let (c1, cw_blocked) = cw_trace(1);
-    let (c2, _) = cw_trace(2);
+    let (c1, cw_blocked) = trace(&rays, 1, cw_hit);
+    let (c2, _) = trace(&rays, 2, cw_hit);
 
     // The same rays and triangles for Embree.
     let tris_bin = dir.join("illum_tris.f32");
