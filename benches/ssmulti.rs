@@ -15,7 +15,9 @@
 //!    lit pole is (0.989286, 0.494643, 0.247321)) for random and
 //!    blue-noise scatter at equal point counts.
 //!
-//! `BENCH_QUICK=1` runs only the 100k and 1M clouds.
+//! `BENCH_QUICK=1` runs only the 100k and 1M clouds. `BENCH_CASE=1000000,200`
+//! times only the exact method on that case (points, neighbours), five
+//! runs, for profiling.
 
 mod common;
 
@@ -232,6 +234,25 @@ fn main() {
     let quick = std::env::var_os("BENCH_QUICK").is_some();
     let dir = bench_dir();
     let mesh = uv_sphere(500, 1000, true, |_, _| 1.0);
+    if let Ok(case) = std::env::var("BENCH_CASE") {
+        let v: Vec<usize> = case.split(',').map(|x| x.parse().unwrap()).collect();
+        let (n, nb) = (v[0], v[1]);
+        let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
+        let p = Params {
+            sd: 2.0 * (nb as f64 / n as f64).sqrt(),
+            ..Params::default()
+        };
+        for _ in 0..5 {
+            let (_, secs, rep) = run(&cloud, &p);
+            let useful = rep.sources as f64 * nb as f64;
+            println!(
+                "{n} x {nb}: {secs:.3} s, {:.0} M pairs/s, evaluated {:.2}x the pairs in reach",
+                useful / secs / 1e6,
+                rep.pairs as f64 / useful
+            );
+        }
+        return;
+    }
     let mut csv = String::from("points,neighbours,method,tolerance,seconds,error\n");
     let mut tab = Table::new(
         &format!(

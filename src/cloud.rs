@@ -342,6 +342,14 @@ impl Element {
             .collect())
     }
 
+    /// The column of a scalar attribute.
+    pub fn scalar_column(&self, name: &str) -> Result<&Values> {
+        match &self.require(name)?.data {
+            AttrData::Scalar(v) => Ok(v),
+            _ => Err(self.wrong_kind(name, "a scalar")),
+        }
+    }
+
     /// The three component columns of a 3-vector attribute.
     pub fn vec3_columns(&self, name: &str) -> Result<&[Values; 3]> {
         match &self.require(name)?.data {

@@ -59,6 +59,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::cloud::{Cloud, DetailValue, Role};
+use crate::column::Column;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 
@@ -346,24 +347,37 @@ fn spread(v: u64) -> u64 {
     x
 }
 
+/// A point as the pair loop's columns are built from it.
+#[derive(Clone, Copy, Default)]
+struct Pt {
+    pos: [f64; 3],
+    nrm: [f32; 3],
+    area: f32,
+    illum: [f32; 3],
+}
+
 struct Inputs {
-    pos: Vec<[f64; 3]>,
-    nrm: Vec<[f32; 3]>,
-    area: Vec<f32>,
-    illum: Vec<[f32; 3]>,
+    pts: Vec<Pt>,
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
 /// most `LEAF` points that share a prefix (equal codes are cut in runs).
 fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Columns, Vec<TNode>) {
-    let n = inp.pos.len();
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in &inp.pos {
-        let p = DVec3::from_array(*p);
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
+    let n = inp.pts.len();
+    let (lo, hi) = inp
+        .pts
+        .par_iter()
+        .fold(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| {
+                let p = DVec3::from_array(p.pos);
+                (lo.min(p), hi.max(p))
+            },
+        )
+        .reduce(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     let extent = (hi - lo).max_element().max(f64::MIN_POSITIVE);
     // One u64 a point: the Morton code above, the point's index below (so
     // every key is distinct and the order is the same on any thread
@@ -373,11 +387,11 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
     let axis_bits = ((64 - idx_bits) / 3).min(21);
     let scale = ((1u64 << axis_bits) - 1) as f64 / extent;
     let mut order: Vec<u64> = inp
-        .pos
+        .pts
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            let q = (DVec3::from_array(*p) - lo) * scale;
+            let q = (DVec3::from_array(p.pos) - lo) * scale;
             let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
             code << idx_bits | i as u64
         })
@@ -507,7 +521,7 @@ fn leaf_columns(
     let mut llo = DVec3::splat(f64::INFINITY);
     let mut lhi = DVec3::splat(f64::NEG_INFINITY);
     for &i in &ids {
-        let p = DVec3::from_array(inp.pos[i as usize]);
+        let p = DVec3::from_array(inp.pts[i as usize].pos);
         llo = llo.min(p);
         lhi = lhi.max(p);
     }
@@ -515,23 +529,23 @@ fn leaf_columns(
     for k in 0..cm.x.len() {
         match ids.get(k) {
             Some(&i) => {
-                let i = i as usize;
-                let p = DVec3::from_array(inp.pos[i]) - origin;
+                let pt = &inp.pts[i as usize];
+                let p = DVec3::from_array(pt.pos) - origin;
                 (cm.x[k], cm.y[k], cm.z[k]) = (p.x as f32, p.y as f32, p.z as f32);
-                let nn = inp.nrm[i];
+                let nn = pt.nrm;
                 (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
-                let a = inp.area[i] as f64;
-                let e = inp.illum[i];
+                let a = pt.area as f64;
+                let e = pt.illum;
                 cm.q0[k] = (e[0] as f64 * a) as f32;
                 cm.q1[k] = (e[1] as f64 * a) as f32;
                 cm.q2[k] = (e[2] as f64 * a) as f32;
-                cm.a[k] = inp.area[i];
+                cm.a[k] = pt.area;
                 cm.rmin[k] = if want_rmin {
                     burley::rmin(a) as f32
                 } else {
                     0.0
                 };
-                cm.id[k] = i as u32;
+                cm.id[k] = i;
             }
             None => {
                 (cm.x[k], cm.y[k], cm.z[k]) = (FAR, FAR, FAR);
@@ -878,278 +892,128 @@ impl Acc {
     }
 }
 
-/// Sums source columns `col..col + n` (padded, a multiple of `LANES`)
-/// into `acc` (`s[0..3]` the channels, `s[3..6]` the local areas). Groups
-/// of eight whose bounding sphere lies beyond reach are skipped. `K` is
-/// the kernel at `ld1` (`SINGLE`) or per channel. Returns the pairs
-/// evaluated.
+/// Sums, for two receivers at once, the source groups `groups` yields:
+/// (first column of the group, offset from the receivers' frame to the
+/// group's). Each group's columns are loaded once for both receivers (the
+/// pair loop is load-bound at small neighbourhoods); a group whose
+/// bounding sphere lies beyond reach of both is skipped, and a receiver
+/// beyond reach of a source gets a zero term from it. `s[0..3]` of the
+/// sums are the channels, `s[3..6]` the local areas. `K` is the kernel at
+/// `ld1` (`SINGLE`) or per channel. Returns the pairs evaluated.
 #[inline(always)]
-fn block_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
-    s: &Setup,
-    ks: &[K; 3],
-    cols: &Columns,
-    col: usize,
-    n: usize,
-    o: &Receiver,
-    acc: &mut Acc,
-) -> u64 {
-    let r2max = s.ld1 * s.ld1;
-    let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
-    let mut visited = 0u64;
-    // Local lanes (registers); spilled into `acc` at the end, and every
-    // FLUSH groups in a long block.
-    let mut s0: Lanes = [0.0; LANES];
-    let mut s1: Lanes = [0.0; LANES];
-    let mut s2: Lanes = [0.0; LANES];
-    let mut a0: Lanes = [0.0; LANES];
-    let mut a1: Lanes = [0.0; LANES];
-    let mut a2: Lanes = [0.0; LANES];
-    let mut count = 0u32;
-    for g in (col..col + n).step_by(LANES) {
-        let gi = g / LANES;
-        let (cx, cy, cz, cr) = (
-            cols.gx[gi] - o.x,
-            cols.gy[gi] - o.y,
-            cols.gz[gi] - o.z,
-            cols.gr[gi],
-        );
-        let reach = s.ld1 + cr;
-        if cx * cx + cy * cy + cz * cz > reach * reach {
-            continue;
-        }
-        visited += LANES as u64;
-        let x: &Lanes = cols.x[g..g + LANES].try_into().expect("a group");
-        let y: &Lanes = cols.y[g..g + LANES].try_into().expect("a group");
-        let z: &Lanes = cols.z[g..g + LANES].try_into().expect("a group");
-        let q0: &Lanes = cols.q[0][g..g + LANES].try_into().expect("a group");
-        let q1: &Lanes = cols.q[1][g..g + LANES].try_into().expect("a group");
-        let q2: &Lanes = cols.q[2][g..g + LANES].try_into().expect("a group");
-        let ar: &Lanes = cols.a[g..g + LANES].try_into().expect("a group");
-        let rm: &Lanes = cols.rmin[g..g + LANES].try_into().expect("a group");
-        let nx: &Lanes = cols.nx[g..g + LANES].try_into().expect("a group");
-        let ny: &Lanes = cols.ny[g..g + LANES].try_into().expect("a group");
-        let nz: &Lanes = cols.nz[g..g + LANES].try_into().expect("a group");
-        for k in 0..LANES {
-            let dx = o.x - x[k];
-            let dy = o.y - y[k];
-            let dz = o.z - z[k];
-            let r2 = dx * dx + dy * dy + dz * dz;
-            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
-            let r = r2.min(r2max).sqrt();
-            let kb = if BOUNCE {
-                let nn = o.nx * nx[k] + o.ny * ny[k] + o.nz * nz[k];
-                let nl = (o.nx * dx + o.ny * dy + o.nz * dz) * s.inv_ld1;
-                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
-                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
-            } else {
-                m
-            };
-            if SINGLE {
-                let w = ks[0].w(r, rm[k]);
-                let kw = kb * w;
-                s0[k] += q0[k] * kw;
-                s1[k] += q1[k] * kw;
-                s2[k] += q2[k] * kw;
-                if LOCAL {
-                    a0[k] += ar[k] * m * w;
-                }
-            } else {
-                // Per channel: inside its own distance (0 costs nothing:
-                // its kernel is never used, its mask is 0).
-                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
-                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
-                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
-                let w0 = if s.ld[0] > 0.0 {
-                    ks[0].w(r, rm[k]) * m0
-                } else {
-                    0.0
-                };
-                let w1 = if s.ld[1] > 0.0 {
-                    ks[1].w(r, rm[k]) * m1
-                } else {
-                    0.0
-                };
-                let w2 = if s.ld[2] > 0.0 {
-                    ks[2].w(r, rm[k]) * m2
-                } else {
-                    0.0
-                };
-                s0[k] += q0[k] * kb * w0;
-                s1[k] += q1[k] * kb * w1;
-                s2[k] += q2[k] * kb * w2;
-                if LOCAL {
-                    a0[k] += ar[k] * w0;
-                    a1[k] += ar[k] * w1;
-                    a2[k] += ar[k] * w2;
-                }
-            }
-        }
-        count += 1;
-        if count >= FLUSH {
-            acc.spill([&s0, &s1, &s2, &a0, &a1, &a2], count);
-            for l in [&mut s0, &mut s1, &mut s2, &mut a0, &mut a1, &mut a2] {
-                *l = [0.0; LANES];
-            }
-            count = 0;
-        }
-    }
-    acc.spill([&s0, &s1, &s2, &a0, &a1, &a2], count);
-    visited
-}
-
-/// `block_g` for two receivers at once: each group's columns are loaded
-/// once for both (the pair loop is load-bound at small neighbourhoods).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     s: &Setup,
     ks: &[K; 3],
     cols: &Columns,
-    col: usize,
-    n: usize,
-    oa: &Receiver,
-    ob: &Receiver,
+    groups: impl Iterator<Item = (usize, [f32; 3])>,
+    [ra, rb]: [&Receiver; 2],
     acc: &mut [Acc; 2],
 ) -> u64 {
     let r2max = s.ld1 * s.ld1;
     let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
     let mut visited = 0u64;
     let z8: Lanes = [0.0; LANES];
+    // Local lanes (registers), spilled into `acc` every FLUSH groups and
+    // at the end.
     let (mut s0a, mut s1a, mut s2a, mut a0a, mut a1a, mut a2a) = (z8, z8, z8, z8, z8, z8);
     let (mut s0b, mut s1b, mut s2b, mut a0b, mut a1b, mut a2b) = (z8, z8, z8, z8, z8, z8);
     let mut count = 0u32;
-    for g in (col..col + n).step_by(LANES) {
+    let len = cols.x.len();
+    let (cx, cy, cz) = (&cols.x[..len], &cols.y[..len], &cols.z[..len]);
+    let (cq0, cq1, cq2) = (&cols.q[0][..len], &cols.q[1][..len], &cols.q[2][..len]);
+    let (ca, crm) = (&cols.a[..len], &cols.rmin[..len]);
+    let (cnx, cny, cnz) = (&cols.nx[..len], &cols.ny[..len], &cols.nz[..len]);
+    let shift = |r: &Receiver, off: [f32; 3]| Receiver {
+        x: r.x + off[0],
+        y: r.y + off[1],
+        z: r.z + off[2],
+        ..*r
+    };
+    for (g, off) in groups {
         let gi = g / LANES;
         let reach = s.ld1 + cols.gr[gi];
+        let (oa, ob) = (shift(ra, off), shift(rb, off));
         let near = |o: &Receiver| {
             let (cx, cy, cz) = (cols.gx[gi] - o.x, cols.gy[gi] - o.y, cols.gz[gi] - o.z);
             cx * cx + cy * cy + cz * cz <= reach * reach
         };
-        if !near(oa) && !near(ob) {
+        if !near(&oa) && !near(&ob) {
             continue;
         }
         visited += 2 * LANES as u64;
-        let x: &Lanes = cols.x[g..g + LANES].try_into().expect("a group");
-        let y: &Lanes = cols.y[g..g + LANES].try_into().expect("a group");
-        let z: &Lanes = cols.z[g..g + LANES].try_into().expect("a group");
-        let q0: &Lanes = cols.q[0][g..g + LANES].try_into().expect("a group");
-        let q1: &Lanes = cols.q[1][g..g + LANES].try_into().expect("a group");
-        let q2: &Lanes = cols.q[2][g..g + LANES].try_into().expect("a group");
-        let ar: &Lanes = cols.a[g..g + LANES].try_into().expect("a group");
-        let rm: &Lanes = cols.rmin[g..g + LANES].try_into().expect("a group");
-        let nx: &Lanes = cols.nx[g..g + LANES].try_into().expect("a group");
-        let ny: &Lanes = cols.ny[g..g + LANES].try_into().expect("a group");
-        let nz: &Lanes = cols.nz[g..g + LANES].try_into().expect("a group");
-        for k in 0..LANES {
-            let dx = oa.x - x[k];
-            let dy = oa.y - y[k];
-            let dz = oa.z - z[k];
-            let r2 = dx * dx + dy * dy + dz * dz;
-            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
-            let r = r2.min(r2max).sqrt();
-            let kb = if BOUNCE {
-                let nn = oa.nx * nx[k] + oa.ny * ny[k] + oa.nz * nz[k];
-                let nl = (oa.nx * dx + oa.ny * dy + oa.nz * dz) * s.inv_ld1;
-                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
-                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
-            } else {
-                m
+        // One bounds check for the group: every column has length `len`.
+        assert!(g + LANES <= len);
+        let lanes = |v: &[f32]| -> Lanes { v[g..g + LANES].try_into().expect("a group") };
+        let (x, y, z) = (lanes(cx), lanes(cy), lanes(cz));
+        let (q0, q1, q2, ar, rm) = (lanes(cq0), lanes(cq1), lanes(cq2), lanes(ca), lanes(crm));
+        let (nx, ny, nz) = (lanes(cnx), lanes(cny), lanes(cnz));
+        // The eight lanes for one receiver: a macro, not a function, so
+        // that the lanes vectorise together (a per-lane function or sums
+        // through `&mut` measured 2-4x slower).
+        macro_rules! lanes {
+            ($o:expr, $s0:ident, $s1:ident, $s2:ident, $a0:ident, $a1:ident, $a2:ident) => {
+                for k in 0..LANES {
+                    let o = $o;
+                    let dx = o.x - x[k];
+                    let dy = o.y - y[k];
+                    let dz = o.z - z[k];
+                    let r2 = dx * dx + dy * dy + dz * dz;
+                    let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
+                    // (A plain select: `f32::min`'s NaN rule costs two
+                    // more instructions; r2 is never NaN here.)
+                    let r = if r2 < r2max { r2 } else { r2max }.sqrt();
+                    let kb = if BOUNCE {
+                        let nn = o.nx * nx[k] + o.ny * ny[k] + o.nz * nz[k];
+                        let nl = (o.nx * dx + o.ny * dy + o.nz * dz) * s.inv_ld1;
+                        let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
+                        (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
+                    } else {
+                        m
+                    };
+                    if SINGLE {
+                        let w = ks[0].w(r, rm[k]);
+                        let kw = kb * w;
+                        $s0[k] += q0[k] * kw;
+                        $s1[k] += q1[k] * kw;
+                        $s2[k] += q2[k] * kw;
+                        if LOCAL {
+                            $a0[k] += ar[k] * m * w;
+                        }
+                    } else {
+                        // Per channel: inside its own distance (0 costs
+                        // nothing: its kernel is never used, its mask is 0).
+                        let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
+                        let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
+                        let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
+                        let w0 = if s.ld[0] > 0.0 {
+                            ks[0].w(r, rm[k]) * m0
+                        } else {
+                            0.0
+                        };
+                        let w1 = if s.ld[1] > 0.0 {
+                            ks[1].w(r, rm[k]) * m1
+                        } else {
+                            0.0
+                        };
+                        let w2 = if s.ld[2] > 0.0 {
+                            ks[2].w(r, rm[k]) * m2
+                        } else {
+                            0.0
+                        };
+                        $s0[k] += q0[k] * kb * w0;
+                        $s1[k] += q1[k] * kb * w1;
+                        $s2[k] += q2[k] * kb * w2;
+                        if LOCAL {
+                            $a0[k] += ar[k] * w0;
+                            $a1[k] += ar[k] * w1;
+                            $a2[k] += ar[k] * w2;
+                        }
+                    }
+                }
             };
-            if SINGLE {
-                let w = ks[0].w(r, rm[k]);
-                let kw = kb * w;
-                s0a[k] += q0[k] * kw;
-                s1a[k] += q1[k] * kw;
-                s2a[k] += q2[k] * kw;
-                if LOCAL {
-                    a0a[k] += ar[k] * m * w;
-                }
-            } else {
-                // Per channel: inside its own distance (0 costs nothing:
-                // its kernel is never used, its mask is 0).
-                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
-                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
-                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
-                let w0 = if s.ld[0] > 0.0 {
-                    ks[0].w(r, rm[k]) * m0
-                } else {
-                    0.0
-                };
-                let w1 = if s.ld[1] > 0.0 {
-                    ks[1].w(r, rm[k]) * m1
-                } else {
-                    0.0
-                };
-                let w2 = if s.ld[2] > 0.0 {
-                    ks[2].w(r, rm[k]) * m2
-                } else {
-                    0.0
-                };
-                s0a[k] += q0[k] * kb * w0;
-                s1a[k] += q1[k] * kb * w1;
-                s2a[k] += q2[k] * kb * w2;
-                if LOCAL {
-                    a0a[k] += ar[k] * w0;
-                    a1a[k] += ar[k] * w1;
-                    a2a[k] += ar[k] * w2;
-                }
-            }
         }
-        for k in 0..LANES {
-            let dx = ob.x - x[k];
-            let dy = ob.y - y[k];
-            let dz = ob.z - z[k];
-            let r2 = dx * dx + dy * dy + dz * dz;
-            let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
-            let r = r2.min(r2max).sqrt();
-            let kb = if BOUNCE {
-                let nn = ob.nx * nx[k] + ob.ny * ny[k] + ob.nz * nz[k];
-                let nl = (ob.nx * dx + ob.ny * dy + ob.nz * dz) * s.inv_ld1;
-                let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
-                (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
-            } else {
-                m
-            };
-            if SINGLE {
-                let w = ks[0].w(r, rm[k]);
-                let kw = kb * w;
-                s0b[k] += q0[k] * kw;
-                s1b[k] += q1[k] * kw;
-                s2b[k] += q2[k] * kw;
-                if LOCAL {
-                    a0b[k] += ar[k] * m * w;
-                }
-            } else {
-                // Per channel: inside its own distance (0 costs nothing:
-                // its kernel is never used, its mask is 0).
-                let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
-                let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
-                let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
-                let w0 = if s.ld[0] > 0.0 {
-                    ks[0].w(r, rm[k]) * m0
-                } else {
-                    0.0
-                };
-                let w1 = if s.ld[1] > 0.0 {
-                    ks[1].w(r, rm[k]) * m1
-                } else {
-                    0.0
-                };
-                let w2 = if s.ld[2] > 0.0 {
-                    ks[2].w(r, rm[k]) * m2
-                } else {
-                    0.0
-                };
-                s0b[k] += q0[k] * kb * w0;
-                s1b[k] += q1[k] * kb * w1;
-                s2b[k] += q2[k] * kb * w2;
-                if LOCAL {
-                    a0b[k] += ar[k] * w0;
-                    a1b[k] += ar[k] * w1;
-                    a2b[k] += ar[k] * w2;
-                }
-            }
-        }
+        lanes!(&oa, s0a, s1a, s2a, a0a, a1a, a2a);
+        lanes!(&ob, s0b, s1b, s2b, a0b, a1b, a2b);
         count += 1;
         if count >= FLUSH {
             acc[0].spill([&s0a, &s1a, &s2a, &a0a, &a1a, &a2a], count);
@@ -1165,8 +1029,11 @@ fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
 }
 
 /// Sums every receiver of leaf `rl`: the source leaves `near` (each in its
-/// own frame, culled per receiver by its box) and the pseudo-sources `ps`
-/// (in `rl`'s frame). Pushes (point, sums) to `res`; returns the pairs.
+/// own frame) and the pseudo-sources `ps` (in `rl`'s frame). Each group of
+/// eight receivers first gathers the source groups within reach of its
+/// bounding sphere (its interaction list); its receivers then run through
+/// that list two at a time. Pushes (point, sums) to `res`; returns the
+/// pairs evaluated.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
@@ -1178,89 +1045,70 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     ps: Option<&Columns>,
     res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
-    let r2max = s.ld1 * (1.0 + 1e-6);
-    let r2max = r2max * r2max;
     let mut pairs = 0u64;
+    let mut list: Vec<(usize, [f32; 3])> = Vec::new();
     let end = rl.col + rl.len;
-    let recv = |c: usize, off: [f32; 3]| Receiver {
-        x: cols.x[c] + off[0],
-        y: cols.y[c] + off[1],
-        z: cols.z[c] + off[2],
+    let recv = |c: usize| Receiver {
+        x: cols.x[c],
+        y: cols.y[c],
+        z: cols.z[c],
         nx: cols.nx[c],
         ny: cols.ny[c],
         nz: cols.nz[c],
     };
-    // Is leaf `nb` beyond reach of receiver `o` (in `nb`'s frame)?
-    let beyond = |nb: &Near, o: &Receiver| {
-        let gx = (nb.lo[0] - o.x).max(o.x - nb.hi[0]).max(0.0);
-        let gy = (nb.lo[1] - o.y).max(o.y - nb.hi[1]).max(0.0);
-        let gz = (nb.lo[2] - o.z).max(o.z - nb.hi[2]).max(0.0);
-        gx * gx + gy * gy + gz * gz > r2max
-    };
-    let mut c = rl.col;
-    // Two receivers at a time; the receiver pairs are fixed by the leaf's
-    // order, so the sums do not depend on the thread count.
-    while c + 1 < end {
-        let mut acc = [Acc::new(), Acc::new()];
+    for gs in (rl.col..end).step_by(LANES) {
+        let gi = gs / LANES;
+        let (cx, cy, cz, cr) = (cols.gx[gi], cols.gy[gi], cols.gz[gi], cols.gr[gi]);
+        let reach = s.ld1 * (1.0 + 1e-6) + cr;
+        list.clear();
         for nb in near {
-            let (oa, ob) = (recv(c, nb.off), recv(c + 1, nb.off));
-            match (beyond(nb, &oa), beyond(nb, &ob)) {
-                (true, true) => {}
-                (false, true) => {
-                    pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(
-                        s,
-                        ks,
-                        cols,
-                        nb.col,
-                        nb.n,
-                        &oa,
-                        &mut acc[0],
-                    );
-                }
-                (true, false) => {
-                    pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(
-                        s,
-                        ks,
-                        cols,
-                        nb.col,
-                        nb.n,
-                        &ob,
-                        &mut acc[1],
-                    );
-                }
-                (false, false) => {
-                    pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
-                        s, ks, cols, nb.col, nb.n, &oa, &ob, &mut acc,
-                    );
+            // The receiver group's centre in `nb`'s frame.
+            let (ox, oy, oz) = (cx + nb.off[0], cy + nb.off[1], cz + nb.off[2]);
+            let gx = (nb.lo[0] - ox).max(ox - nb.hi[0]).max(0.0);
+            let gy = (nb.lo[1] - oy).max(oy - nb.hi[1]).max(0.0);
+            let gz = (nb.lo[2] - oz).max(oz - nb.hi[2]).max(0.0);
+            if gx * gx + gy * gy + gz * gz > reach * reach {
+                continue;
+            }
+            for g in (nb.col..nb.col + nb.n).step_by(LANES) {
+                let sg = g / LANES;
+                let (dx, dy, dz) = (cols.gx[sg] - ox, cols.gy[sg] - oy, cols.gz[sg] - oz);
+                let rr = reach + cols.gr[sg];
+                if dx * dx + dy * dy + dz * dz <= rr * rr {
+                    list.push((g, nb.off));
                 }
             }
         }
-        if let Some(ps) = ps {
-            let (oa, ob) = (recv(c, [0.0; 3]), recv(c + 1, [0.0; 3]));
-            pairs +=
-                block2_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, ps, 0, ps.x.len(), &oa, &ob, &mut acc);
-        }
-        for (k, a) in acc.iter_mut().enumerate() {
-            a.flush();
-            res.push((cols.id[c + k], a.total));
-        }
-        c += 2;
-    }
-    if c < end {
-        let mut acc = Acc::new();
-        for nb in near {
-            let o = recv(c, nb.off);
-            if !beyond(nb, &o) {
-                pairs +=
-                    block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, cols, nb.col, nb.n, &o, &mut acc);
+        let gend = (gs + LANES).min(end);
+        // Two receivers at a time (the last one of an odd group twice);
+        // the pairs are fixed by the leaf's order, so the sums do not
+        // depend on the thread count.
+        for c in (gs..gend).step_by(2) {
+            let (oa, ob) = (recv(c), recv((c + 1).min(gend - 1)));
+            let mut acc = [Acc::new(), Acc::new()];
+            pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
+                s,
+                ks,
+                cols,
+                list.iter().copied(),
+                [&oa, &ob],
+                &mut acc,
+            );
+            if let Some(ps) = ps {
+                pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
+                    s,
+                    ks,
+                    ps,
+                    (0..ps.x.len()).step_by(LANES).map(|g| (g, [0.0; 3])),
+                    [&oa, &ob],
+                    &mut acc,
+                );
+            }
+            for (k, a) in acc.iter_mut().enumerate().take(gend - c) {
+                a.flush();
+                res.push((cols.id[c + k], a.total));
             }
         }
-        if let Some(ps) = ps {
-            let o = recv(c, [0.0; 3]);
-            pairs += block_g::<K, SINGLE, BOUNCE, LOCAL>(s, ks, ps, 0, ps.x.len(), &o, &mut acc);
-        }
-        acc.flush();
-        res.push((cols.id[c], acc.total));
     }
     pairs
 }
@@ -1392,7 +1240,38 @@ fn has_avx2() -> bool {
 
 // ---------------------------------------------------------------------
 
-/// Reads and checks the inputs.
+/// A column read as f64, with the common types read directly.
+#[derive(Clone, Copy)]
+enum Src<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+    Other(&'a Column),
+}
+
+impl<'a> Src<'a> {
+    fn of(c: &'a Column) -> Src<'a> {
+        if let Some(v) = c.as_slice::<f32>() {
+            Src::F32(v)
+        } else if let Some(v) = c.as_slice::<f64>() {
+            Src::F64(v)
+        } else {
+            Src::Other(c)
+        }
+    }
+
+    #[inline(always)]
+    fn get(self, i: usize) -> f64 {
+        match self {
+            Src::F32(v) => v[i] as f64,
+            Src::F64(v) => v[i],
+            Src::Other(c) => c.get_f64(i),
+        }
+    }
+}
+
+/// Reads and checks the inputs, in parallel, into one record a point
+/// (the Morton ordering gathers them at random: one cache line a point).
+/// The first bad point (lowest index) is reported.
 fn inputs(cloud: &Cloud) -> Result<Inputs> {
     let pts = cloud.points();
     for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
@@ -1400,34 +1279,36 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
             return Err(Error::missing("point", name, Some(stage)));
         }
     }
+    let v3 = |name: &str| -> Result<[Src; 3]> {
+        let c = pts.vec3_columns(name)?;
+        Ok([0, 1, 2].map(|k| Src::of(c[k].column())))
+    };
+    let (p, nm, e) = (v3("P")?, v3("N")?, v3("illum")?);
+    let area = Src::of(pts.scalar_column("ptarea")?.column());
     // Positions in f64 (leaf origins keep their precision); the rest as
-    // the f32 columns the pair loop uses (an f64 value beyond f32's range
-    // is reported as not finite).
-    let pos = pts.vec3_f64("P")?;
-    let nrm32 = pts.vec3_f32("N")?;
-    let area = pts.scalar_f32("ptarea")?;
-    let illum = pts.vec3_f32("illum")?;
-    if let Some(i) = pos.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-        return Err(Error::invalid(format!(
-            "point {i}: P is {:?}, not finite",
-            pos[i]
-        )));
-    }
-    if let Some(i) = illum.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
-        return Err(Error::invalid(format!(
-            "point {i}: illum is {:?}, not finite",
-            illum[i]
-        )));
-    }
-    if let Some(i) = area.iter().position(|a| !(a.is_finite() && *a >= 0.0)) {
-        return Err(Error::invalid(format!(
-            "point {i}: ptarea is {}, not a finite number >= 0",
-            area[i]
-        )));
-    }
-    let mut nrm = Vec::with_capacity(nrm32.len());
-    for (i, n) in nrm32.iter().enumerate() {
-        let v = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+    // the f32 the pair loop uses (an f64 value beyond f32's range is
+    // reported as not finite).
+    let read = |i: usize| -> Result<Pt> {
+        let pos = [p[0].get(i), p[1].get(i), p[2].get(i)];
+        if !pos.iter().all(|x| x.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {i}: P is {pos:?}, not finite"
+            )));
+        }
+        let illum = [e[0].get(i), e[1].get(i), e[2].get(i)].map(|x| x as f32);
+        if !illum.iter().all(|x| x.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {i}: illum is {illum:?}, not finite"
+            )));
+        }
+        let a = area.get(i) as f32;
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(Error::invalid(format!(
+                "point {i}: ptarea is {a}, not a finite number >= 0"
+            )));
+        }
+        let n32 = [nm[0].get(i), nm[1].get(i), nm[2].get(i)].map(|x| x as f32);
+        let v = DVec3::new(n32[0] as f64, n32[1] as f64, n32[2] as f64);
         let u = if v.is_finite() {
             v.normalize_or_zero()
         } else {
@@ -1435,24 +1316,41 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
         };
         if u == DVec3::ZERO {
             return Err(Error::invalid(format!(
-                "point {i}: N is {n:?}, which has no direction"
+                "point {i}: N is {n32:?}, which has no direction"
             )));
         }
-        nrm.push(u.as_vec3().to_array());
+        Ok(Pt {
+            pos,
+            nrm: u.as_vec3().to_array(),
+            area: a,
+            illum,
+        })
+    };
+    // Filled in place in parallel; the first bad point (lowest index) is
+    // then read again for its message.
+    let first_bad = std::sync::atomic::AtomicUsize::new(usize::MAX);
+    let mut all = Vec::new();
+    (0..pts.len())
+        .into_par_iter()
+        .map(|i| {
+            read(i).unwrap_or_else(|_| {
+                first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
+                Pt::default()
+            })
+        })
+        .collect_into_vec(&mut all);
+    let bad = first_bad.into_inner();
+    if bad != usize::MAX {
+        read(bad)?;
     }
-    Ok(Inputs {
-        pos,
-        nrm,
-        area,
-        illum,
-    })
+    Ok(Inputs { pts: all })
 }
 
 /// Adds `ssM` to `cloud`.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
     validate(p)?;
     let inp = inputs(cloud)?;
-    let n = inp.pos.len();
+    let n = inp.pts.len();
     let ld = p.rd.map(|r| r * p.sd);
     let ld1 = ld.iter().copied().fold(0.0, f64::max);
     let mut out = vec![[0f32; 3]; n];
@@ -1527,10 +1425,11 @@ fn sum_all(
     report: &mut Report,
     out: &mut [[f32; 3]],
 ) {
-    let n = inp.pos.len();
     let local = p.norm == Norm::Local;
-    let is_source: Vec<bool> = (0..n)
-        .map(|i| local || inp.illum[i].iter().any(|&x| x != 0.0))
+    let is_source: Vec<bool> = inp
+        .pts
+        .par_iter()
+        .map(|q| local || q.illum.iter().any(|&x| x != 0.0))
         .collect();
     report.sources = is_source.iter().filter(|&&s| s).count();
     let want_rmin = matches!(p.falloff, Falloff::Burley { .. });
@@ -1547,7 +1446,7 @@ fn sum_all(
     let avx2 = has_avx2();
     let norm = Normaliser::new(p, ld, ld1);
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
-    progress.start("summing", n as u64);
+    progress.start("summing", inp.pts.len() as u64);
     let per_leaf: Vec<LeafSums> = leaves
         .par_iter()
         .map(|rl| {
