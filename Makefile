@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo pyenv lint
+.PHONY: test bench demo pyenv exrtools lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -16,8 +16,14 @@ $(PY).stamp: tests/requirements.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 	touch $@
 
-## Every test; Python interop tests must run, not skip. Ends with a total.
-test: pyenv
+## Debian's OpenEXR tools (exrheader), an independent reader for the tests.
+exrtools:
+	command -v exrheader >/dev/null || { export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get install -y -q openexr || { apt-get update -q && apt-get install -y -q openexr; }; }
+
+## Every test; interop tests (Python, exrheader) must run, not skip. Ends
+## with a total.
+test: pyenv exrtools
 	mkdir -p target
 	PCSSS_REQUIRE_PYTHON=1 cargo test 2>&1 | tee target/test.log
 	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log

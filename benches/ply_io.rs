@@ -1,6 +1,7 @@
-//! PLY read and write speed: 2,000,000 points x 10 float properties
-//! (80 MB), from a file in the page cache and from a pipe, in process and
-//! whole-process, beside Python's plyfile and the Rust crate ply-rs-bw.
+//! PLY and OpenEXR read and write speed: 2,000,000 points x 10 float
+//! properties (80 MB), from a file in the page cache and from a pipe, in
+//! process and whole-process, beside Python's plyfile and OpenEXR and the
+//! Rust crate ply-rs-bw. MB/s are of the 80 MB of values.
 //!
 //! `make bench` (or `cargo bench --bench ply_io`); BENCH_POINTS sets the
 //! point count. Results: target/bench/ply_io.txt.
@@ -11,6 +12,7 @@ use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Write};
 
 use common::*;
+use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
 use pcsss::{Cloud, Role};
 
@@ -152,6 +154,43 @@ fn main() {
         "whole process: cat FILE | pcconvert | cat (read, write to a pipe)",
         best_cmd(3, &format!("cat {p} | {pcconvert} | cat > /dev/null")),
     );
+    // OpenEXR, uncompressed and zip: the same 80 MB of values.
+    for comp in [Compression::None, Compression::Zip] {
+        let opt = ExrOptions {
+            compression: comp,
+            half: vec![],
+        };
+        let exr = dir.join(format!("ply_io_{n}_{comp:?}.exr"));
+        let write = || {
+            let mut w = BufWriter::new(File::create(&exr).unwrap());
+            formats::write_cloud_with(&mut w, &cloud, Format::Exr, &opt).unwrap();
+            w.flush().unwrap();
+        };
+        let s = best(3, write);
+        let size = std::fs::metadata(&exr).unwrap().len() as f64 / 1e6;
+        row(
+            &format!("pcsss EXR write, file, {comp:?} ({size:.1} MB file)"),
+            Some(s),
+        );
+        row(
+            &format!("pcsss EXR read, file, {comp:?}"),
+            Some(best(3, || {
+                formats::read_cloud_file(&exr, &Select::All).unwrap()
+            })),
+        );
+        let e = exr.display().to_string();
+        row(
+            &format!("whole process: python OpenEXR read, {comp:?} (1 run)"),
+            best_cmd(
+                1,
+                &format!(
+                    "{} -c 'import OpenEXR,sys; f=OpenEXR.File(sys.argv[1]); [c.pixels.sum() for c in f.channels().values()]' {e}",
+                    python()
+                ),
+            ),
+        );
+        let _ = std::fs::remove_file(&exr);
+    }
     let py = python();
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/plyfile_read.py");
     row(

@@ -18,6 +18,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use crate::cloud::Cloud;
+use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
 
 /// Verbosity flags.
@@ -34,7 +35,7 @@ pub struct MsgArgs {
 /// The input, output and format arguments of a stage.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct IoArgs {
-    /// Input file (PLY or OBJ); standard input when absent or '-'.
+    /// Input file (PLY, OBJ or OpenEXR); standard input when absent or '-'.
     #[arg(value_name = "IN")]
     pub input: Option<PathBuf>,
     /// Output file; standard output when absent or '-'.
@@ -44,6 +45,14 @@ pub struct IoArgs {
     /// output file's extension, else ply (binary little-endian)].
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<Format>,
+    /// OpenEXR output: compression (none, rle, zips, zip, piz, pxr24,
+    /// b44, b44a; pxr24 and b44 are lossy).
+    #[arg(long, value_name = "C", default_value = "zip")]
+    pub compression: Compression,
+    /// OpenEXR output: float attributes stored as 16-bit half (names,
+    /// comma-separated).
+    #[arg(long, value_name = "ATTR,..", value_delimiter = ',')]
+    pub half: Vec<String>,
     #[command(flatten)]
     pub msg: MsgArgs,
 }
@@ -87,8 +96,12 @@ impl IoArgs {
         } else {
             self.output.as_deref()
         };
+        let opt = ExrOptions {
+            compression: self.compression,
+            half: self.half.clone(),
+        };
         write_output(out, |w| {
-            formats::write_cloud(w, cloud, format).map_err(Into::into)
+            formats::write_cloud_with(w, cloud, format, &opt).map_err(Into::into)
         })
     }
 

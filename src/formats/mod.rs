@@ -1,8 +1,10 @@
 //! On-disk formats: detection by magic bytes, reading and writing clouds.
 //!
 //! PLY ([`ply`]) is read and written in all three encodings; OBJ ([`obj`])
-//! is read as a mesh. The written specs are in the repository's `formats/`.
+//! is read as a mesh; OpenEXR ([`exr`]) is read and written as point clouds
+//! and shade-point images. The written specs are in the repository's `formats/`.
 
+pub mod exr;
 pub mod obj;
 pub mod ply;
 
@@ -95,7 +97,12 @@ pub fn read_cloud<R: BufRead>(mut r: R, select: &Select) -> Result<Cloud> {
     match sniff(head) {
         Some(Kind::Ply) => ply::read_ply(r, select),
         Some(Kind::Obj) => obj::read_obj(r),
-        Some(Kind::Exr) => Err(Error::unsupported("OpenEXR input is not supported yet")),
+        Some(Kind::Exr) => {
+            // The crate reads from a seekable source: the whole input.
+            let mut bytes = Vec::new();
+            r.read_to_end(&mut bytes)?;
+            exr::read_exr(&bytes)
+        }
         None => Err(Error::invalid(
             "not a PLY, OBJ or OpenEXR file (unrecognised first bytes)",
         )),
@@ -126,14 +133,25 @@ pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
         Some(Kind::Ply) => {
             ply::read::read_ply_from(ply::read::Mapped::new(std::sync::Arc::new(map)), select)
         }
+        Some(Kind::Exr) => exr::read_exr(&map),
         _ => read_cloud(&map[..], select),
     }
 }
 
-/// Writes a cloud in `format`.
+/// Writes a cloud in `format` (OpenEXR with the default options).
 pub fn write_cloud<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, format: Format) -> Result<()> {
+    write_cloud_with(w, cloud, format, &exr::ExrOptions::default())
+}
+
+/// Writes a cloud in `format`, OpenEXR with `exr_opt`.
+pub fn write_cloud_with<W: Write + ?Sized>(
+    w: &mut W,
+    cloud: &Cloud,
+    format: Format,
+    exr_opt: &exr::ExrOptions,
+) -> Result<()> {
     match format {
         Format::Ply(enc) => ply::write_ply(w, cloud, enc),
-        Format::Exr => Err(Error::unsupported("OpenEXR output is not supported yet")),
+        Format::Exr => exr::write_exr(w, cloud, exr_opt),
     }
 }

@@ -5,6 +5,7 @@ mod util;
 
 mod bvh;
 mod cli;
+mod exr_format;
 mod geometry;
 mod illum;
 mod mesh_input;

@@ -2,45 +2,7 @@
 
 use crate::util::*;
 use pcsss::formats::{self, Select};
-use pcsss::{AttrData, Cloud, DetailValue, Role, ScalarType};
-
-/// Values equal bit for bit (NaN included), structure equal.
-fn assert_same_values(a: &Cloud, b: &Cloud) {
-    assert_eq!(a.elements.len(), b.elements.len());
-    for (ea, eb) in a.elements.iter().zip(&b.elements) {
-        assert_eq!(ea.name, eb.name);
-        assert_eq!(ea.len(), eb.len(), "element {}", ea.name);
-        assert_eq!(ea.attrs().len(), eb.attrs().len(), "element {}", ea.name);
-        for (x, y) in ea.attrs().iter().zip(eb.attrs()) {
-            assert_eq!(x.name, y.name);
-            assert_eq!(x.type_name(), y.type_name(), "{}", x.name);
-            let cols = |a: &pcsss::Attribute| -> Vec<pcsss::Column> {
-                match &a.data {
-                    AttrData::List(l) => vec![
-                        l.items.clone(),
-                        pcsss::Column::U32(l.offsets.iter().map(|&o| o as u32).collect()),
-                    ],
-                    _ => a.components().iter().map(|v| v.column().clone()).collect(),
-                }
-            };
-            for (cx, cy) in cols(x).iter().zip(cols(y)) {
-                assert_eq!(cx.len(), cy.len());
-                for i in 0..cx.len() {
-                    let (p, q) = (cx.get_f64(i), cy.get_f64(i));
-                    assert!(
-                        p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan()),
-                        "{}.{} row {i}: {p} vs {q}",
-                        ea.name,
-                        x.name
-                    );
-                }
-            }
-        }
-    }
-    assert_eq!(a.detail, b.detail);
-    assert_eq!(a.comments, b.comments);
-    assert_eq!(a.obj_info, b.obj_info);
-}
+use pcsss::{Cloud, DetailValue, Role, ScalarType};
 
 #[test]
 fn le_ascii_be_le_keeps_every_value_of_every_type() {
