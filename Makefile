@@ -37,8 +37,8 @@ $(PY).bench.stamp: $(PY).stamp benches/requirements.txt
 bench: pyenv $(PY).bench.stamp
 	cargo bench
 
-## What runs today: the chain up to ssmulti (pipelines/Makefile) on the
-## embedded cube, summarised. Becomes the bunny bake when filter lands.
+## The bake: the whole chain (pipelines/Makefile) on the embedded
+## Stanford bunny, ending in out/bunny.png.
 demo:
 	$(MAKE) -C pipelines info
 

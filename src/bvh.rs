@@ -65,6 +65,8 @@ pub struct Occluder {
     tris: Vec<Tri>,
     /// The same in obvhs's form (for comparisons with other tracers).
     plain: Vec<Triangle>,
+    /// Each one's triangle index in the mesh.
+    ids: Vec<u32>,
     centre: DVec3,
     inv_scale: f64,
 }
@@ -86,6 +88,7 @@ impl Occluder {
         };
         let inv_scale = 1.0 / scale;
         let local = |p: DVec3| Vec3A::from(((p - centre) * inv_scale).as_vec3());
+        let mut ids_in = Vec::new();
         let input: Vec<Triangle> = (0..mesh.tris.len())
             .filter_map(|t| {
                 let [a, b, c] = mesh.tri(t);
@@ -95,13 +98,18 @@ impl Occluder {
                     v2: local(c),
                 };
                 // Degenerate triangles occlude nothing.
-                ((tri.v1 - tri.v0).cross(tri.v2 - tri.v0) != Vec3A::ZERO).then_some(tri)
+                let keep = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0) != Vec3A::ZERO;
+                if keep {
+                    ids_in.push(t as u32);
+                }
+                keep.then_some(tri)
             })
             .collect();
         let mut occ = Occluder {
             nodes: Vec::new(),
             tris: Vec::new(),
             plain: Vec::new(),
+            ids: Vec::new(),
             centre,
             inv_scale,
         };
@@ -114,7 +122,7 @@ impl Occluder {
         occ.nodes.push(Node::NONE);
         let root = &bvh.nodes[0];
         if root.is_leaf() {
-            let first = occ.add_leaf(&bvh, &input, 0);
+            let first = occ.add_leaf(&bvh, &input, &ids_in, 0);
             let n = &mut occ.nodes[0];
             set_box(n, 0, root.aabb.min, root.aabb.max);
             n.child[0] = first;
@@ -123,20 +131,21 @@ impl Occluder {
             // A work list, not recursion: a degenerate tree can be deep.
             let mut work = vec![(0usize, 0usize)];
             while let Some((id, at)) = work.pop() {
-                occ.collapse(&bvh, &input, id, at, &mut work);
+                occ.collapse(&bvh, &input, &ids_in, id, at, &mut work);
             }
         }
         occ
     }
 
     /// Appends the triangles of BVH2 leaf `id`; returns the first's index.
-    fn add_leaf(&mut self, bvh: &Bvh2, input: &[Triangle], id: usize) -> u32 {
+    fn add_leaf(&mut self, bvh: &Bvh2, input: &[Triangle], ids: &[u32], id: usize) -> u32 {
         let n = &bvh.nodes[id];
         let first = self.tris.len() as u32;
         for k in 0..n.prim_count {
             let p = bvh.primitive_indices[(n.first_index + k) as usize];
             self.tris.push(Tri::new(&input[p as usize]));
             self.plain.push(input[p as usize]);
+            self.ids.push(ids[p as usize]);
         }
         first
     }
@@ -148,6 +157,7 @@ impl Occluder {
         &mut self,
         bvh: &Bvh2,
         input: &[Triangle],
+        ids: &[u32],
         id: usize,
         at: usize,
         work: &mut Vec<(usize, usize)>,
@@ -173,7 +183,7 @@ impl Occluder {
         for (slot, &k) in kids.iter().enumerate() {
             let n = bvh.nodes[k];
             let (child, count) = if n.is_leaf() {
-                (self.add_leaf(bvh, input, k), n.prim_count)
+                (self.add_leaf(bvh, input, ids, k), n.prim_count)
             } else {
                 self.nodes.push(Node::NONE);
                 (self.nodes.len() as u32 - 1, 0)
@@ -287,6 +297,73 @@ impl Occluder {
         false
     }
 
+    /// The nearest hit of the ray from `origin` along the unit `dir` (a
+    /// camera ray: no offset): the mesh triangle and the distance.
+    pub fn closest(&self, origin: DVec3, dir: DVec3) -> Option<(usize, f64)> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let o = ((origin - self.centre) * self.inv_scale).as_vec3();
+        let mut ray = Ray::new(o.into(), Vec3A::from(dir.as_vec3()), 0.0, f32::INFINITY);
+        let inv = |d: f32| {
+            let d = if d.abs() < 1e-30 {
+                1e-30f32.copysign(d)
+            } else {
+                d
+            };
+            1.0 / d
+        };
+        let o = [ray.origin.x, ray.origin.y, ray.origin.z];
+        let id = [
+            inv(ray.direction.x),
+            inv(ray.direction.y),
+            inv(ray.direction.z),
+        ];
+        let mut best: Option<u32> = None;
+        let mut stack: Vec<u32> = vec![0];
+        while let Some(at) = stack.pop() {
+            let node = &self.nodes[at as usize];
+            let tmax = ray.tmax * (1.0 + 2.0 * f32::EPSILON);
+            let mut tnear = [ray.tmin; W];
+            let mut tfar = [tmax; W];
+            for a in 0..3 {
+                for k in 0..W {
+                    let t0 = (node.lo[a][k] - o[a]) * id[a];
+                    let t1 = (node.hi[a][k] - o[a]) * id[a];
+                    tnear[k] = tnear[k].max(t0.min(t1));
+                    tfar[k] = tfar[k].min(t0.max(t1));
+                }
+            }
+            for k in 0..W {
+                let (child, count) = (node.child[k], node.count[k]);
+                if tnear[k] > tfar[k] || count == EMPTY {
+                    continue;
+                }
+                if count == 0 {
+                    stack.push(child);
+                } else {
+                    for j in child..child + count {
+                        if let Some(t) = self.tris[j as usize].hit_t(&ray) {
+                            // Nearest first; equal distances: lowest index.
+                            let better = t < ray.tmax
+                                || best.is_none_or(|b| self.ids[j as usize] < self.ids[b as usize]);
+                            if better {
+                                ray.tmax = t;
+                                best = Some(j);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|j| {
+            (
+                self.ids[j as usize] as usize,
+                ray.tmax as f64 / self.inv_scale,
+            )
+        })
+    }
+
     /// The triangles in the unit frame, in leaf order (for comparisons with
     /// other ray tracers on the same rays).
     pub fn triangles(&self) -> &[Triangle] {
@@ -323,6 +400,23 @@ impl Tri {
             e2,
             n: e1.cross(e2),
         }
+    }
+
+    /// The hit distance in `[tmin, tmax]`, if any.
+    #[inline(always)]
+    fn hit_t(&self, ray: &Ray) -> Option<f32> {
+        let c = self.v0 - ray.origin;
+        let r = ray.direction.cross(c);
+        let inv_det = 1.0 / self.n.dot(ray.direction);
+        let u = r.dot(self.e2) * inv_det;
+        let v = r.dot(self.e1) * inv_det;
+        let w = 1.0 - u - v;
+        let hit = u.to_bits() | v.to_bits() | w.to_bits();
+        if inv_det != 0.0 && inv_det.is_finite() && hit & 0x8000_0000 == 0 {
+            let t = self.n.dot(c) * inv_det;
+            return (t >= ray.tmin && t <= ray.tmax).then_some(t);
+        }
+        None
     }
 
     /// Is there a hit in `[tmin, tmax]`?

@@ -327,3 +327,99 @@ pub fn parse<T: clap::Parser>(stage: &str) -> T {
         }
     }
 }
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum FalloffArg {
+    /// 1 - smoothstep(0, D, r) (the seed's).
+    Smooth,
+    /// exp(-sigma r / D) (the seed's alternative).
+    Exp,
+    /// Christensen-Burley diffusion profile, shape D / sigma, truncated at D.
+    Burley,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum NormArg {
+    /// The seed's (Houdini's): by the disk integral at the largest distance.
+    Seed,
+    /// With --rgb, each channel by its own disk integral, times Rd.
+    Channel,
+    /// By the kernel-weighted area present within reach, times Rd.
+    Local,
+}
+
+/// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SsArgs {
+    /// Diffuse reflectance: R,G,B (or one value for all three).
+    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
+    pub rd: String,
+    /// Scattering distance (per channel: Rd * sd).
+    #[arg(long)]
+    pub sd: Option<f64>,
+    /// Bounce attenuation, 0 (off) to 1.
+    #[arg(long, default_value_t = 0.0)]
+    pub bounce: f64,
+    /// Per-channel distances (the seed's t_rgb).
+    #[arg(long)]
+    pub rgb: bool,
+    /// Falloff kernel.
+    #[arg(long, value_enum, default_value = "smooth")]
+    pub falloff: FalloffArg,
+    /// exp: decay rate (default 4); burley: D / d (default 5.625: the
+    /// profile's mean radius equals the smooth falloff's).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Normalisation.
+    #[arg(long, value_enum, default_value = "seed")]
+    pub norm: NormArg,
+    /// 0: exact; above: the approximate method's tolerance.
+    #[arg(long, default_value_t = 0.0)]
+    pub tolerance: f64,
+}
+
+impl SsArgs {
+    /// The parameters, `None` without `--sd`; checked.
+    pub fn params(&self) -> anyhow::Result<Option<crate::stages::ssmulti::Params>> {
+        use crate::stages::ssmulti::{self, Falloff, Norm, Params, BURLEY_KAPPA};
+        let Some(sd) = self.sd else { return Ok(None) };
+        let falloff = match self.falloff {
+            FalloffArg::Smooth => Falloff::Smooth,
+            FalloffArg::Exp => Falloff::Exp {
+                sigma: self.sigma.unwrap_or(4.0),
+            },
+            FalloffArg::Burley => Falloff::Burley {
+                kappa: self.sigma.unwrap_or(BURLEY_KAPPA),
+            },
+        };
+        let params = Params {
+            rd: parse_rgb(&self.rd)?,
+            sd,
+            bounce: self.bounce,
+            rgb: self.rgb,
+            falloff,
+            norm: match self.norm {
+                NormArg::Seed => Norm::Seed,
+                NormArg::Channel => Norm::Channel,
+                NormArg::Local => Norm::Local,
+            },
+            tolerance: self.tolerance,
+        };
+        ssmulti::validate(&params)?;
+        Ok(Some(params))
+    }
+}
+
+/// `R,G,B` or one value for all three.
+pub fn parse_rgb(s: &str) -> anyhow::Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| anyhow::anyhow!("parameter --rd: '{s}': {e}"))?;
+    match v[..] {
+        [x] => Ok([x; 3]),
+        [r, g, b] => Ok([r, g, b]),
+        _ => anyhow::bail!("parameter --rd: '{s}' is not R,G,B or one value"),
+    }
+}

@@ -2,8 +2,10 @@
 //! The binaries in `src/bin/` only parse arguments, read, call, write.
 
 pub mod facet;
+pub mod filter;
 pub mod illum;
 pub mod measure;
 pub mod promote;
+pub mod render;
 pub mod scatter;
 pub mod ssmulti;

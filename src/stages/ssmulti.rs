@@ -129,6 +129,9 @@ pub struct Report {
     pub sources: usize,
     /// Point pairs evaluated (including those beyond reach in a block).
     pub pairs: u64,
+    /// Points whose `ssM` was computed (all of them, or with a subset the
+    /// leaves of 64 that hold a wanted point).
+    pub computed: usize,
 }
 
 /// Points per leaf (a multiple of the lane count).
@@ -1348,9 +1351,32 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
 
 /// Adds `ssM` to `cloud`.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
+    let (out, report) = ssmulti_values(cloud, p, None, progress)?;
+    cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
+    cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
+    cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
+    Ok(report)
+}
+
+/// `ssM` of `cloud`'s points, without changing the cloud: of every point,
+/// or (`want`, one flag a point) of at least the wanted ones. The work is
+/// skipped leaf by leaf (64 points in a Morton run): a point outside the
+/// computed leaves gets 0, a computed point the same bits as in a full
+/// run. `Report::computed` counts the computed points.
+pub fn ssmulti_values(
+    cloud: &Cloud,
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<(Vec<[f32; 3]>, Report)> {
     validate(p)?;
     let inp = inputs(cloud)?;
     let n = inp.pts.len();
+    if let Some(w) = want {
+        if w.len() != n {
+            return Err(Error::invalid(format!("{} flags for {n} points", w.len())));
+        }
+    }
     let ld = p.rd.map(|r| r * p.sd);
     let ld1 = ld.iter().copied().fold(0.0, f64::max);
     let mut out = vec![[0f32; 3]; n];
@@ -1359,12 +1385,11 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
         ..Report::default()
     };
     if n > 0 && ld1 > 0.0 {
-        sum_all(&inp, p, ld, ld1, progress, &mut report, &mut out);
+        sum_all(&inp, p, ld, ld1, want, progress, &mut report, &mut out);
+    } else {
+        report.computed = n;
     }
-    cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
-    cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
-    cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
-    Ok(report)
+    Ok((out, report))
 }
 
 /// A receiver leaf's results: (point, ssM) and the pairs it evaluated.
@@ -1415,12 +1440,15 @@ impl Normaliser {
     }
 }
 
-/// The exact method (`tolerance == 0`) or the approximate one.
+/// The exact method (`tolerance == 0`) or the approximate one, for the
+/// leaves holding a wanted point (all without `want`).
+#[allow(clippy::too_many_arguments)]
 fn sum_all(
     inp: &Inputs,
     p: &Params,
     ld: [f64; 3],
     ld1: f64,
+    want: Option<&[bool]>,
     progress: &Progress,
     report: &mut Report,
     out: &mut [[f32; 3]],
@@ -1450,6 +1478,15 @@ fn sum_all(
     let per_leaf: Vec<LeafSums> = leaves
         .par_iter()
         .map(|rl| {
+            if let Some(w) = want {
+                if !cols.id[rl.col..rl.col + rl.len]
+                    .iter()
+                    .any(|&i| w[i as usize])
+                {
+                    progress.inc(rl.len as u64);
+                    return (Vec::new(), 0);
+                }
+            }
             // The source leaves in reach of this leaf, each with the
             // offset between the two origins and its box in its own frame
             // (f32, grown a little for rounding); with a tolerance, far
@@ -1497,6 +1534,7 @@ fn sum_all(
     progress.finish();
     for (res, pairs) in per_leaf {
         report.pairs += pairs;
+        report.computed += res.len();
         for (i, v) in res {
             out[i as usize] = v;
         }

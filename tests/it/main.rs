@@ -6,6 +6,7 @@ mod util;
 mod bvh;
 mod cli;
 mod exr_format;
+mod filter_render;
 mod geometry;
 mod illum;
 mod mesh_input;

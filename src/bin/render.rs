@@ -1,0 +1,165 @@
+//! `render`: ray-cast a mesh from a pinhole camera, filter the cloud's
+//! `ssM` at the hit points, write an OpenEXR image (and a PNG preview).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use pcsss::cli::{self, MsgArgs, SsArgs};
+use pcsss::formats::exr::{Compression, ExrOptions};
+use pcsss::formats::{self, Format, Select};
+use pcsss::stages::filter::{self, Params, Reach, Source};
+use pcsss::stages::render::{self, Camera};
+use pcsss::Role;
+
+/// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
+/// coverage passes by ray casting, then the beauty = ssM filtered from
+/// the cloud at every hit (lazily computed when the cloud has only
+/// illum). Writes an OpenEXR image (channels beauty, ssM, P, N, A) and,
+/// with --png, a tone-mapped sRGB preview.
+#[derive(Parser, Debug)]
+#[command(version, allow_negative_numbers = true)]
+struct Args {
+    /// The mesh (OBJ or PLY with faces).
+    #[arg(long, value_name = "MESH")]
+    mesh: PathBuf,
+    /// The camera file (JSON).
+    #[arg(long, value_name = "FILE")]
+    camera: PathBuf,
+    /// The cloud: P and ssM (or P, N, ptarea, illum and --sd for lazy).
+    #[arg(long, value_name = "CLOUD")]
+    cloud: PathBuf,
+    /// Output image (OpenEXR).
+    #[arg(short, long, value_name = "OUT.exr")]
+    output: PathBuf,
+    /// Also a PNG preview.
+    #[arg(long, value_name = "OUT.png")]
+    png: Option<PathBuf>,
+    /// Preview exposure: 1 - exp(-exposure * beauty).
+    #[arg(long, default_value_t = 1.5)]
+    exposure: f64,
+    /// Use the N nearest cloud points.
+    #[arg(long, value_name = "N", conflicts_with = "radius")]
+    nfp: Option<usize>,
+    /// Use the cloud points within this fraction of D = sd * max(Rd).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.25)]
+    radius: f64,
+    /// Only cloud points whose normal faces the shade point's side.
+    #[arg(long)]
+    facing: bool,
+    /// OpenEXR compression.
+    #[arg(long, value_name = "C", default_value = "zip")]
+    compression: Compression,
+    #[command(flatten)]
+    ss: SsArgs,
+    #[command(flatten)]
+    msg: MsgArgs,
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let msg = args.msg.messages("render");
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        anyhow::bail!("parameter --exposure: {}: must be > 0", args.exposure);
+    }
+    if !(args.radius.is_finite() && args.radius > 0.0) {
+        anyhow::bail!(
+            "parameter --radius: {}: must be a finite fraction > 0",
+            args.radius
+        );
+    }
+    let cam_name = args.camera.display().to_string();
+    let text = std::fs::read_to_string(&args.camera).with_context(|| cam_name.clone())?;
+    let cam = Camera::parse(&text, &cam_name)?;
+    let lazy = args.ss.params()?;
+    let mesh_name = args.mesh.display().to_string();
+    let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
+    let cloud_name = args.cloud.display().to_string();
+    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
+    let (mut shade, rep) = render::render(&mesh, &cam).map_err(cli::at(&mesh_name))?;
+    msg.info(format!(
+        "{} of {} pixels see the mesh",
+        rep.covered, rep.pixels
+    ));
+    let source = match (&lazy, cloud.points().has("ssM")) {
+        (_, true) => Source::Eager,
+        (Some(p), false) => Source::Lazy(p),
+        (None, false) => anyhow::bail!(
+            "{cloud_name}: no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it here"
+        ),
+    };
+    let d = match (&source, &lazy) {
+        (Source::Lazy(_), Some(p)) => p.sd * p.rd.iter().copied().fold(0.0, f64::max),
+        _ => {
+            let sd = cloud
+                .detail_f64("ssmulti_sd")
+                .map_err(cli::at(&cloud_name))?;
+            let rd = cloud
+                .detail("ssmulti_rd")
+                .map(|v| v.components().into_iter().fold(0.0, f64::max))
+                .unwrap_or(1.0);
+            sd * rd
+        }
+    };
+    let reach = match args.nfp {
+        Some(n) => Reach::Nearest(n),
+        None => Reach::Radius(args.radius * d),
+    };
+    let progress = msg.progress();
+    let frep = filter::filter(
+        &cloud,
+        &mut shade,
+        &Params {
+            reach,
+            facing: args.facing,
+        },
+        source,
+        &progress,
+    )
+    .map_err(cli::at(&cloud_name))?;
+    if let Some((read, computed)) = frep.lazy {
+        msg.info(format!(
+            "lazy: ssM computed at {computed} of {} cloud points ({read} read)",
+            frep.cloud_points
+        ));
+    }
+    if frep.empty > 0 {
+        msg.warn(format!(
+            "{} pixels had no cloud point in reach: ssM = 0 there",
+            frep.empty
+        ));
+    }
+    let beauty = shade.points().vec3_f32("ssM")?;
+    shade
+        .points_mut()
+        .set_vec3("beauty", Role::Color, &beauty)?;
+    let opt = ExrOptions {
+        compression: args.compression,
+        half: vec![],
+    };
+    let out_name = args.output.display().to_string();
+    cli::write_atomic(&args.output, |w| {
+        formats::write_cloud_with(w, &shade, Format::Exr, &opt).map_err(Into::into)
+    })
+    .with_context(|| out_name)?;
+    if let Some(png_path) = &args.png {
+        let (w, h, rgb) = render::picture(&shade, "beauty", args.exposure, [0.03; 3])?;
+        let name = png_path.display().to_string();
+        cli::write_atomic(png_path, |out| {
+            let mut enc = png::Encoder::new(out, w, h);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            let mut wr = enc.write_header()?;
+            wr.write_image_data(&rgb)?;
+            wr.finish()?;
+            Ok(())
+        })
+        .with_context(|| name)?;
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    cli::main_of("render", || run(cli::parse("render")))
+}

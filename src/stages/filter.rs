@@ -1,0 +1,318 @@
+//! `filter`: `ssM` at shade points, reconstructed from the cloud (the
+//! seed's `SsMulti` with `pcfilter`).
+//!
+//! At a shade point S the cloud points used are the `nfp` nearest, or all
+//! within a radius (the seed's "better parameterisation": a fraction of
+//! the scattering distance D, so it needs no retuning when the density
+//! changes); with `facing`, only cloud points whose normal is on S's side
+//! (`dot(N_i, N_S) > 0`, as Houdini's `pcopen` does when given N). They
+//! are averaged with Houdini's `pcfilter` weights
+//!
+//! ```text
+//! w_i = 1 - smoothstep(0, 1.1 maxd, d_i),   ssM(S) = sum w_i ssM_i / sum w_i
+//! ```
+//!
+//! `maxd` the distance of the farthest point used (a single point, or
+//! points all at S, get weight 1). The weights depend only on distance,
+//! so a field linear in position is reproduced at the weighted centroid
+//! `c = sum w_i P_i / sum w_i` of the points used: the bias is
+//! `grad . (c - S)`, zero where the neighbourhood is balanced around S
+//! (inside an even cloud), largest at open edges. A shade point with no
+//! cloud point in reach gets `ssM = 0` and is counted.
+//!
+//! Lazy mode (the seed's `pcunshaded`): when the cloud has `illum` but no
+//! `ssM`, `ssM` is computed with `ssmulti`'s code only for the cloud points
+//! some shade point reads (leaf by leaf: 64 points in a Morton run), each
+//! once; the values are bit for bit those of a full `ssmulti` run.
+
+use std::num::NonZero;
+
+use glam::DVec3;
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use kiddo::SquaredEuclidean;
+use rayon::prelude::*;
+
+use crate::cloud::{Cloud, Role};
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::stages::ssmulti;
+
+/// Which cloud points a shade point reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reach {
+    /// The `n` nearest (facing ones, with `facing`).
+    Nearest(usize),
+    /// All within this distance (absolute; the stage turns a fraction of
+    /// D into it).
+    Radius(f64),
+}
+
+/// Parameters of `filter`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub reach: Reach,
+    /// Only cloud points whose normal faces the shade point's side.
+    pub facing: bool,
+}
+
+/// What `filter` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub shade_points: usize,
+    pub cloud_points: usize,
+    /// Shade points with no cloud point in reach (given `ssM = 0`).
+    pub empty: usize,
+    /// Mean number of cloud points a shade point read.
+    pub mean_used: f64,
+    /// Lazy mode: cloud points read by some shade point, and the cloud
+    /// points whose `ssM` was computed (whole leaves).
+    pub lazy: Option<(usize, usize)>,
+}
+
+/// The cloud's positions in a k-d tree (relative to its bounding box's
+/// centre, so that a cloud far from the origin keeps its precision).
+pub struct CloudIndex {
+    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    centre: DVec3,
+    pos: Vec<DVec3>,
+    nrm: Option<Vec<DVec3>>,
+}
+
+impl CloudIndex {
+    /// Indexes `cloud`'s `P` (and `N` when `with_normals`).
+    pub fn new(cloud: &Cloud, with_normals: bool) -> Result<CloudIndex> {
+        let p = cloud.points().vec3_f64("P")?;
+        if let Some(i) = p.iter().position(|q| !q.iter().all(|x| x.is_finite())) {
+            return Err(Error::invalid(format!(
+                "cloud point {i}: P is {:?}, not finite",
+                p[i]
+            )));
+        }
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for q in &p {
+            lo = lo.min(DVec3::from_array(*q));
+            hi = hi.max(DVec3::from_array(*q));
+        }
+        let centre = if p.is_empty() {
+            DVec3::ZERO
+        } else {
+            (lo + hi) * 0.5
+        };
+        let pos: Vec<DVec3> = p.iter().map(|q| DVec3::from_array(*q) - centre).collect();
+        let rel: Vec<[f64; 3]> = pos.iter().map(|q| q.to_array()).collect();
+        let nrm = if with_normals {
+            let n = cloud.points().vec3_f64("N")?;
+            Some(
+                n.iter()
+                    .map(|v| DVec3::from_array(*v).normalize_or_zero())
+                    .collect(),
+            )
+        } else {
+            None
+        };
+        Ok(CloudIndex {
+            tree: ImmutableKdTree::new_from_slice(&rel),
+            centre,
+            pos,
+            nrm,
+        })
+    }
+
+    /// The cloud points a shade point at `s` with normal `n` reads, as
+    /// (index, distance), by index.
+    pub fn neighbours(&self, s: DVec3, n: Option<DVec3>, reach: Reach) -> Vec<(u32, f64)> {
+        let total = self.pos.len();
+        if total == 0 {
+            return Vec::new();
+        }
+        let q = s - self.centre;
+        let faces = |i: u32| match (&self.nrm, n) {
+            (Some(nrm), Some(n)) => nrm[i as usize].dot(n) > 0.0,
+            _ => true,
+        };
+        let mut out: Vec<(u32, f64)> = match reach {
+            Reach::Radius(r) => self
+                .tree
+                .within_unsorted::<SquaredEuclidean>(&q.to_array(), r * r)
+                .into_iter()
+                .filter(|nb| faces(nb.item))
+                .map(|nb| (nb.item, nb.distance.sqrt()))
+                .collect(),
+            Reach::Nearest(k) => {
+                // Nearest facing ones: ask for more until there are k.
+                let mut ask = k.min(total);
+                loop {
+                    let near = self.tree.nearest_n::<SquaredEuclidean>(
+                        &q.to_array(),
+                        NonZero::new(ask).expect("k > 0"),
+                    );
+                    let f: Vec<(u32, f64)> = near
+                        .iter()
+                        .filter(|nb| faces(nb.item))
+                        .map(|nb| (nb.item, nb.distance.sqrt()))
+                        .take(k)
+                        .collect();
+                    if f.len() >= k || ask >= total {
+                        break f;
+                    }
+                    ask = (ask * 4).min(total);
+                }
+            }
+        };
+        out.sort_by_key(|a| a.0);
+        out
+    }
+}
+
+/// `1 - smoothstep(0, 1.1 maxd, d)` (1 when `maxd` is 0).
+pub fn pcfilter_weight(d: f64, maxd: f64) -> f64 {
+    let e = 1.1 * maxd;
+    if e <= 0.0 {
+        return 1.0;
+    }
+    let t = (d / e).clamp(0.0, 1.0);
+    1.0 - t * t * (3.0 - 2.0 * t)
+}
+
+/// Weighted average of `values` over the neighbours, with the weights'
+/// sum; `None` with no neighbour.
+pub fn average(nb: &[(u32, f64)], values: &[[f32; 3]]) -> Option<[f64; 3]> {
+    let maxd = nb.iter().map(|a| a.1).fold(0.0, f64::max);
+    let (mut s, mut ws) = ([0.0f64; 3], 0.0f64);
+    for &(i, d) in nb {
+        let w = pcfilter_weight(d, maxd);
+        let v = values[i as usize];
+        for c in 0..3 {
+            s[c] += w * v[c] as f64;
+        }
+        ws += w;
+    }
+    (ws > 0.0).then(|| s.map(|x| x / ws))
+}
+
+/// How the cloud's `ssM` is had: already there, or computed lazily.
+pub enum Source<'a> {
+    /// The cloud has `ssM`.
+    Eager,
+    /// Compute it with these parameters for the points read.
+    Lazy(&'a ssmulti::Params),
+}
+
+/// Adds `ssM` to the shade points `shade` from `cloud`.
+pub fn filter(
+    cloud: &Cloud,
+    shade: &mut Cloud,
+    p: &Params,
+    source: Source,
+    progress: &Progress,
+) -> Result<Report> {
+    match p.reach {
+        Reach::Nearest(0) => return Err(Error::param("--nfp", "must be at least 1")),
+        Reach::Radius(r) if !(r.is_finite() && r > 0.0) => {
+            return Err(Error::param(
+                "--radius",
+                format!("{r}: must be a finite distance > 0"),
+            ))
+        }
+        _ => {}
+    }
+    let sp = shade.points().vec3_f64("P")?;
+    if let Some(i) = sp.iter().position(|q| !q.iter().all(|x| x.is_finite())) {
+        return Err(Error::invalid(format!(
+            "shade point {i}: P is {:?}, not finite",
+            sp[i]
+        )));
+    }
+    let sn: Option<Vec<DVec3>> = if p.facing {
+        if !shade.points().has("N") {
+            return Err(Error::missing("shade point", "N", Some("facet")));
+        }
+        if !cloud.points().has("N") {
+            return Err(Error::missing("cloud point", "N", Some("facet")));
+        }
+        Some(
+            shade
+                .points()
+                .vec3_f64("N")?
+                .iter()
+                .map(|v| DVec3::from_array(*v).normalize_or_zero())
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let index = CloudIndex::new(cloud, p.facing)?;
+    progress.start("finding neighbours", sp.len() as u64);
+    let nbs: Vec<Vec<(u32, f64)>> = sp
+        .par_iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let r = index.neighbours(DVec3::from_array(*q), sn.as_ref().map(|n| n[i]), p.reach);
+            progress.inc(1);
+            r
+        })
+        .collect();
+    progress.finish();
+    let nc = cloud.len();
+    let mut report = Report {
+        shade_points: sp.len(),
+        cloud_points: nc,
+        ..Report::default()
+    };
+    let values: Vec<[f32; 3]> = match source {
+        Source::Eager => {
+            if !cloud.points().has("ssM") {
+                return Err(Error::missing("cloud point", "ssM", Some("ssmulti")));
+            }
+            cloud.points().vec3_f32("ssM")?
+        }
+        Source::Lazy(sp) => {
+            let mut want = vec![false; nc];
+            for nb in &nbs {
+                for &(i, _) in nb {
+                    want[i as usize] = true;
+                }
+            }
+            let read = want.iter().filter(|&&w| w).count();
+            let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)?;
+            report.lazy = Some((read, rep.computed));
+            v
+        }
+    };
+    let out: Vec<[f32; 3]> = nbs
+        .par_iter()
+        .map(|nb| average(nb, &values).map_or([0.0; 3], |v| v.map(|x| x as f32)))
+        .collect();
+    report.empty = nbs.iter().filter(|nb| nb.is_empty()).count();
+    report.mean_used = if nbs.is_empty() {
+        0.0
+    } else {
+        nbs.iter().map(|nb| nb.len()).sum::<usize>() as f64 / nbs.len() as f64
+    };
+    shade.points_mut().set_vec3("ssM", Role::Color, &out)?;
+    Ok(report)
+}
+
+/// sRGB encoding of a linear value in [0, 1].
+pub fn srgb(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// `red green blue` (uchar, sRGB of `ssM` clamped to [0, 1]) on the
+/// points: the vertex colours MeshLab and Blender show.
+pub fn add_vertex_colours(shade: &mut Cloud) -> Result<()> {
+    let v = shade.points().vec3_f64("ssM")?;
+    for (c, name) in ["red", "green", "blue"].iter().enumerate() {
+        let col: Vec<u8> = v.iter().map(|x| (srgb(x[c]) * 255.0 + 0.5) as u8).collect();
+        shade.points_mut().set(crate::cloud::Attribute::scalar(
+            name,
+            crate::column::Column::U8(col),
+        ))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,249 @@
+//! `render`: a pinhole camera over a mesh. Camera rays are cast through
+//! pixel centres against the mesh's BVH; every pixel that hits becomes a
+//! shade point (P, smooth N, coverage) of an image cloud (formats/EXR.md),
+//! which `filter` then gives `ssM`. The camera file is specified in
+//! formats/CAMERA.md.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+use crate::bvh::Occluder;
+use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::column::Column;
+use crate::error::{Error, Result};
+use crate::formats::exr::{DATA_WINDOW, DISPLAY_WINDOW, PIXEL_X, PIXEL_Y};
+use crate::geom;
+use crate::mesh::TriMesh;
+use crate::stages::facet::{self, Weight};
+
+/// A camera file.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    /// Eye position.
+    pub position: [f64; 3],
+    /// The point the camera looks at (the image centre).
+    pub look_at: [f64; 3],
+    /// Up direction (default +y).
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees (default 40).
+    #[serde(default = "default_fov")]
+    pub fov: f64,
+    /// Image size in pixels (default 512 x 512).
+    #[serde(default = "default_size")]
+    pub width: u32,
+    #[serde(default = "default_size")]
+    pub height: u32,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+fn default_size() -> u32 {
+    512
+}
+
+/// The largest image side.
+pub const MAX_SIDE: u32 = 16384;
+
+impl Camera {
+    /// Reads and checks a camera file's text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<Camera> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let cam: Camera = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let at = if path == "." || path.is_empty() {
+                String::new()
+            } else {
+                format!(" at {path}")
+            };
+            Error::invalid(format!("{file}{at}: {inner}"))
+        })?;
+        let bad = |key: &str, why: String| Error::invalid(format!("{file} at {key}: {why}"));
+        for (key, v) in [
+            ("position", cam.position),
+            ("look_at", cam.look_at),
+            ("up", cam.up),
+        ] {
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(bad(key, format!("{v:?} is not finite")));
+            }
+        }
+        if !(cam.fov > 0.0 && cam.fov < 180.0) {
+            return Err(bad(
+                "fov",
+                format!("{} is not in (0, 180) degrees", cam.fov),
+            ));
+        }
+        for (key, v) in [("width", cam.width), ("height", cam.height)] {
+            if v == 0 || v > MAX_SIDE {
+                return Err(bad(key, format!("{v} is not in 1..={MAX_SIDE}")));
+            }
+        }
+        let f = DVec3::from_array(cam.look_at) - DVec3::from_array(cam.position);
+        if f.length() == 0.0 {
+            return Err(bad("look_at", "equals position".into()));
+        }
+        if f.normalize().cross(DVec3::from_array(cam.up)).length() < 1e-9 {
+            return Err(bad(
+                "up",
+                "is parallel to the view direction (or zero)".into(),
+            ));
+        }
+        Ok(cam)
+    }
+
+    /// The ray direction (unit) through the centre of pixel (x, y), y down.
+    pub fn ray(&self, x: u32, y: u32) -> DVec3 {
+        let eye = DVec3::from_array(self.position);
+        let fwd = (DVec3::from_array(self.look_at) - eye).normalize();
+        let right = fwd.cross(DVec3::from_array(self.up)).normalize();
+        let up = right.cross(fwd);
+        let h = (self.fov.to_radians() * 0.5).tan();
+        let aspect = self.width as f64 / self.height as f64;
+        let u = (2.0 * (x as f64 + 0.5) / self.width as f64 - 1.0) * h * aspect;
+        let v = (1.0 - 2.0 * (y as f64 + 0.5) / self.height as f64) * h;
+        (fwd + right * u + up * v).normalize()
+    }
+}
+
+/// What `render` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub pixels: usize,
+    pub covered: usize,
+}
+
+/// Ray-casts `mesh` (a cloud with faces) from `cam`: the covered pixels as
+/// shade points with `P`, `N` (the vertices' smooth normals interpolated),
+/// `pixel_x`, `pixel_y` and the image windows.
+pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
+    let m = TriMesh::from_cloud(mesh)?;
+    if m.tris.is_empty() {
+        return Err(Error::invalid("no faces: a mesh is needed"));
+    }
+    // Vertex normals (angle-weighted), as facet gives a mesh's vertices.
+    let mut with_n = mesh.clone();
+    facet::facet_mesh(&mut with_n, Weight::Angle)?;
+    let vn: Vec<DVec3> = with_n
+        .points()
+        .vec3_f64("N")?
+        .iter()
+        .map(|v| DVec3::from_array(*v))
+        .collect();
+    let face_n = m.face_normals();
+    let tri_face = m.tri_faces();
+    let bvh = Occluder::new(&m);
+    let eye = DVec3::from_array(cam.position);
+    let (w, h) = (cam.width, cam.height);
+    let rows: Vec<Vec<(u32, u32, DVec3, DVec3)>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut row = Vec::new();
+            for x in 0..w {
+                let d = cam.ray(x, y);
+                let Some((t, dist)) = bvh.closest(eye, d) else {
+                    continue;
+                };
+                let [a, b, c] = m.tri(t);
+                let bary = geom::closest_on_triangle(eye + d * dist, a, b, c);
+                let p = geom::blend(bary, a, b, c);
+                let k = m.tris[t];
+                let n = bary[0] * vn[m.vertex(k[0])]
+                    + bary[1] * vn[m.vertex(k[1])]
+                    + bary[2] * vn[m.vertex(k[2])];
+                let n = if n.length() > 0.0 {
+                    n.normalize()
+                } else {
+                    face_n[tri_face[t] as usize]
+                };
+                row.push((x, y, p, n));
+            }
+            row
+        })
+        .collect();
+    let hits: Vec<(u32, u32, DVec3, DVec3)> = rows.into_iter().flatten().collect();
+    let mut shade = Cloud::with_points(hits.len());
+    let pts = shade.points_mut();
+    let p: Vec<[f64; 3]> = hits.iter().map(|h| h.2.to_array()).collect();
+    let n: Vec<[f32; 3]> = hits.iter().map(|h| h.3.as_vec3().to_array()).collect();
+    // f32 positions unless the mesh's own are f64.
+    let p_is_f64 = mesh
+        .points()
+        .vec3_columns("P")
+        .is_ok_and(|c| c[0].ty() == crate::column::ScalarType::F64);
+    if p_is_f64 {
+        pts.set_vec3("P", Role::Point, &p)?;
+    } else {
+        let p32: Vec<[f32; 3]> = p.iter().map(|v| v.map(|x| x as f32)).collect();
+        pts.set_vec3("P", Role::Point, &p32)?;
+    }
+    pts.set_vec3("N", Role::Normal, &n)?;
+    pts.set(Attribute::scalar(
+        PIXEL_X,
+        Column::I32(hits.iter().map(|h| h.0 as i32).collect()),
+    ))?;
+    pts.set(Attribute::scalar(
+        PIXEL_Y,
+        Column::I32(hits.iter().map(|h| h.1 as i32).collect()),
+    ))?;
+    let win = format!("0 0 {} {}", w - 1, h - 1);
+    shade.set_detail(DATA_WINDOW, DetailValue::Str(win.clone()));
+    shade.set_detail(DISPLAY_WINDOW, DetailValue::Str(win));
+    let report = Report {
+        pixels: w as usize * h as usize,
+        covered: hits.len(),
+    };
+    Ok((shade, report))
+}
+
+/// An 8-bit sRGB picture of colour attribute `attr` of an image cloud:
+/// `1 - exp(-exposure * x)` per channel (a soft shoulder instead of a
+/// clip), sRGB-encoded; pixels without a point get `background`. Returns
+/// (width, height, RGB bytes).
+pub fn picture(
+    shade: &Cloud,
+    attr: &str,
+    exposure: f64,
+    background: [f64; 3],
+) -> Result<(u32, u32, Vec<u8>)> {
+    let win = match shade.detail(DATA_WINDOW) {
+        Some(DetailValue::Str(s)) => s.clone(),
+        _ => return Err(Error::missing("detail", DATA_WINDOW, Some("render"))),
+    };
+    let v: Vec<i64> = win
+        .split_whitespace()
+        .filter_map(|t| t.parse().ok())
+        .collect();
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(Error::invalid(format!(
+            "{DATA_WINDOW} '{win}' is not four integers"
+        )));
+    };
+    let (w, h) = ((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32);
+    let enc = |x: f64| (crate::stages::filter::srgb(x) * 255.0 + 0.5) as u8;
+    let mut img: Vec<u8> = (0..w as usize * h as usize)
+        .flat_map(|_| background.map(enc))
+        .collect();
+    let c = shade.points().vec3_f64(attr)?;
+    let px = shade.points().scalar_f64(PIXEL_X)?;
+    let py = shade.points().scalar_f64(PIXEL_Y)?;
+    for i in 0..c.len() {
+        let (x, y) = (px[i] as i64 - x0, py[i] as i64 - y0);
+        if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
+            continue;
+        }
+        let at = 3 * (y as usize * w as usize + x as usize);
+        for k in 0..3 {
+            let t = 1.0 - (-exposure * c[i][k].max(0.0)).exp();
+            img[at + k] = enc(t);
+        }
+    }
+    Ok((w, h, img))
+}
