@@ -29,12 +29,14 @@ test: pyenv exrtools
 	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log
 
 ## Benchmarks (figures in the README's performance section), with the
-## bench-only Python packages (Embree through embreex).
+## bench-only Python packages (Embree through embreex) and the Stanford
+## dragon (fetched into out/models, not committed).
 $(PY).bench.stamp: $(PY).stamp benches/requirements.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check -r benches/requirements.txt
 	touch $@
 
 bench: pyenv $(PY).bench.stamp
+	$(MAKE) -C pipelines fetch-dragon
 	cargo bench
 
 ## The bake: the whole chain (pipelines/Makefile) on the embedded

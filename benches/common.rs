@@ -3,7 +3,8 @@
 
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Best wall time in seconds of `reps` runs of `f`.
@@ -149,4 +150,37 @@ pub fn uv_sphere(
     .unwrap();
     c.elements.push(e);
     c
+}
+
+/// Writes a little-endian f64 array as .npy.
+pub fn npy(path: &Path, shape: &[usize], data: &[f64]) {
+    let shape = match shape {
+        [n] => format!("({n},)"),
+        [n, m] => format!("({n}, {m})"),
+        _ => unreachable!(),
+    };
+    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    f.write_all(b"\x93NUMPY\x01\x00").unwrap();
+    f.write_all(&(header.len() as u16).to_le_bytes()).unwrap();
+    f.write_all(header.as_bytes()).unwrap();
+    for x in data {
+        f.write_all(&x.to_le_bytes()).unwrap();
+    }
+}
+
+/// Reads a little-endian f64 .npy array (any shape), flattened.
+pub fn read_npy(path: &Path) -> Vec<f64> {
+    let b = std::fs::read(path).unwrap();
+    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let header = String::from_utf8_lossy(&b[10..10 + hlen]);
+    assert!(header.contains("'<f8'"), "{header}");
+    b[10 + hlen..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect()
 }
