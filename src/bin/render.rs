@@ -6,17 +6,19 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
+use pcsss::bvh::Occluder;
 use pcsss::cli::{self, MsgArgs, SsArgs};
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
+use pcsss::lights;
+use pcsss::mesh::TriMesh;
 use pcsss::stages::filter::{self, Params, Reach, Source};
 use pcsss::stages::render::{self, Camera};
-use pcsss::Role;
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
 /// coverage passes by ray casting, then the beauty = ssM filtered from
 /// the cloud at every hit (lazily computed when the cloud has only
-/// illum). Writes an OpenEXR image (channels beauty, ssM, P, N, A) and,
+/// illum), plus with --direct a diffuse direct term. Writes an OpenEXR image (channels beauty, ssM, P, N, A) and,
 /// with --png, a tone-mapped sRGB preview.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
@@ -48,6 +50,16 @@ struct Args {
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     facing: bool,
+    /// Add a direct diffuse term from these lights (JSON, as illum's):
+    /// beauty = ssM + kd * illum, with shadows from the mesh.
+    #[arg(long, value_name = "LIGHTS")]
+    direct: Option<PathBuf>,
+    /// Light mask for --direct (names and globs, ^ excludes).
+    #[arg(long, default_value = "*")]
+    lmask: String,
+    /// Diffuse reflectance of the direct term: R,G,B or one value.
+    #[arg(long, value_name = "R,G,B", default_value = "0.2")]
+    kd: String,
     /// OpenEXR compression.
     #[arg(long, value_name = "C", default_value = "zip")]
     compression: Compression,
@@ -72,8 +84,30 @@ fn run(args: Args) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&args.camera).with_context(|| cam_name.clone())?;
     let cam = Camera::parse(&text, &cam_name)?;
     let lazy = args.ss.params()?;
+    // The direct term's parameters and lights, checked before any work.
+    let kd = cli::parse_rgb(&args.kd).context("parameter --kd")?;
+    if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
+        anyhow::bail!("parameter --kd: {kd:?}: must be finite and >= 0");
+    }
+    let lights_used = match &args.direct {
+        None => None,
+        Some(path) => {
+            let name = path.display().to_string();
+            let text = std::fs::read_to_string(path).with_context(|| name.clone())?;
+            let all = lights::parse(&text, &name)?;
+            let used: Vec<lights::Light> = lights::mask(&all, &args.lmask)?
+                .into_iter()
+                .map(|i| all[i].clone())
+                .collect();
+            Some(used)
+        }
+    };
     let mesh_name = args.mesh.display().to_string();
     let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
+    let mesh_tris = match lights_used {
+        Some(_) => Some(TriMesh::from_cloud(&mesh).map_err(cli::at(&mesh_name))?),
+        None => None,
+    };
     let cloud_name = args.cloud.display().to_string();
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     let (mut shade, rep) = render::render(&mesh, &cam).map_err(cli::at(&mesh_name))?;
@@ -129,10 +163,15 @@ fn run(args: Args) -> anyhow::Result<()> {
             frep.empty
         ));
     }
-    let beauty = shade.points().vec3_f32("ssM")?;
-    shade
-        .points_mut()
-        .set_vec3("beauty", Role::Color, &beauty)?;
+    let direct = match (lights_used, &mesh_tris) {
+        (Some(used), Some(tris)) => Some((used, Occluder::new(tris))),
+        _ => None,
+    };
+    render::beauty(
+        &mut shade,
+        direct.as_ref().map(|(l, o)| (l.as_slice(), o, kd)),
+        &progress,
+    )?;
     let opt = ExrOptions {
         compression: args.compression,
         half: vec![],

@@ -203,6 +203,31 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
     Ok((shade, report))
 }
 
+/// The beauty at the shade points: `beauty = ssM + kd * illum`, with
+/// `illum` the direct diffuse light from `lights` (`illum`'s code: `Cl
+/// max(0, N.L)` with shadow rays against `occluder`, kept as the attribute
+/// `illum`); without lights, `beauty = ssM`.
+pub fn beauty(
+    shade: &mut Cloud,
+    direct: Option<(&[crate::lights::Light], &Occluder, [f64; 3])>,
+    progress: &crate::progress::Progress,
+) -> Result<()> {
+    let ssm = shade.points().vec3_f64("ssM")?;
+    let out: Vec<[f32; 3]> = match direct {
+        None => ssm.iter().map(|v| v.map(|x| x as f32)).collect(),
+        Some((lights, occ, kd)) => {
+            crate::stages::illum::illum(shade, lights, Some(occ), 0, progress)?;
+            let e = shade.points().vec3_f64("illum")?;
+            ssm.iter()
+                .zip(&e)
+                .map(|(m, e)| [0, 1, 2].map(|c| (m[c] + kd[c] * e[c]) as f32))
+                .collect()
+        }
+    };
+    shade.points_mut().set_vec3("beauty", Role::Color, &out)?;
+    Ok(())
+}
+
 /// An 8-bit sRGB picture of colour attribute `attr` of an image cloud:
 /// `1 - exp(-exposure * x)` per channel (a soft shoulder instead of a
 /// clip), sRGB-encoded; pixels without a point get `background`. Returns

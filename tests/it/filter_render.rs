@@ -584,3 +584,109 @@ fn the_bunny_bake_matches_its_small_golden_render() {
         stderr(&o)
     );
 }
+
+#[test]
+fn the_direct_term_adds_kd_times_the_light() {
+    // A square at z = 0 seen from above, under a distant light straight
+    // down (intensity 2), a cloud of constant ssM on it.
+    let mesh = mesh_from(
+        &[
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
+        &[vec![0, 1, 2, 3]],
+    );
+    let cam = Camera::parse(
+        r#"{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 20, "width": 32, "height": 32}"#,
+        "cam",
+    )
+    .unwrap();
+    let (mut shade, rep) = render::render(&mesh, &cam).unwrap();
+    assert_eq!(rep.covered, 32 * 32);
+    let cloud = plane(30, 0.1, 0.0, |_| [0.5, 0.25, 0.125]);
+    // Centre the plane's cloud on the square.
+    let p: Vec<[f64; 3]> = cloud
+        .points()
+        .vec3_f64("P")
+        .unwrap()
+        .iter()
+        .map(|q| [q[0] - 1.45, q[1] - 1.45, 0.0])
+        .collect();
+    let mut cloud = cloud;
+    cloud.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    filter::filter(
+        &cloud,
+        &mut shade,
+        &Params {
+            reach: Reach::Nearest(4),
+            facing: false,
+        },
+        Source::Eager,
+        &Progress::hidden(),
+    )
+    .unwrap();
+    let lights = pcsss::lights::parse(
+        r#"{"lights": [{"name": "sun", "type": "distant", "intensity": 2.0, "direction": [0, 0, -1]}]}"#,
+        "l.json",
+    )
+    .unwrap();
+    let occ = pcsss::bvh::Occluder::new(&pcsss::mesh::TriMesh::from_cloud(&mesh).unwrap());
+    let kd = [0.1, 0.2, 0.4];
+    render::beauty(&mut shade, Some((&lights, &occ, kd)), &Progress::hidden()).unwrap();
+    let b = shade.points().vec3_f64("beauty").unwrap();
+    for v in &b {
+        for (k, base) in [0.5, 0.25, 0.125].iter().enumerate() {
+            assert!((v[k] - (base + 2.0 * kd[k])).abs() < 1e-6, "{v:?}");
+        }
+    }
+    // Without lights the beauty is ssM.
+    render::beauty(&mut shade, None, &Progress::hidden()).unwrap();
+    let b = shade.points().vec3_f64("beauty").unwrap();
+    assert!((b[0][0] - 0.5).abs() < 1e-6);
+}
+
+#[test]
+fn render_checks_its_inputs_before_working() {
+    let dir = tempdir();
+    let cam = dir.path().join("cam.json");
+    std::fs::write(&cam, r#"{"position": [0, 0, 4], "look_at": [0, 0, 0]}"#).unwrap();
+    let mesh = fixtures().join("mesh/icosphere1.obj");
+    let out = dir.path().join("o.exr");
+    let base = |extra: &[&str]| {
+        let mut a = vec![
+            "--mesh".to_string(),
+            mesh.display().to_string(),
+            "--camera".into(),
+            cam.display().to_string(),
+            "--cloud".into(),
+            mesh.display().to_string(),
+            "-o".into(),
+            out.display().to_string(),
+        ];
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    for (extra, want) in [
+        (&["--kd", "-1"][..], "--kd"),
+        (&["--direct", "/nonexistent/lights.json"][..], "lights.json"),
+        (&["--exposure", "0"][..], "--exposure"),
+    ] {
+        let args = base(extra);
+        let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        let o = run("render", &a, b"");
+        assert_ne!(o.status.code(), Some(0));
+        let e = stderr(&o);
+        assert!(
+            e.contains(want) && e.trim().lines().count() == 1,
+            "{extra:?}: {e}"
+        );
+        assert!(!out.exists());
+    }
+    // A cloud without ssM and no --sd: names ssmulti.
+    let args = base(&[]);
+    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let o = run("render", &a, b"");
+    assert!(stderr(&o).contains("ssmulti"), "{}", stderr(&o));
+}
