@@ -231,24 +231,7 @@ impl Occluder {
         if self.nodes.is_empty() {
             return false;
         }
-        // Reciprocal direction, kept finite (a zero component becomes a
-        // huge one of the same sign: the slabs stay ordered).
-        let inv = |d: f32| {
-            let d = if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            };
-            1.0 / d
-        };
-        let o = [ray.origin.x, ray.origin.y, ray.origin.z];
-        let id = [
-            inv(ray.direction.x),
-            inv(ray.direction.y),
-            inv(ray.direction.z),
-        ];
-        // Conservative far distance (Ize, "Robust BVH Ray Traversal").
-        let tmax = ray.tmax * (1.0 + 2.0 * f32::EPSILON);
+        let (o, id) = ray_slabs(ray);
         let mut stack = [0u32; STACK];
         let mut spill: Vec<u32> = Vec::new();
         let mut top = 1usize;
@@ -262,16 +245,7 @@ impl Occluder {
                 break;
             };
             let node = &self.nodes[at as usize];
-            let mut tnear = [ray.tmin; W];
-            let mut tfar = [tmax; W];
-            for a in 0..3 {
-                for k in 0..W {
-                    let t0 = (node.lo[a][k] - o[a]) * id[a];
-                    let t1 = (node.hi[a][k] - o[a]) * id[a];
-                    tnear[k] = tnear[k].max(t0.min(t1));
-                    tfar[k] = tfar[k].min(t0.max(t1));
-                }
-            }
+            let (tnear, tfar) = slabs(node, &o, &id, ray.tmin, ray.tmax);
             // Children in their stored order: sorting them by distance
             // cost more than it saved (measured).
             for k in 0..W {
@@ -305,35 +279,12 @@ impl Occluder {
         }
         let o = ((origin - self.centre) * self.inv_scale).as_vec3();
         let mut ray = Ray::new(o.into(), Vec3A::from(dir.as_vec3()), 0.0, f32::INFINITY);
-        let inv = |d: f32| {
-            let d = if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            };
-            1.0 / d
-        };
-        let o = [ray.origin.x, ray.origin.y, ray.origin.z];
-        let id = [
-            inv(ray.direction.x),
-            inv(ray.direction.y),
-            inv(ray.direction.z),
-        ];
+        let (o, id) = ray_slabs(&ray);
         let mut best: Option<u32> = None;
         let mut stack: Vec<u32> = vec![0];
         while let Some(at) = stack.pop() {
             let node = &self.nodes[at as usize];
-            let tmax = ray.tmax * (1.0 + 2.0 * f32::EPSILON);
-            let mut tnear = [ray.tmin; W];
-            let mut tfar = [tmax; W];
-            for a in 0..3 {
-                for k in 0..W {
-                    let t0 = (node.lo[a][k] - o[a]) * id[a];
-                    let t1 = (node.hi[a][k] - o[a]) * id[a];
-                    tnear[k] = tnear[k].max(t0.min(t1));
-                    tfar[k] = tfar[k].min(t0.max(t1));
-                }
-            }
+            let (tnear, tfar) = slabs(node, &o, &id, ray.tmin, ray.tmax);
             for k in 0..W {
                 let (child, count) = (node.child[k], node.count[k]);
                 if tnear[k] > tfar[k] || count == EMPTY {
@@ -369,6 +320,46 @@ impl Occluder {
     pub fn triangles(&self) -> &[Triangle] {
         &self.plain
     }
+}
+
+/// The ray's origin and reciprocal direction, kept finite (a zero
+/// component becomes a huge one of the same sign: the slabs stay ordered).
+#[inline(always)]
+fn ray_slabs(ray: &Ray) -> ([f32; 3], [f32; 3]) {
+    let inv = |d: f32| {
+        let d = if d.abs() < 1e-30 {
+            1e-30f32.copysign(d)
+        } else {
+            d
+        };
+        1.0 / d
+    };
+    (
+        [ray.origin.x, ray.origin.y, ray.origin.z],
+        [
+            inv(ray.direction.x),
+            inv(ray.direction.y),
+            inv(ray.direction.z),
+        ],
+    )
+}
+
+/// The four children's entry and exit distances along the ray within
+/// `[tmin, tmax]` (a child is crossed when entry <= exit); `tmax` grown to
+/// be conservative (Ize, "Robust BVH Ray Traversal").
+#[inline(always)]
+fn slabs(node: &Node, o: &[f32; 3], id: &[f32; 3], tmin: f32, tmax: f32) -> ([f32; W], [f32; W]) {
+    let mut tnear = [tmin; W];
+    let mut tfar = [tmax * (1.0 + 2.0 * f32::EPSILON); W];
+    for a in 0..3 {
+        for k in 0..W {
+            let t0 = (node.lo[a][k] - o[a]) * id[a];
+            let t1 = (node.hi[a][k] - o[a]) * id[a];
+            tnear[k] = tnear[k].max(t0.min(t1));
+            tfar[k] = tfar[k].min(t0.max(t1));
+        }
+    }
+    (tnear, tfar)
 }
 
 fn set_box(n: &mut Node, slot: usize, lo: Vec3A, hi: Vec3A) {

@@ -111,3 +111,19 @@ pub fn stage_making(name: &str) -> Option<&'static str> {
         _ => None,
     }
 }
+
+/// Deserialises a JSON file's `text`; an error names `file` and the path
+/// of the key at fault (`lights[2].cone_angle: invalid type ...`).
+pub fn from_json<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let at = if path == "." || path.is_empty() {
+            String::new()
+        } else {
+            format!(" at {path}")
+        };
+        Error::invalid(format!("{file}{at}: {inner}"))
+    })
+}

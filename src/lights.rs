@@ -200,17 +200,7 @@ pub const MAX_SAMPLES: u32 = 1 << 16;
 
 /// Reads and validates a lights file's text; `file` names it in errors.
 pub fn parse(text: &str, file: &str) -> Result<Vec<Light>> {
-    let de = &mut serde_json::Deserializer::from_str(text);
-    let spec: FileSpec = serde_path_to_error::deserialize(de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        let at = if path == "." || path.is_empty() {
-            String::new()
-        } else {
-            format!(" at {path}")
-        };
-        Error::invalid(format!("{file}{at}: {inner}"))
-    })?;
+    let spec: FileSpec = crate::error::from_json(text, file)?;
     let mut out = Vec::with_capacity(spec.lights.len());
     for (i, s) in spec.lights.into_iter().enumerate() {
         let mut light = validate(s)

@@ -48,36 +48,12 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let has_ssm = cloud.points().has("ssM");
-    let source = match (&lazy_params, has_ssm) {
-        (_, true) => Source::Eager,
-        (Some(p), false) => Source::Lazy(p),
-        (None, false) => anyhow::bail!(
-            "{cloud_name}: no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it here for the points the shade points read"
-        ),
-    };
-    // D: the lazy run's, else the one ssmulti recorded.
-    let d = match (&source, &lazy_params) {
-        (Source::Lazy(_), Some(p)) => Some(p.sd * p.rd.iter().copied().fold(0.0, f64::max)),
-        _ => match (cloud.detail("ssmulti_sd"), cloud.detail("ssmulti_rd")) {
-            (Some(sd), Some(rd)) => {
-                let sd = sd.as_f64().unwrap_or(f64::NAN);
-                let rd = rd.components().into_iter().fold(0.0, f64::max);
-                Some(sd * rd)
-            }
-            _ => None,
-        },
-    };
-    let reach = match (args.nfp, args.radius) {
-        (Some(n), _) => Reach::Nearest(n),
-        (None, r) => {
-            let f = r.unwrap_or(0.25);
-            let Some(d) = d.filter(|d| d.is_finite() && *d > 0.0) else {
-                anyhow::bail!(
-                    "{cloud_name}: --radius is a fraction of D = sd * max(Rd), and the cloud records no ssmulti_sd/ssmulti_rd (made by ssmulti): give --sd and --rd, or use --nfp"
-                );
-            };
-            Reach::Radius(f * d)
+    let source = Source::choose(&cloud, lazy_params.as_ref()).map_err(cli::at(&cloud_name))?;
+    let reach = match args.nfp {
+        Some(n) => Reach::Nearest(n),
+        None => {
+            let d = source.distance(&cloud).map_err(cli::at(&cloud_name))?;
+            Reach::Radius(args.radius.unwrap_or(0.25) * d)
         }
     };
     let mut shade = args.io.read(&Select::All)?;
@@ -101,21 +77,10 @@ fn run(args: Args) -> anyhow::Result<()> {
     if is_mesh {
         filter::add_vertex_colours(&mut shade).map_err(cli::at(&name))?;
     }
-    msg.info(format!(
-        "{} shade points from {} cloud points, {:.1} read each on average",
-        rep.shade_points, rep.cloud_points, rep.mean_used
-    ));
-    if let Some((read, computed)) = rep.lazy {
-        msg.info(format!(
-            "lazy: ssM computed at {computed} of {} cloud points ({read} read)",
-            rep.cloud_points
-        ));
-    }
-    if rep.empty > 0 {
-        msg.warn(format!(
-            "{} shade points had no cloud point in reach: ssM = 0 there",
-            rep.empty
-        ));
+    let (info, warn) = rep.messages();
+    info.iter().for_each(|m| msg.info(m));
+    if let Some(w) = warn {
+        msg.warn(w);
     }
     args.io.write(&shade)
 }

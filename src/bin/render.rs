@@ -115,29 +115,10 @@ fn run(args: Args) -> anyhow::Result<()> {
         "{} of {} pixels see the mesh",
         rep.covered, rep.pixels
     ));
-    let source = match (&lazy, cloud.points().has("ssM")) {
-        (_, true) => Source::Eager,
-        (Some(p), false) => Source::Lazy(p),
-        (None, false) => anyhow::bail!(
-            "{cloud_name}: no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it here"
-        ),
-    };
-    let d = match (&source, &lazy) {
-        (Source::Lazy(_), Some(p)) => p.sd * p.rd.iter().copied().fold(0.0, f64::max),
-        _ => {
-            let sd = cloud
-                .detail_f64("ssmulti_sd")
-                .map_err(cli::at(&cloud_name))?;
-            let rd = cloud
-                .detail("ssmulti_rd")
-                .map(|v| v.components().into_iter().fold(0.0, f64::max))
-                .unwrap_or(1.0);
-            sd * rd
-        }
-    };
+    let source = Source::choose(&cloud, lazy.as_ref()).map_err(cli::at(&cloud_name))?;
     let reach = match args.nfp {
         Some(n) => Reach::Nearest(n),
-        None => Reach::Radius(args.radius * d),
+        None => Reach::Radius(args.radius * source.distance(&cloud).map_err(cli::at(&cloud_name))?),
     };
     let progress = msg.progress();
     let frep = filter::filter(
@@ -151,17 +132,10 @@ fn run(args: Args) -> anyhow::Result<()> {
         &progress,
     )
     .map_err(cli::at(&cloud_name))?;
-    if let Some((read, computed)) = frep.lazy {
-        msg.info(format!(
-            "lazy: ssM computed at {computed} of {} cloud points ({read} read)",
-            frep.cloud_points
-        ));
-    }
-    if frep.empty > 0 {
-        msg.warn(format!(
-            "{} pixels had no cloud point in reach: ssM = 0 there",
-            frep.empty
-        ));
+    let (info, warn) = frep.messages();
+    info.iter().skip(1).for_each(|m| msg.info(m));
+    if let Some(w) = warn {
+        msg.warn(w);
     }
     let direct = match (lights_used, &mesh_tris) {
         (Some(used), Some(tris)) => Some((used, Occluder::new(tris))),

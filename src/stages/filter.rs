@@ -198,6 +198,65 @@ pub enum Source<'a> {
     Lazy(&'a ssmulti::Params),
 }
 
+impl<'a> Source<'a> {
+    /// Eager when the cloud has `ssM`, else lazy with `lazy` (an error
+    /// naming ssmulti without it).
+    pub fn choose(cloud: &Cloud, lazy: Option<&'a ssmulti::Params>) -> Result<Source<'a>> {
+        match (lazy, cloud.points().has("ssM")) {
+            (_, true) => Ok(Source::Eager),
+            (Some(p), false) => Ok(Source::Lazy(p)),
+            (None, false) => Err(Error::invalid(
+                "no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it for the points read",
+            )),
+        }
+    }
+
+    /// The scattering distance D = sd * max(Rd): the lazy run's, else the
+    /// one ssmulti recorded in the cloud (`ssmulti_sd`, `ssmulti_rd`).
+    pub fn distance(&self, cloud: &Cloud) -> Result<f64> {
+        let d = match self {
+            Source::Lazy(p) => p.sd * p.rd.iter().copied().fold(0.0, f64::max),
+            Source::Eager => {
+                let sd = cloud.detail_f64("ssmulti_sd")?;
+                let rd = cloud
+                    .detail("ssmulti_rd")
+                    .map_or(1.0, |v| v.components().into_iter().fold(0.0, f64::max));
+                sd * rd
+            }
+        };
+        if d.is_finite() && d > 0.0 {
+            Ok(d)
+        } else {
+            Err(Error::invalid(format!(
+                "the scattering distance D = sd * max(Rd) is {d}: a filter radius needs D > 0"
+            )))
+        }
+    }
+}
+
+impl Report {
+    /// What a stage says of the run: information lines, and a warning.
+    pub fn messages(&self) -> (Vec<String>, Option<String>) {
+        let mut info = vec![format!(
+            "{} shade points from {} cloud points, {:.1} read each on average",
+            self.shade_points, self.cloud_points, self.mean_used
+        )];
+        if let Some((read, computed)) = self.lazy {
+            info.push(format!(
+                "lazy: ssM computed at {computed} of {} cloud points ({read} read)",
+                self.cloud_points
+            ));
+        }
+        let warn = (self.empty > 0).then(|| {
+            format!(
+                "{} shade points had no cloud point in reach: ssM = 0 there",
+                self.empty
+            )
+        });
+        (info, warn)
+    }
+}
+
 /// Adds `ssM` to the shade points `shade` from `cloud`.
 pub fn filter(
     cloud: &Cloud,

@@ -54,17 +54,7 @@ pub const MAX_SIDE: u32 = 16384;
 impl Camera {
     /// Reads and checks a camera file's text; `file` names it in errors.
     pub fn parse(text: &str, file: &str) -> Result<Camera> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        let cam: Camera = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner();
-            let at = if path == "." || path.is_empty() {
-                String::new()
-            } else {
-                format!(" at {path}")
-            };
-            Error::invalid(format!("{file}{at}: {inner}"))
-        })?;
+        let cam: Camera = crate::error::from_json(text, file)?;
         let bad = |key: &str, why: String| Error::invalid(format!("{file} at {key}: {why}"));
         for (key, v) in [
             ("position", cam.position),
