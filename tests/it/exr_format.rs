@@ -529,3 +529,19 @@ fn python_openexr_p_n_passes_read_as_shade_points() {
         assert_eq!(covered, hits);
     }
 }
+
+#[test]
+fn a_data_window_larger_than_the_file_is_refused_without_allocating_it() {
+    // 7 x 100,000,000 pixels claimed (and a chunk count to match) in a
+    // file of a few hundred bytes: an error, found before any pixel
+    // buffer is made (a 2.8 GB one would be made otherwise).
+    let mut b = exr_bytes(&cloud_of(7), &ExrOptions::default());
+    let at = find(&b, b"dataWindow\0box2i\0") + b"dataWindow\0box2i\0".len() + 4;
+    for (k, v) in [0i32, 0, 6, 99_999_999].iter().enumerate() {
+        b[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    let at = find(&b, b"chunkCount\0int\0") + b"chunkCount\0int\0".len() + 4;
+    b[at..at + 4].copy_from_slice(&6_250_000i32.to_le_bytes());
+    let e = read(&b).unwrap_err().to_string();
+    assert!(e.contains("OpenEXR") && !e.contains('\n'), "{e}");
+}
