@@ -308,28 +308,49 @@ struct Leaf {
     hi: DVec3,
 }
 
-/// Source columns (f32, relative to the leaf origin), padded per leaf.
+/// What the pair loop reads of a group of `LANES` sources, together (one
+/// base pointer and one bounds check a group): positions relative to the
+/// leaf origin, `illum[c] * ptarea`, and the group's bounding sphere
+/// (leaf-local centre and radius).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct Hot {
+    x: Lanes,
+    y: Lanes,
+    z: Lanes,
+    q: [Lanes; 3],
+    sphere: [f32; 4],
+}
+
+impl Hot {
+    const ZERO: Hot = Hot {
+        x: [0.0; LANES],
+        y: [0.0; LANES],
+        z: [0.0; LANES],
+        q: [[0.0; LANES]; 3],
+        sphere: [0.0; 4],
+    };
+}
+
+/// A cluster standing in for its sources: position (receiver leaf's
+/// frame), mean normal, `sum illum * ptarea`, `sum ptarea`, Burley's
+/// `r_min` for that area.
+type Pseudo = ([f32; 3], [f32; 3], [f32; 3], f32, f32);
+
+/// Source columns (f32, relative to the leaf origin), padded per leaf:
+/// the hot part a group at a time, the rest a column each.
 #[derive(Default)]
 struct Columns {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
+    hot: Vec<Hot>,
     nx: Vec<f32>,
     ny: Vec<f32>,
     nz: Vec<f32>,
-    /// `illum[c] * ptarea`.
-    q: [Vec<f32>; 3],
     /// `ptarea`.
     a: Vec<f32>,
     /// Burley's `r_min`.
     rmin: Vec<f32>,
     /// Original point index (u32::MAX for padding).
     id: Vec<u32>,
-    /// Per group of `LANES`: bounding sphere centre (leaf-local) and radius.
-    gx: Vec<f32>,
-    gy: Vec<f32>,
-    gz: Vec<f32>,
-    gr: Vec<f32>,
 }
 
 /// A padding lane: far away, carrying nothing.
@@ -415,46 +436,27 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
     let mut cols = Columns::zeroed(total);
     let mut leaves: Vec<Leaf> = {
         let Columns {
-            x,
-            y,
-            z,
+            hot,
             nx,
             ny,
             nz,
-            q: [q0, q1, q2],
             a,
             rmin,
             id,
-            gx,
-            gy,
-            gz,
-            gr,
         } = &mut cols;
-        let (mut px, mut py, mut pz) = (pieces(x, &lens), pieces(y, &lens), pieces(z, &lens));
+        let mut phot = pieces(hot, &glens);
         let (mut pnx, mut pny, mut pnz) = (pieces(nx, &lens), pieces(ny, &lens), pieces(nz, &lens));
-        let (mut pq0, mut pq1, mut pq2) = (pieces(q0, &lens), pieces(q1, &lens), pieces(q2, &lens));
         let (mut pa, mut prm, mut pid) = (pieces(a, &lens), pieces(rmin, &lens), pieces(id, &lens));
-        let (mut pgx, mut pgy) = (pieces(gx, &glens), pieces(gy, &glens));
-        let (mut pgz, mut pgr) = (pieces(gz, &glens), pieces(gr, &glens));
         let mut shares = Vec::with_capacity(ranges.len());
         for _ in 0..ranges.len() {
             shares.push(ColsMut {
-                x: px.next().expect("one piece a leaf"),
-                y: py.next().expect("one piece a leaf"),
-                z: pz.next().expect("one piece a leaf"),
+                hot: phot.next().expect("one piece a leaf"),
                 nx: pnx.next().expect("one piece a leaf"),
                 ny: pny.next().expect("one piece a leaf"),
                 nz: pnz.next().expect("one piece a leaf"),
-                q0: pq0.next().expect("one piece a leaf"),
-                q1: pq1.next().expect("one piece a leaf"),
-                q2: pq2.next().expect("one piece a leaf"),
                 a: pa.next().expect("one piece a leaf"),
                 rmin: prm.next().expect("one piece a leaf"),
                 id: pid.next().expect("one piece a leaf"),
-                gx: pgx.next().expect("one piece a leaf"),
-                gy: pgy.next().expect("one piece a leaf"),
-                gz: pgz.next().expect("one piece a leaf"),
-                gr: pgr.next().expect("one piece a leaf"),
             });
         }
         shares
@@ -476,22 +478,13 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
 
 /// One leaf's share of the columns, written in place.
 struct ColsMut<'a> {
-    x: &'a mut [f32],
-    y: &'a mut [f32],
-    z: &'a mut [f32],
+    hot: &'a mut [Hot],
     nx: &'a mut [f32],
     ny: &'a mut [f32],
     nz: &'a mut [f32],
-    q0: &'a mut [f32],
-    q1: &'a mut [f32],
-    q2: &'a mut [f32],
     a: &'a mut [f32],
     rmin: &'a mut [f32],
     id: &'a mut [u32],
-    gx: &'a mut [f32],
-    gy: &'a mut [f32],
-    gz: &'a mut [f32],
-    gr: &'a mut [f32],
 }
 
 /// `v` cut into consecutive pieces of the given sizes.
@@ -529,19 +522,20 @@ fn leaf_columns(
         lhi = lhi.max(p);
     }
     let origin = (llo + lhi) * 0.5;
-    for k in 0..cm.x.len() {
+    for k in 0..cm.a.len() {
+        let (h, l) = (&mut cm.hot[k / LANES], k % LANES);
         match ids.get(k) {
             Some(&i) => {
                 let pt = &inp.pts[i as usize];
                 let p = DVec3::from_array(pt.pos) - origin;
-                (cm.x[k], cm.y[k], cm.z[k]) = (p.x as f32, p.y as f32, p.z as f32);
+                (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
                 let nn = pt.nrm;
                 (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
                 let a = pt.area as f64;
                 let e = pt.illum;
-                cm.q0[k] = (e[0] as f64 * a) as f32;
-                cm.q1[k] = (e[1] as f64 * a) as f32;
-                cm.q2[k] = (e[2] as f64 * a) as f32;
+                for c in 0..3 {
+                    h.q[c][l] = (e[c] as f64 * a) as f32;
+                }
                 cm.a[k] = pt.area;
                 cm.rmin[k] = if want_rmin {
                     burley::rmin(a) as f32
@@ -551,9 +545,9 @@ fn leaf_columns(
                 cm.id[k] = i;
             }
             None => {
-                (cm.x[k], cm.y[k], cm.z[k]) = (FAR, FAR, FAR);
+                (h.x[l], h.y[l], h.z[l]) = (FAR, FAR, FAR);
                 (cm.nx[k], cm.ny[k], cm.nz[k]) = (0.0, 0.0, 0.0);
-                (cm.q0[k], cm.q1[k], cm.q2[k]) = (0.0, 0.0, 0.0);
+                (h.q[0][l], h.q[1][l], h.q[2][l]) = (0.0, 0.0, 0.0);
                 (cm.a[k], cm.rmin[k]) = (0.0, 0.0);
                 cm.id[k] = u32::MAX;
             }
@@ -561,24 +555,25 @@ fn leaf_columns(
     }
     // Bounding spheres of the groups of LANES (sources and receivers
     // alike; padding lanes left out).
-    for (gi, g) in (0..cm.x.len()).step_by(LANES).enumerate() {
+    for (gi, g) in (0..cm.a.len()).step_by(LANES).enumerate() {
         let m = (ids.len() - g).min(LANES);
+        let h = &mut cm.hot[gi];
         let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        for k in g..g + m {
-            for (a, v) in [cm.x[k], cm.y[k], cm.z[k]].into_iter().enumerate() {
+        for l in 0..m {
+            for (a, v) in [h.x[l], h.y[l], h.z[l]].into_iter().enumerate() {
                 glo[a] = glo[a].min(v);
                 ghi[a] = ghi[a].max(v);
             }
         }
         let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
         let mut r: f32 = 0.0;
-        for k in g..g + m {
-            let d = [cm.x[k] - c[0], cm.y[k] - c[1], cm.z[k] - c[2]];
+        for l in 0..m {
+            let d = [h.x[l] - c[0], h.y[l] - c[1], h.z[l] - c[2]];
             r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
         }
-        (cm.gx[gi], cm.gy[gi], cm.gz[gi]) = (c[0], c[1], c[2]);
         // Rounding of the receiver's offset and of this sum: a margin.
-        cm.gr[gi] = r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
+        let r = r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
+        h.sphere = [c[0], c[1], c[2], r];
     }
     Leaf {
         col: 0,
@@ -591,26 +586,60 @@ fn leaf_columns(
 }
 
 impl Columns {
-    /// `n` zeroed lanes (and their groups).
+    /// `n` zeroed lanes (`n` a multiple of `LANES`).
     fn zeroed(n: usize) -> Columns {
         let f = || vec![0f32; n];
-        let g = || vec![0f32; n / LANES];
         Columns {
-            x: f(),
-            y: f(),
-            z: f(),
+            hot: vec![Hot::ZERO; n / LANES],
             nx: f(),
             ny: f(),
             nz: f(),
-            q: [f(), f(), f()],
             a: f(),
             rmin: f(),
             id: vec![0u32; n],
-            gx: g(),
-            gy: g(),
-            gz: g(),
-            gr: g(),
         }
+    }
+
+    /// Lane `c`'s position (leaf-local).
+    #[inline(always)]
+    fn p(&self, c: usize) -> [f32; 3] {
+        let (h, l) = (&self.hot[c / LANES], c % LANES);
+        [h.x[l], h.y[l], h.z[l]]
+    }
+
+    /// Lane `c`'s `illum[k] * ptarea`.
+    #[inline(always)]
+    fn q(&self, c: usize, k: usize) -> f32 {
+        self.hot[c / LANES].q[k][c % LANES]
+    }
+
+    /// Pseudo-sources as columns: the given lanes padded to whole groups,
+    /// every group's sphere infinite (nothing is culled).
+    fn of_points(pts: &[Pseudo]) -> Columns {
+        let n = padded(pts.len());
+        let mut c = Columns::zeroed(n);
+        for k in 0..n {
+            let (h, l) = (&mut c.hot[k / LANES], k % LANES);
+            match pts.get(k) {
+                Some(&(p, nrm, q, a, rmin)) => {
+                    (h.x[l], h.y[l], h.z[l]) = (p[0], p[1], p[2]);
+                    for j in 0..3 {
+                        h.q[j][l] = q[j];
+                    }
+                    (c.nx[k], c.ny[k], c.nz[k]) = (nrm[0], nrm[1], nrm[2]);
+                    (c.a[k], c.rmin[k]) = (a, rmin);
+                    c.id[k] = u32::MAX;
+                }
+                None => {
+                    (h.x[l], h.y[l], h.z[l]) = (FAR, FAR, FAR);
+                    c.id[k] = u32::MAX;
+                }
+            }
+        }
+        for h in &mut c.hot {
+            h.sphere = [0.0, 0.0, 0.0, f32::INFINITY];
+        }
+        c
     }
 }
 
@@ -690,12 +719,12 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf], cols: &Columns) {
             let (mut a, mut q, mut n, mut ax) = (0.0, [0.0; 3], DVec3::ZERO, DVec3::ZERO);
             let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
             for c in l.col..l.col + l.src {
-                let x = l.origin + DVec3::new(cols.x[c] as f64, cols.y[c] as f64, cols.z[c] as f64);
+                let x = l.origin + DVec3::from_array(cols.p(c).map(f64::from));
                 let w = cols.a[c] as f64;
                 a += w;
                 ax += x * w;
                 for k in 0..3 {
-                    q[k] += cols.q[k][c] as f64;
+                    q[k] += cols.q(c, k) as f64;
                 }
                 n += DVec3::new(cols.nx[c] as f64, cols.ny[c] as f64, cols.nz[c] as f64) * w;
                 lo = lo.min(x);
@@ -704,7 +733,7 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf], cols: &Columns) {
             let centre = if a > 0.0 { ax / a } else { (lo + hi) * 0.5 };
             let mut radius: f64 = 0.0;
             for c in l.col..l.col + l.src {
-                let x = l.origin + DVec3::new(cols.x[c] as f64, cols.y[c] as f64, cols.z[c] as f64);
+                let x = l.origin + DVec3::from_array(cols.p(c).map(f64::from));
                 radius = radius.max((x - centre).length());
             }
             let node = &mut nodes[t];
@@ -921,9 +950,7 @@ fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     let (mut s0a, mut s1a, mut s2a, mut a0a, mut a1a, mut a2a) = (z8, z8, z8, z8, z8, z8);
     let (mut s0b, mut s1b, mut s2b, mut a0b, mut a1b, mut a2b) = (z8, z8, z8, z8, z8, z8);
     let mut count = 0u32;
-    let len = cols.x.len();
-    let (cx, cy, cz) = (&cols.x[..len], &cols.y[..len], &cols.z[..len]);
-    let (cq0, cq1, cq2) = (&cols.q[0][..len], &cols.q[1][..len], &cols.q[2][..len]);
+    let len = cols.a.len();
     let (ca, crm) = (&cols.a[..len], &cols.rmin[..len]);
     let (cnx, cny, cnz) = (&cols.nx[..len], &cols.ny[..len], &cols.nz[..len]);
     let shift = |r: &Receiver, off: [f32; 3]| Receiver {
@@ -933,11 +960,12 @@ fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
         ..*r
     };
     for (g, off) in groups {
-        let gi = g / LANES;
-        let reach = s.ld1 + cols.gr[gi];
+        let h = &cols.hot[g / LANES];
+        let [gx, gy, gz, gr] = h.sphere;
+        let reach = s.ld1 + gr;
         let (oa, ob) = (shift(ra, off), shift(rb, off));
         let near = |o: &Receiver| {
-            let (cx, cy, cz) = (cols.gx[gi] - o.x, cols.gy[gi] - o.y, cols.gz[gi] - o.z);
+            let (cx, cy, cz) = (gx - o.x, gy - o.y, gz - o.z);
             cx * cx + cy * cy + cz * cz <= reach * reach
         };
         if !near(&oa) && !near(&ob) {
@@ -947,8 +975,9 @@ fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
         // One bounds check for the group: every column has length `len`.
         assert!(g + LANES <= len);
         let lanes = |v: &[f32]| -> Lanes { v[g..g + LANES].try_into().expect("a group") };
-        let (x, y, z) = (lanes(cx), lanes(cy), lanes(cz));
-        let (q0, q1, q2, ar, rm) = (lanes(cq0), lanes(cq1), lanes(cq2), lanes(ca), lanes(crm));
+        let (x, y, z) = (&h.x, &h.y, &h.z);
+        let (q0, q1, q2) = (&h.q[0], &h.q[1], &h.q[2]);
+        let (ar, rm) = (lanes(ca), lanes(crm));
         let (nx, ny, nz) = (lanes(cnx), lanes(cny), lanes(cnz));
         // The eight lanes for one receiver: a macro, not a function, so
         // that the lanes vectorise together (a per-lane function or sums
@@ -1052,16 +1081,16 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
     let mut list: Vec<(usize, [f32; 3])> = Vec::new();
     let end = rl.col + rl.len;
     let recv = |c: usize| Receiver {
-        x: cols.x[c],
-        y: cols.y[c],
-        z: cols.z[c],
+        x: cols.p(c)[0],
+        y: cols.p(c)[1],
+        z: cols.p(c)[2],
         nx: cols.nx[c],
         ny: cols.ny[c],
         nz: cols.nz[c],
     };
     for gs in (rl.col..end).step_by(LANES) {
         let gi = gs / LANES;
-        let (cx, cy, cz, cr) = (cols.gx[gi], cols.gy[gi], cols.gz[gi], cols.gr[gi]);
+        let [cx, cy, cz, cr] = cols.hot[gi].sphere;
         let reach = s.ld1 * (1.0 + 1e-6) + cr;
         list.clear();
         for nb in near {
@@ -1075,8 +1104,9 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
             }
             for g in (nb.col..nb.col + nb.n).step_by(LANES) {
                 let sg = g / LANES;
-                let (dx, dy, dz) = (cols.gx[sg] - ox, cols.gy[sg] - oy, cols.gz[sg] - oz);
-                let rr = reach + cols.gr[sg];
+                let [sx, sy, sz, sr] = cols.hot[sg].sphere;
+                let (dx, dy, dz) = (sx - ox, sy - oy, sz - oz);
+                let rr = reach + sr;
                 if dx * dx + dy * dy + dz * dz <= rr * rr {
                     list.push((g, nb.off));
                 }
@@ -1102,7 +1132,7 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
                     s,
                     ks,
                     ps,
-                    (0..ps.x.len()).step_by(LANES).map(|g| (g, [0.0; 3])),
+                    (0..ps.a.len()).step_by(LANES).map(|g| (g, [0.0; 3])),
                     [&oa, &ob],
                     &mut acc,
                 );
@@ -1565,7 +1595,7 @@ fn approx_plan(
     let dmin = if p.rgb { dmin } else { ld1 };
     let jumps = !matches!(p.falloff, Falloff::Smooth);
     let mut exact = Vec::new();
-    let mut ps = Columns::default();
+    let mut ps = Vec::new();
     let mut stack = vec![nodes.len() - 1];
     while let Some(t) = stack.pop() {
         let node = &nodes[t];
@@ -1593,20 +1623,15 @@ fn approx_plan(
         if scale > 0.0 && node.radius <= p.tolerance * scale && !straddles {
             let x = (node.centre - rl.origin).as_vec3();
             let nn = node.n.normalize_or_zero().as_vec3();
-            ps.x.push(x.x);
-            ps.y.push(x.y);
-            ps.z.push(x.z);
-            ps.nx.push(nn.x);
-            ps.ny.push(nn.y);
-            ps.nz.push(nn.z);
-            for c in 0..3 {
-                ps.q[c].push(node.q[c] as f32);
-            }
-            ps.a.push(node.a as f32);
             // Burley's regularisation for the cluster's whole area (a
             // single-source cluster gets exactly its source's).
-            ps.rmin.push(burley::rmin(node.a) as f32);
-            ps.id.push(u32::MAX);
+            ps.push((
+                x.to_array(),
+                nn.to_array(),
+                node.q.map(|v| v as f32),
+                node.a as f32,
+                burley::rmin(node.a) as f32,
+            ));
         } else if node.kids.is_empty() {
             exact.push(node.first);
         } else {
@@ -1614,27 +1639,8 @@ fn approx_plan(
         }
     }
     exact.sort_unstable();
-    // Pad to whole groups; no culling spheres (every pseudo-source counts).
-    while ps.x.len() % LANES != 0 {
-        ps.x.push(FAR);
-        ps.y.push(FAR);
-        ps.z.push(FAR);
-        ps.nx.push(0.0);
-        ps.ny.push(0.0);
-        ps.nz.push(0.0);
-        for c in 0..3 {
-            ps.q[c].push(0.0);
-        }
-        ps.a.push(0.0);
-        ps.rmin.push(0.0);
-        ps.id.push(u32::MAX);
-    }
-    for _ in 0..ps.x.len() / LANES {
-        ps.gx.push(0.0);
-        ps.gy.push(0.0);
-        ps.gz.push(0.0);
-        ps.gr.push(f32::INFINITY);
-    }
+    // Whole groups; no culling spheres (every pseudo-source counts).
+    let ps = Columns::of_points(&ps);
     (exact, ps)
 }
 
