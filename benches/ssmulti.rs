@@ -9,7 +9,7 @@
 //!    tolerances (RMS relative difference from the exact result), beside
 //!    a numpy + scipy cKDTree implementation of the exact sum on a random
 //!    subset of receivers (its pair rate; its values are checked against
-//!    ours).
+//!    ours). Both sides: the best of three runs when a run is short.
 //! 2. sd 0.3, Rd (1, 0.5, 0.25): error against the continuous integral
 //!    (computed here by quadrature; the independent value at the
 //!    lit pole is (0.989286, 0.494643, 0.247321)) for random and
@@ -252,11 +252,14 @@ fn main() {
                 sd: ld1,
                 ..Params::default()
             };
-            // Best of two when short: the first run in a process pays the
-            // kernel for fresh pages (at 4M points, 13% of the time).
+            // Best of three when short: the first run in a process pays the
+            // kernel for fresh pages (at 4M points, 13% of the time), and
+            // this shared machine varies by 10-20% from run to run.
             let (exact, mut secs, rep) = run(&cloud, &p);
             if secs < 5.0 {
-                secs = secs.min(run(&cloud, &p).1);
+                for _ in 0..2 {
+                    secs = secs.min(run(&cloud, &p).1);
+                }
             }
             // Pairs within reach: each source is within ld1 of nb
             // receivers on average.
@@ -266,13 +269,14 @@ fn main() {
             let py = python_baseline(&cloud, &p, (20_000_000 / nb).clamp(500, n), &exact);
             let mut cells = Vec::new();
             for tol in [0.1, 0.2, 0.3, 0.4] {
-                let (approx, s, _) = run(
-                    &cloud,
-                    &Params {
-                        tolerance: tol,
-                        ..p
-                    },
-                );
+                let q = Params {
+                    tolerance: tol,
+                    ..p
+                };
+                let (approx, mut s, _) = run(&cloud, &q);
+                if s < 5.0 {
+                    s = s.min(run(&cloud, &q).1);
+                }
                 let err = rms_rel(&approx, &exact);
                 csv.push_str(&format!("{n},{nb},approx,{tol},{s},{err}\n"));
                 cells.push(format!("{s:.3}, {err:.1e}"));
