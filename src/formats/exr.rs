@@ -34,6 +34,9 @@ use crate::error::{Error, Result};
 /// Widest row of a point-cloud image.
 pub const WIDTH: usize = 1024;
 
+/// The most pixels a shade-point image written back may have (2^31).
+pub const MAX_PIXELS: usize = 1 << 31;
+
 /// Header attribute: the number of points (point-cloud layout).
 pub const ATTR_POINTS: &str = "pcsss:points";
 /// Header attribute: each attribute's kind, role and type.
@@ -202,18 +205,28 @@ fn detail_from_exr(v: &AttributeValue) -> Option<DetailValue> {
     })
 }
 
-/// Parses `"xmin ymin xmax ymax"`.
-fn parse_window(name: &str, s: &str) -> Result<IntegerBounds> {
+/// Parses `"xmin ymin xmax ymax"` (at most `MAX_PIXELS` pixels).
+pub(crate) fn parse_window(name: &str, s: &str) -> Result<IntegerBounds> {
     let v: Vec<i32> = s
         .split_whitespace()
         .map(|t| t.parse::<i32>())
         .collect::<std::result::Result<_, _>>()
         .map_err(|_| Error::invalid(format!("detail '{name}' is '{s}', not four integers")))?;
     match v[..] {
-        [x0, y0, x1, y1] if x1 >= x0 && y1 >= y0 => Ok(IntegerBounds::new(
-            Vec2(x0, y0),
-            Vec2((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize),
-        )),
+        [x0, y0, x1, y1] if x1 >= x0 && y1 >= y0 => {
+            let (w, h) = (x1 as i64 - x0 as i64 + 1, y1 as i64 - y0 as i64 + 1);
+            // Never allocate what a detail claims: an image of at most
+            // MAX_PIXELS pixels.
+            if w.checked_mul(h).is_none_or(|a| a > MAX_PIXELS as i64) {
+                return Err(Error::invalid(format!(
+                    "detail '{name}' is '{s}': {w} x {h} pixels, more than {MAX_PIXELS}"
+                )));
+            }
+            Ok(IntegerBounds::new(
+                Vec2(x0, y0),
+                Vec2(w as usize, h as usize),
+            ))
+        }
         _ => Err(Error::invalid(format!(
             "detail '{name}' is '{s}', not 'xmin ymin xmax ymax'"
         ))),
@@ -662,7 +675,7 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
                     used.insert(by_name.get_key_value(n.as_str()).expect("found").0);
                     mark_bits(&by_name, n, &mut used);
                 }
-                let [a, b, c]: [Column; 3] = cols.try_into().map_err(|_| Error::invalid("3"))?;
+                let [a, b, c]: [Column; 3] = cols.try_into().expect("three components");
                 attrs.push(Attribute::vec3(name, role, [a, b, c]));
             }
         } else if let Some(col) = comp(name) {

@@ -229,19 +229,11 @@ pub fn picture(
     background: [f64; 3],
 ) -> Result<(u32, u32, Vec<u8>)> {
     let win = match shade.detail(DATA_WINDOW) {
-        Some(DetailValue::Str(s)) => s.clone(),
+        Some(DetailValue::Str(s)) => crate::formats::exr::parse_window(DATA_WINDOW, s)?,
         _ => return Err(Error::missing("detail", DATA_WINDOW, Some("render"))),
     };
-    let v: Vec<i64> = win
-        .split_whitespace()
-        .filter_map(|t| t.parse().ok())
-        .collect();
-    let [x0, y0, x1, y1] = v[..] else {
-        return Err(Error::invalid(format!(
-            "{DATA_WINDOW} '{win}' is not four integers"
-        )));
-    };
-    let (w, h) = ((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32);
+    let (x0, y0) = (win.position.x() as i64, win.position.y() as i64);
+    let (w, h) = (win.size.width() as u32, win.size.height() as u32);
     let enc = |x: f64| (crate::stages::filter::srgb(x) * 255.0 + 0.5) as u8;
     let mut img: Vec<u8> = (0..w as usize * h as usize)
         .flat_map(|_| background.map(enc))

@@ -8,7 +8,7 @@ use std::process::Command;
 use crate::util::*;
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
-use pcsss::{Cloud, Column, DetailValue, Element, Role};
+use pcsss::{Cloud, Column, DetailValue, Role};
 use serde_json::Value;
 
 const EXR: Format = Format::Exr;
@@ -325,7 +325,6 @@ fn empty_and_garbage_after_the_magic() {
     b.extend(std::iter::repeat_n(0xffu8, 64));
     let e = read(&b).unwrap_err().to_string();
     assert!(!e.is_empty() && !e.contains('\n'), "{e}");
-    let _ = Element::new("vertex", 0);
 }
 
 // ---------------------------------------------------------------------
@@ -544,4 +543,25 @@ fn a_data_window_larger_than_the_file_is_refused_without_allocating_it() {
     b[at..at + 4].copy_from_slice(&6_250_000i32.to_le_bytes());
     let e = read(&b).unwrap_err().to_string();
     assert!(e.contains("OpenEXR") && !e.contains('\n'), "{e}");
+}
+
+#[test]
+fn a_shade_cloud_claiming_a_huge_image_is_refused_before_allocating() {
+    let mut c = Cloud::with_points(1);
+    c.points_mut()
+        .set_vec3("P", Role::Point, &[[0f32, 0., 0.]])
+        .unwrap();
+    c.points_mut()
+        .set(pcsss::Attribute::scalar("pixel_x", Column::I32(vec![0])))
+        .unwrap();
+    c.points_mut()
+        .set(pcsss::Attribute::scalar("pixel_y", Column::I32(vec![0])))
+        .unwrap();
+    for win in ["0 0 2000000000 2000000000", "-2147483648 0 2147483647 0"] {
+        c.set_detail("exr_data_window", DetailValue::Str(win.into()));
+        let e = formats::write_cloud(&mut Vec::new(), &c, EXR)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("exr_data_window") && e.contains("pixels"), "{e}");
+    }
 }
