@@ -2,13 +2,18 @@
 //!
 //! A toolkit for Pixar's point-based subsurface scattering ("Human Skin for
 //! Finding Nemo", as Mario Marengo built it in Houdini): typed point clouds
-//! that travel as PLY between separate command-line stages.
+//! that travel as PLY or OpenEXR between separate command-line stages.
 //!
 //! - [`column`]: scalar types and (lazily decoded) columns.
 //! - [`cloud`]: the point cloud: elements, attributes, detail, faces.
-//! - [`formats`]: PLY (all encodings) and OBJ input, format sniffing.
+//! - [`formats`]: PLY (all encodings), OBJ input, OpenEXR point clouds and
+//!   shade-point images, format sniffing.
 //! - [`geom`]: triangle and polygon measures, sampling, closest points.
 //! - [`mesh`]: faces as polygons, triangulation, closest-point queries.
+//! - [`bvh`]: shadow rays (any hit) and camera rays (nearest hit).
+//! - [`lights`]: the lights file, light masks, light arriving at a point.
+//! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti, filter,
+//!   render.
 //! - [`cli`]: what every binary shares (I/O, messages, errors).
 //! - [`tools`]: `pcinfo` and `pcdiff`.
 //!
