@@ -328,6 +328,9 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
         // read are about that, and the computed leaves not many more.
         let frac_read = read as f64 / cloud.len() as f64;
         let frac_done = computed as f64 / cloud.len() as f64;
+        eprintln!(
+            "lazy, facing {facing}: read {frac_read:.3}, computed {frac_done:.3} of the cloud"
+        );
         assert!((0.25..0.30).contains(&frac_read), "read {frac_read}");
         assert!(
             frac_done >= frac_read && frac_done < 0.33,
