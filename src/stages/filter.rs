@@ -74,7 +74,7 @@ pub struct Report {
 pub struct CloudIndex {
     tree: ImmutableKdTree<f64, u32, 3, 32>,
     centre: DVec3,
-    pos: Vec<DVec3>,
+    len: usize,
     nrm: Option<Vec<DVec3>>,
 }
 
@@ -98,8 +98,10 @@ impl CloudIndex {
         } else {
             (lo + hi) * 0.5
         };
-        let pos: Vec<DVec3> = p.iter().map(|q| DVec3::from_array(*q) - centre).collect();
-        let rel: Vec<[f64; 3]> = pos.iter().map(|q| q.to_array()).collect();
+        let rel: Vec<[f64; 3]> = p
+            .iter()
+            .map(|q| (DVec3::from_array(*q) - centre).to_array())
+            .collect();
         let nrm = if with_normals {
             let n = cloud.points().vec3_f64("N")?;
             Some(
@@ -113,7 +115,7 @@ impl CloudIndex {
         Ok(CloudIndex {
             tree: ImmutableKdTree::new_from_slice(&rel),
             centre,
-            pos,
+            len: p.len(),
             nrm,
         })
     }
@@ -121,7 +123,7 @@ impl CloudIndex {
     /// The cloud points a shade point at `s` with normal `n` reads, as
     /// (index, distance), by index.
     pub fn neighbours(&self, s: DVec3, n: Option<DVec3>, reach: Reach) -> Vec<(u32, f64)> {
-        let total = self.pos.len();
+        let total = self.len;
         if total == 0 {
             return Vec::new();
         }

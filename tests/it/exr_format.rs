@@ -333,34 +333,16 @@ fn empty_and_garbage_after_the_magic() {
 /// Python with the OpenEXR package, or None (a skip) unless
 /// PCSSS_REQUIRE_PYTHON=1, which `make test` and CI set.
 fn python() -> Option<String> {
-    let py = std::env::var("PCSSS_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&py)
-        .args(["-c", "import OpenEXR, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if ok {
-        return Some(py);
-    }
-    if std::env::var("PCSSS_REQUIRE_PYTHON").as_deref() == Ok("1") {
-        panic!("{py} lacks OpenEXR: run the tests with `make test`");
-    }
-    eprintln!("OpenEXR interop skipped: {py} lacks OpenEXR (use `make test`)");
-    None
+    python_with(&["OpenEXR", "numpy"])
 }
 
 /// Debian's exrheader, or None (a skip) unless PCSSS_REQUIRE_PYTHON=1.
 fn exrheader(f: &Path) -> Option<String> {
     match Command::new("exrheader").arg(f).output() {
         Ok(o) if o.status.success() => Some(String::from_utf8_lossy(&o.stdout).into_owned()),
-        r => {
-            if std::env::var("PCSSS_REQUIRE_PYTHON").as_deref() == Ok("1") {
-                panic!(
-                    "exrheader failed or missing ({r:?}): `make test` installs Debian's openexr"
-                );
-            }
-            eprintln!("exrheader skipped");
-            None
-        }
+        r => interop_missing(&format!(
+            "exrheader failed or is missing ({r:?}); `make test` installs Debian's openexr"
+        )),
     }
 }
 

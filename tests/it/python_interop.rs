@@ -12,19 +12,7 @@ use serde_json::Value;
 /// The Python interpreter with plyfile, numpy and trimesh, or `None` (a
 /// skip) unless PCSSS_REQUIRE_PYTHON=1, which `make test` and CI set.
 fn python() -> Option<String> {
-    let py = std::env::var("PCSSS_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&py)
-        .args(["-c", "import plyfile, numpy, trimesh"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if ok {
-        return Some(py);
-    }
-    if std::env::var("PCSSS_REQUIRE_PYTHON").as_deref() == Ok("1") {
-        panic!("{py} lacks plyfile/numpy/trimesh: run the tests with `make test`");
-    }
-    eprintln!("python interop skipped: {py} lacks plyfile/numpy/trimesh (use `make test`)");
-    None
+    python_with(&["plyfile", "numpy", "trimesh"])
 }
 
 fn script() -> String {
