@@ -17,7 +17,7 @@
 //!
 //! `BENCH_QUICK=1` runs only the 100k and 1M clouds. `BENCH_CASE=1000000,200`
 //! times only the exact method on that case (points, neighbours), five
-//! runs, for profiling.
+//! runs (`BENCH_RUNS` to change), for profiling.
 
 mod common;
 
@@ -219,7 +219,8 @@ fn main() {
             sd: 2.0 * (nb as f64 / n as f64).sqrt(),
             ..Params::default()
         };
-        for _ in 0..5 {
+        let runs = std::env::var("BENCH_RUNS").map_or(5, |r| r.parse().unwrap());
+        for _ in 0..runs {
             let (_, secs, rep) = run(&cloud, &p);
             let useful = rep.sources as f64 * nb as f64;
             println!(

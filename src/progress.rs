@@ -55,3 +55,35 @@ impl Progress {
         }
     }
 }
+
+/// Wall-clock time of a stage's phases on stderr, one line a phase, when
+/// `PCSSS_TIMES` is set (for finding where the time goes; nothing
+/// otherwise).
+#[derive(Debug)]
+pub struct Phases {
+    what: &'static str,
+    last: Option<std::time::Instant>,
+}
+
+impl Phases {
+    /// Starts timing `what`'s phases (if `PCSSS_TIMES` is set).
+    pub fn new(what: &'static str) -> Phases {
+        let on = std::env::var_os("PCSSS_TIMES").is_some();
+        Phases {
+            what,
+            last: on.then(std::time::Instant::now),
+        }
+    }
+
+    /// Ends phase `name`: prints its time, starts the next.
+    pub fn mark(&mut self, name: &str) {
+        if let Some(t) = self.last {
+            eprintln!(
+                "{} {name}: {:.2} ms",
+                self.what,
+                t.elapsed().as_secs_f64() * 1e3
+            );
+            self.last = Some(std::time::Instant::now());
+        }
+    }
+}

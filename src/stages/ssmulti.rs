@@ -61,7 +61,7 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::column::Column;
 use crate::error::{Error, Result};
-use crate::progress::Progress;
+use crate::progress::{Phases, Progress};
 
 /// The falloff kernel.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -387,6 +387,7 @@ struct Inputs {
 /// Sorts the points along a Morton curve and cuts them into leaves of at
 /// most `LEAF` points that share a prefix (equal codes are cut in runs).
 fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Columns, Vec<TNode>) {
+    let mut pb = Phases::new("ssmulti build");
     let n = inp.pts.len();
     let (lo, hi) = inp
         .pts
@@ -402,6 +403,7 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
             || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |a, b| (a.0.min(b.0), a.1.max(b.1)),
         );
+    pb.mark("bbox");
     let extent = (hi - lo).max_element().max(f64::MIN_POSITIVE);
     // One u64 a point: the Morton code above, the point's index below (so
     // every key is distinct and the order is the same on any thread
@@ -422,18 +424,22 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
         .collect();
     // (A radix sort, rdst, took 51-78 ms against 45 ms for (code, index)
     // pairs; one u64 sorts faster still.)
+    pb.mark("codes");
     order.par_sort_unstable();
+    pb.mark("sort");
     let idx_mask = (1u64 << idx_bits) - 1;
     let mut ranges = Vec::new();
     let mut nodes = Vec::new();
     let top = (idx_bits + 3 * axis_bits) as i32 - 1;
     split(&order, 0, n, top, idx_bits as i32, &mut ranges, &mut nodes);
+    pb.mark("split");
     // Every leaf's columns written in parallel, in place (fresh zeroed
     // pages are first touched by the thread that fills them).
     let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
     let glens: Vec<usize> = lens.iter().map(|l| l / LANES).collect();
     let total: usize = lens.iter().sum();
     let mut cols = Columns::zeroed(total);
+    pb.mark("zeroed");
     let mut leaves: Vec<Leaf> = {
         let Columns {
             hot,
@@ -467,12 +473,14 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
             })
             .collect()
     };
+    pb.mark("cols");
     let mut col = 0;
     for (leaf, len) in leaves.iter_mut().zip(&lens) {
         leaf.col = col;
         col += len;
     }
     aggregate(&mut nodes, &leaves, &cols);
+    pb.mark("aggregate");
     (leaves, cols, nodes)
 }
 
@@ -611,35 +619,6 @@ impl Columns {
     #[inline(always)]
     fn q(&self, c: usize, k: usize) -> f32 {
         self.hot[c / LANES].q[k][c % LANES]
-    }
-
-    /// Pseudo-sources as columns: the given lanes padded to whole groups,
-    /// every group's sphere infinite (nothing is culled).
-    fn of_points(pts: &[Pseudo]) -> Columns {
-        let n = padded(pts.len());
-        let mut c = Columns::zeroed(n);
-        for k in 0..n {
-            let (h, l) = (&mut c.hot[k / LANES], k % LANES);
-            match pts.get(k) {
-                Some(&(p, nrm, q, a, rmin)) => {
-                    (h.x[l], h.y[l], h.z[l]) = (p[0], p[1], p[2]);
-                    for j in 0..3 {
-                        h.q[j][l] = q[j];
-                    }
-                    (c.nx[k], c.ny[k], c.nz[k]) = (nrm[0], nrm[1], nrm[2]);
-                    (c.a[k], c.rmin[k]) = (a, rmin);
-                    c.id[k] = u32::MAX;
-                }
-                None => {
-                    (h.x[l], h.y[l], h.z[l]) = (FAR, FAR, FAR);
-                    c.id[k] = u32::MAX;
-                }
-            }
-        }
-        for h in &mut c.hot {
-            h.sphere = [0.0, 0.0, 0.0, f32::INFINITY];
-        }
-        c
     }
 }
 
@@ -796,21 +775,26 @@ struct Setup {
     local: bool,
 }
 
-/// A receiver, relative to the source leaf's origin.
-#[derive(Clone, Copy)]
-struct Receiver {
-    x: f32,
-    y: f32,
-    z: f32,
-    nx: f32,
-    ny: f32,
-    nz: f32,
-}
-
 /// A falloff in f32 for the pair loop, at `r <= D` (the caller masks
 /// what lies beyond).
 trait Kern: Copy {
-    fn w(&self, r: f32, rmin: f32) -> f32;
+    /// The weight is exactly 0 at `r >= D` without a mask (`r` beyond
+    /// `D` included): the pair loop then needs no reach mask.
+    const CLIPS: bool;
+    /// Reads Burley's `r_min`.
+    const RMIN: bool;
+    fn w<const F: bool>(&self, r: f32, rmin: f32) -> f32;
+}
+
+/// `a * b + c`, fused when `F` (only where the CPU has FMA: elsewhere
+/// `mul_add` is a library call).
+#[inline(always)]
+fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if F {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -819,13 +803,15 @@ struct SmoothK {
 }
 
 impl Kern for SmoothK {
+    const CLIPS: bool = true;
+    const RMIN: bool = false;
     #[inline(always)]
-    fn w(&self, r: f32, _: f32) -> f32 {
+    fn w<const F: bool>(&self, r: f32, _: f32) -> f32 {
         // 1 - 3t^2 + 2t^3 = (1 - t)^2 (1 + 2t): no cancellation near the
-        // edge, where W is small.
+        // edge, where W is small; t clamped to 1 gives exactly 0.
         let t = (r * self.inv).min(1.0);
         let u = 1.0 - t;
-        u * u * (1.0 + 2.0 * t)
+        u * u * madd::<F>(2.0, t, 1.0)
     }
 }
 
@@ -835,8 +821,10 @@ struct ExpK {
 }
 
 impl Kern for ExpK {
+    const CLIPS: bool = false;
+    const RMIN: bool = false;
     #[inline(always)]
-    fn w(&self, r: f32, _: f32) -> f32 {
+    fn w<const F: bool>(&self, r: f32, _: f32) -> f32 {
         exp_approx(self.c * r)
     }
 }
@@ -848,8 +836,10 @@ struct BurleyK {
 }
 
 impl Kern for BurleyK {
+    const CLIPS: bool = false;
+    const RMIN: bool = true;
     #[inline(always)]
-    fn w(&self, r: f32, rmin: f32) -> f32 {
+    fn w<const F: bool>(&self, r: f32, rmin: f32) -> f32 {
         // A zero-area source (rmin 0) at r 0 carries nothing: a finite
         // huge weight times 0.
         let rr = r.max(rmin).max(1e-30);
@@ -876,271 +866,441 @@ pub fn exp_approx(x: f32) -> f32 {
     e * f32::from_bits(bits)
 }
 
-/// A receiver block's sums: lanes of f32, added into f64 per block.
+/// Lanes of f32: eight receivers, one a lane.
 type Lanes = [f32; LANES];
 
-/// A receiver's sums: lanes of f32, flushed into f64 every `FLUSH`
-/// groups, so no lane ever holds more than `FLUSH` terms and the rounding
-/// does not grow with the neighbour count.
-struct Acc {
-    s: [Lanes; 6],
-    groups: u32,
-    total: [f64; 6],
+/// The sources a receiver leaf sums, gathered from the source groups
+/// within its reach into its frame, one column a value: the pair loop
+/// broadcasts each source to the eight receivers in the lanes. Whole
+/// groups are copied (`n` lanes), each with its bounding sphere (in the
+/// leaf's frame) and its source lanes (a bit a lane); each group of
+/// receivers then lists in `idx` the lanes it sums (those within reach
+/// of its bounding sphere). Columns a run does not use are not written.
+#[derive(Default)]
+struct Gathered {
+    n: usize,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    q: [Vec<f32>; 3],
+    nx: Vec<f32>,
+    ny: Vec<f32>,
+    nz: Vec<f32>,
+    a: Vec<f32>,
+    rmin: Vec<f32>,
+    /// Per copied group: sphere (centre, radius; padded to whole lanes
+    /// with spheres far away) and source lanes.
+    sx: Vec<f32>,
+    sy: Vec<f32>,
+    sz: Vec<f32>,
+    sr: Vec<f32>,
+    valid: Vec<u32>,
+    /// The lanes summed, `m` of them.
+    idx: Vec<u32>,
+    m: usize,
 }
 
-/// Groups of `LANES` summed in f32 before a flush into f64.
-const FLUSH: u32 = 64;
+impl Gathered {
+    fn clear(&mut self) {
+        self.n = 0;
+        self.m = 0;
+        for v in [&mut self.sx, &mut self.sy, &mut self.sz, &mut self.sr] {
+            v.clear();
+        }
+        self.valid.clear();
+    }
 
-impl Acc {
-    fn new() -> Acc {
-        Acc {
-            s: [[0.0; LANES]; 6],
-            groups: 0,
-            total: [0.0; 6],
+    /// Room for `more` lanes after the first `n`.
+    fn room(&mut self, more: usize) {
+        let want = self.n + more;
+        if self.x.len() < want {
+            let len = want.max(2 * self.x.len());
+            for v in [&mut self.x, &mut self.y, &mut self.z] {
+                v.resize(len, 0.0);
+            }
+            for v in &mut self.q {
+                v.resize(len, 0.0);
+            }
+            for v in [
+                &mut self.nx,
+                &mut self.ny,
+                &mut self.nz,
+                &mut self.a,
+                &mut self.rmin,
+            ] {
+                v.resize(len, 0.0);
+            }
+            // (`select` writes eight at a time.)
+            self.idx.resize(len + LANES, 0);
         }
     }
 
-    /// Adds a block's lanes (`groups` groups of terms each).
+    /// Copies a whole group of sources (lanes `c..c + LANES` of `cols`,
+    /// `valid` the source lanes), moved by `-off`; the normals
+    /// (`with_n`), areas (`with_a`) and Burley's `r_min` (`with_rm`) when
+    /// the run reads them.
     #[inline(always)]
-    fn spill(&mut self, lanes: [&Lanes; 6], groups: u32) {
-        for c in 0..6 {
+    fn group(
+        &mut self,
+        cols: &Columns,
+        c: usize,
+        off: [f32; 3],
+        valid: u32,
+        [with_n, with_a, with_rm]: [bool; 3],
+    ) {
+        self.room(LANES);
+        let (n, h) = (self.n, &cols.hot[c / LANES]);
+        let put = |v: &mut Vec<f32>, src: &Lanes, d: f32| {
+            let dst: &mut [f32; LANES] = (&mut v[n..n + LANES]).try_into().expect("room");
             for k in 0..LANES {
-                self.s[c][k] += lanes[c][k];
+                dst[k] = src[k] - d;
+            }
+        };
+        put(&mut self.x, &h.x, off[0]);
+        put(&mut self.y, &h.y, off[1]);
+        put(&mut self.z, &h.z, off[2]);
+        for j in 0..3 {
+            put(&mut self.q[j], &h.q[j], 0.0);
+        }
+        let lanes = |v: &[f32]| -> Lanes { v[c..c + LANES].try_into().expect("a group") };
+        if with_n {
+            put(&mut self.nx, &lanes(&cols.nx), 0.0);
+            put(&mut self.ny, &lanes(&cols.ny), 0.0);
+            put(&mut self.nz, &lanes(&cols.nz), 0.0);
+        }
+        if with_a {
+            put(&mut self.a, &lanes(&cols.a), 0.0);
+        }
+        if with_rm {
+            put(&mut self.rmin, &lanes(&cols.rmin), 0.0);
+        }
+        let [sx, sy, sz, sr] = h.sphere;
+        self.sx.push(sx - off[0]);
+        self.sy.push(sy - off[1]);
+        self.sz.push(sz - off[2]);
+        self.sr.push(sr);
+        self.valid.push(valid);
+        self.n += LANES;
+    }
+
+    /// Pads the spheres to whole lanes (far away: never within reach).
+    fn seal(&mut self) {
+        while !self.sx.len().is_multiple_of(LANES) {
+            for v in [&mut self.sx, &mut self.sy, &mut self.sz] {
+                v.push(FAR);
+            }
+            self.sr.push(0.0);
+            self.valid.push(0);
+        }
+    }
+
+    /// Lists in `idx` the lanes within `reach` of `centre` (leaf frame):
+    /// the groups whose spheres come within reach, then their lanes that
+    /// do. `F`: vector masks (AVX2).
+    #[inline(always)]
+    fn select<const F: bool>(&mut self, centre: [f32; 3], reach: f32) {
+        let [cx, cy, cz] = centre;
+        self.m = 0;
+        if self.n == 0 {
+            return;
+        }
+        let n = self.n;
+        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
+        let idx = &mut self.idx[..n + LANES];
+        let reach2 = [reach * reach; LANES];
+        let mut m = 0;
+        let ng = self.sx.len();
+        for j0 in (0..ng).step_by(LANES) {
+            let g = |v: &[f32]| -> Lanes { v[j0..j0 + LANES].try_into().expect("sealed") };
+            let (sx, sy, sz, sr) = (g(&self.sx), g(&self.sy), g(&self.sz), g(&self.sr));
+            let (mut d2, mut rr) = ([0.0; LANES], [0.0; LANES]);
+            for k in 0..LANES {
+                let (dx, dy, dz) = (sx[k] - cx, sy[k] - cy, sz[k] - cz);
+                d2[k] = dx * dx + dy * dy + dz * dz;
+                rr[k] = (reach + sr[k]) * (reach + sr[k]);
+            }
+            let mut near = le_bits::<F>(&d2, &rr);
+            while near != 0 {
+                let k = near.trailing_zeros() as usize;
+                near &= near - 1;
+                let (j, valid) = (j0 + k, self.valid[j0 + k]);
+                let base = j * LANES;
+                let l = |v: &[f32]| -> Lanes { v[base..base + LANES].try_into().expect("a group") };
+                let (gx, gy, gz) = (l(x), l(y), l(z));
+                let mut e2 = [0.0; LANES];
+                for i in 0..LANES {
+                    let (ex, ey, ez) = (gx[i] - cx, gy[i] - cy, gz[i] - cz);
+                    e2[i] = ex * ex + ey * ey + ez * ez;
+                }
+                // The lanes within reach, packed to the front (branch
+                // free: eight written, as many kept as there are bits).
+                let bits = le_bits::<F>(&e2, &reach2) & valid;
+                let (to, from) = (&mut idx[m..m + LANES], &PACK[bits as usize]);
+                for i in 0..LANES {
+                    to[i] = (base + from[i] as usize) as u32;
+                }
+                m += bits.count_ones() as usize;
             }
         }
-        self.groups += groups;
-        if self.groups >= FLUSH {
-            self.flush();
-        }
+        self.m = m;
     }
 
-    #[inline(always)]
-    fn flush(&mut self) {
-        for c in 0..6 {
-            self.total[c] += self.s[c].iter().map(|&v| v as f64).sum::<f64>();
-            self.s[c] = [0.0; LANES];
+    /// Pseudo-sources, every column filled, every one summed.
+    fn of_points(pts: &[Pseudo]) -> Gathered {
+        let mut g = Gathered::default();
+        g.room(pts.len());
+        for (i, &(p, n, q, a, rmin)) in pts.iter().enumerate() {
+            (g.x[i], g.y[i], g.z[i]) = (p[0], p[1], p[2]);
+            for c in 0..3 {
+                g.q[c][i] = q[c];
+            }
+            (g.nx[i], g.ny[i], g.nz[i]) = (n[0], n[1], n[2]);
+            (g.a[i], g.rmin[i]) = (a, rmin);
+            g.idx[i] = i as u32;
         }
-        self.groups = 0;
+        (g.n, g.m) = (pts.len(), pts.len());
+        g
     }
 }
 
-/// Sums, for two receivers at once, the source groups `groups` yields:
-/// (first column of the group, offset from the receivers' frame to the
-/// group's). Each group's columns are loaded once for both receivers (the
-/// pair loop is load-bound at small neighbourhoods); a group whose
-/// bounding sphere lies beyond reach of both is skipped, and a receiver
-/// beyond reach of a source gets a zero term from it. `s[0..3]` of the
-/// sums are the channels, `s[3..6]` the local areas. `K` is the kernel at
-/// `ld1` (`SINGLE`) or per channel. Returns the pairs evaluated.
+/// For each 8-bit mask, its set bits' positions in order (then zeros).
+const PACK: [[u8; LANES]; 256] = {
+    let mut t = [[0u8; LANES]; 256];
+    let mut bits = 0;
+    while bits < 256 {
+        let (mut k, mut m) = (0, 0);
+        while k < LANES {
+            if bits >> k & 1 == 1 {
+                t[bits][m] = k as u8;
+                m += 1;
+            }
+            k += 1;
+        }
+        bits += 1;
+    }
+    t
+};
+
+/// Bit `k` set where `a[k] <= b[k]`; `F`: one AVX compare and mask.
 #[inline(always)]
-fn block2_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
+fn le_bits<const F: bool>(a: &Lanes, b: &Lanes) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if F {
+        use std::arch::x86_64::{_mm256_cmp_ps, _mm256_loadu_ps, _mm256_movemask_ps, _CMP_LE_OQ};
+        // SAFETY: `F` is set only in the loop compiled for AVX2 and run
+        // on a CPU that has it (`Isa::detect`); the loads read 8 lanes.
+        return unsafe {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(
+                _mm256_loadu_ps(a.as_ptr()),
+                _mm256_loadu_ps(b.as_ptr()),
+            )) as u32
+        };
+    }
+    let mut bits = 0;
+    for k in 0..LANES {
+        bits |= ((a[k] <= b[k]) as u32) << k;
+    }
+    bits
+}
+
+/// A group of receivers in the lanes (leaf frame); padding lanes sit far
+/// away and their sums are dropped.
+struct Recv8 {
+    x: Lanes,
+    y: Lanes,
+    z: Lanes,
+    nx: Lanes,
+    ny: Lanes,
+    nz: Lanes,
+}
+
+/// The receivers' sums: f32 lanes flushed into f64 every `FLUSH`
+/// sources, so no lane ever holds more than `FLUSH` terms and the
+/// rounding does not grow with the neighbour count. `[0..3]` are the
+/// channels, `[3..6]` the local areas.
+struct Sums8 {
+    total: [[f64; LANES]; 6],
+}
+
+/// Sources summed in f32 before a flush into f64.
+const FLUSH: usize = 64;
+
+/// Adds, for the eight receivers `r`, every source of `g`: a receiver
+/// beyond reach of a source gets a zero term from it (the kernel clips
+/// itself or is masked). `K` is the kernel at `ld1` (`SINGLE`) or per
+/// channel; `F` fuses multiply-adds. Returns the pairs evaluated.
+#[inline(always)]
+fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, const F: bool>(
     s: &Setup,
     ks: &[K; 3],
-    cols: &Columns,
-    groups: impl Iterator<Item = (usize, [f32; 3])>,
-    [ra, rb]: [&Receiver; 2],
-    acc: &mut [Acc; 2],
+    g: &Gathered,
+    r: &Recv8,
+    acc: &mut Sums8,
 ) -> u64 {
+    let n = g.n;
     let r2max = s.ld1 * s.ld1;
     let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
-    let mut visited = 0u64;
-    let z8: Lanes = [0.0; LANES];
-    // Local lanes (registers), spilled into `acc` every FLUSH groups and
-    // at the end.
-    let (mut s0a, mut s1a, mut s2a, mut a0a, mut a1a, mut a2a) = (z8, z8, z8, z8, z8, z8);
-    let (mut s0b, mut s1b, mut s2b, mut a0b, mut a1b, mut a2b) = (z8, z8, z8, z8, z8, z8);
-    let mut count = 0u32;
-    let len = cols.a.len();
-    let (ca, crm) = (&cols.a[..len], &cols.rmin[..len]);
-    let (cnx, cny, cnz) = (&cols.nx[..len], &cols.ny[..len], &cols.nz[..len]);
-    let shift = |r: &Receiver, off: [f32; 3]| Receiver {
-        x: r.x + off[0],
-        y: r.y + off[1],
-        z: r.z + off[2],
-        ..*r
-    };
-    for (g, off) in groups {
-        let h = &cols.hot[g / LANES];
-        let [gx, gy, gz, gr] = h.sphere;
-        let reach = s.ld1 + gr;
-        let (oa, ob) = (shift(ra, off), shift(rb, off));
-        let near = |o: &Receiver| {
-            let (cx, cy, cz) = (gx - o.x, gy - o.y, gz - o.z);
-            cx * cx + cy * cy + cz * cz <= reach * reach
-        };
-        if !near(&oa) && !near(&ob) {
-            continue;
+    let (x, y, z) = (&g.x[..n], &g.y[..n], &g.z[..n]);
+    let (q0, q1, q2) = (&g.q[0][..n], &g.q[1][..n], &g.q[2][..n]);
+    // Columns a run does not use are empty: sliced only when used.
+    let used = |v: &'_ [f32], on: bool| -> usize {
+        if on {
+            n.min(v.len())
+        } else {
+            0
         }
-        visited += 2 * LANES as u64;
-        // One bounds check for the group: every column has length `len`.
-        assert!(g + LANES <= len);
-        let lanes = |v: &[f32]| -> Lanes { v[g..g + LANES].try_into().expect("a group") };
-        let (x, y, z) = (&h.x, &h.y, &h.z);
-        let (q0, q1, q2) = (&h.q[0], &h.q[1], &h.q[2]);
-        let (ar, rm) = (lanes(ca), lanes(crm));
-        let (nx, ny, nz) = (lanes(cnx), lanes(cny), lanes(cnz));
-        // The eight lanes for one receiver: a macro, not a function, so
-        // that the lanes vectorise together (a per-lane function or sums
-        // through `&mut` measured 2-4x slower).
-        macro_rules! lanes {
-            ($o:expr, $s0:ident, $s1:ident, $s2:ident, $a0:ident, $a1:ident, $a2:ident) => {
-                for k in 0..LANES {
-                    let o = $o;
-                    let dx = o.x - x[k];
-                    let dy = o.y - y[k];
-                    let dz = o.z - z[k];
-                    let r2 = dx * dx + dy * dy + dz * dz;
-                    let m = if r2 <= r2max { 1.0f32 } else { 0.0 };
-                    // (A plain select: `f32::min`'s NaN rule costs two
-                    // more instructions; r2 is never NaN here.)
-                    let r = if r2 < r2max { r2 } else { r2max }.sqrt();
-                    let kb = if BOUNCE {
-                        let nn = o.nx * nx[k] + o.ny * ny[k] + o.nz * nz[k];
-                        let nl = (o.nx * dx + o.ny * dy + o.nz * dz) * s.inv_ld1;
-                        let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
-                        (1.0 + s.bounce * (b - 1.0)).max(0.0) * m
-                    } else {
-                        m
+    };
+    let (nx, ny, nz) = (
+        &g.nx[..used(&g.nx, BOUNCE)],
+        &g.ny[..used(&g.ny, BOUNCE)],
+        &g.nz[..used(&g.nz, BOUNCE)],
+    );
+    let ar = &g.a[..used(&g.a, LOCAL)];
+    let rm = &g.rmin[..used(&g.rmin, K::RMIN)];
+    let z8: Lanes = [0.0; LANES];
+    for chunk in g.idx[..g.m].chunks(FLUSH) {
+        let (mut s0, mut s1, mut s2, mut a0, mut a1, mut a2) = (z8, z8, z8, z8, z8, z8);
+        for &i in chunk {
+            let i = i as usize;
+            // (One check: every column is `n` long.)
+            assert!(i < n);
+            let (sx, sy, sz) = (x[i], y[i], z[i]);
+            let rmi = if K::RMIN { rm[i] } else { 0.0 };
+            for k in 0..LANES {
+                let dx = r.x[k] - sx;
+                let dy = r.y[k] - sy;
+                let dz = r.z[k] - sz;
+                let r2 = madd::<F>(dz, dz, madd::<F>(dy, dy, dx * dx));
+                // A kernel that clips itself needs no reach mask (m is
+                // then the constant 1, folded away).
+                let m = if K::CLIPS || r2 <= r2max { 1.0f32 } else { 0.0 };
+                // (A plain select: `f32::min`'s NaN rule costs two more
+                // instructions; r2 is never NaN here.)
+                let d = if K::CLIPS || r2 < r2max { r2 } else { r2max }.sqrt();
+                let kb = if BOUNCE {
+                    let nn = madd::<F>(r.nz[k], nz[i], madd::<F>(r.ny[k], ny[i], r.nx[k] * nx[i]));
+                    let nl =
+                        madd::<F>(r.nz[k], dz, madd::<F>(r.ny[k], dy, r.nx[k] * dx)) * s.inv_ld1;
+                    let b = 1.0 - (1.0 - nn) * (1.0 - nl) * 0.5;
+                    madd::<F>(s.bounce, b - 1.0, 1.0).max(0.0) * m
+                } else {
+                    m
+                };
+                if SINGLE {
+                    let w = ks[0].w::<F>(d, rmi);
+                    let kw = kb * w;
+                    s0[k] = madd::<F>(q0[i], kw, s0[k]);
+                    s1[k] = madd::<F>(q1[i], kw, s1[k]);
+                    s2[k] = madd::<F>(q2[i], kw, s2[k]);
+                    if LOCAL {
+                        a0[k] = madd::<F>(ar[i], m * w, a0[k]);
+                    }
+                } else {
+                    // Per channel: inside its own distance (0 costs
+                    // nothing: its kernel is never used, its mask is 0).
+                    let mc = |c: usize| if K::CLIPS || r2 <= d2[c] { 1.0f32 } else { 0.0 };
+                    let wc = |c: usize| {
+                        if s.ld[c] > 0.0 {
+                            ks[c].w::<F>(d, rmi) * mc(c)
+                        } else {
+                            0.0
+                        }
                     };
-                    if SINGLE {
-                        let w = ks[0].w(r, rm[k]);
-                        let kw = kb * w;
-                        $s0[k] += q0[k] * kw;
-                        $s1[k] += q1[k] * kw;
-                        $s2[k] += q2[k] * kw;
-                        if LOCAL {
-                            $a0[k] += ar[k] * m * w;
-                        }
-                    } else {
-                        // Per channel: inside its own distance (0 costs
-                        // nothing: its kernel is never used, its mask is 0).
-                        let m0 = if r2 <= d2[0] { 1.0f32 } else { 0.0 };
-                        let m1 = if r2 <= d2[1] { 1.0f32 } else { 0.0 };
-                        let m2 = if r2 <= d2[2] { 1.0f32 } else { 0.0 };
-                        let w0 = if s.ld[0] > 0.0 {
-                            ks[0].w(r, rm[k]) * m0
-                        } else {
-                            0.0
-                        };
-                        let w1 = if s.ld[1] > 0.0 {
-                            ks[1].w(r, rm[k]) * m1
-                        } else {
-                            0.0
-                        };
-                        let w2 = if s.ld[2] > 0.0 {
-                            ks[2].w(r, rm[k]) * m2
-                        } else {
-                            0.0
-                        };
-                        $s0[k] += q0[k] * kb * w0;
-                        $s1[k] += q1[k] * kb * w1;
-                        $s2[k] += q2[k] * kb * w2;
-                        if LOCAL {
-                            $a0[k] += ar[k] * w0;
-                            $a1[k] += ar[k] * w1;
-                            $a2[k] += ar[k] * w2;
-                        }
+                    let (w0, w1, w2) = (wc(0), wc(1), wc(2));
+                    s0[k] = madd::<F>(q0[i], kb * w0, s0[k]);
+                    s1[k] = madd::<F>(q1[i], kb * w1, s1[k]);
+                    s2[k] = madd::<F>(q2[i], kb * w2, s2[k]);
+                    if LOCAL {
+                        a0[k] = madd::<F>(ar[i], w0, a0[k]);
+                        a1[k] = madd::<F>(ar[i], w1, a1[k]);
+                        a2[k] = madd::<F>(ar[i], w2, a2[k]);
                     }
                 }
-            };
+            }
         }
-        lanes!(&oa, s0a, s1a, s2a, a0a, a1a, a2a);
-        lanes!(&ob, s0b, s1b, s2b, a0b, a1b, a2b);
-        count += 1;
-        if count >= FLUSH {
-            acc[0].spill([&s0a, &s1a, &s2a, &a0a, &a1a, &a2a], count);
-            acc[1].spill([&s0b, &s1b, &s2b, &a0b, &a1b, &a2b], count);
-            (s0a, s1a, s2a, a0a, a1a, a2a) = (z8, z8, z8, z8, z8, z8);
-            (s0b, s1b, s2b, a0b, a1b, a2b) = (z8, z8, z8, z8, z8, z8);
-            count = 0;
+        // (Through a black box: otherwise the compiler matches the f32
+        // lanes to the f64 sums' four-wide vectors and runs the whole
+        // loop four lanes at a time.)
+        let lanes = std::hint::black_box([s0, s1, s2, a0, a1, a2]);
+        for (t, v) in acc.total.iter_mut().zip(lanes) {
+            for k in 0..LANES {
+                t[k] += v[k] as f64;
+            }
         }
     }
-    acc[0].spill([&s0a, &s1a, &s2a, &a0a, &a1a, &a2a], count);
-    acc[1].spill([&s0b, &s1b, &s2b, &a0b, &a1b, &a2b], count);
-    visited
+    (g.m * LANES) as u64
 }
 
 /// Sums every receiver of leaf `rl`: the source leaves `near` (each in its
-/// own frame) and the pseudo-sources `ps` (in `rl`'s frame). Each group of
-/// eight receivers first gathers the source groups within reach of its
-/// bounding sphere (its interaction list); its receivers then run through
-/// that list two at a time. Pushes (point, sums) to `res`; returns the
-/// pairs evaluated.
+/// own frame) and the pseudo-sources `ps` (in `rl`'s frame). The source
+/// groups within reach of the leaf are gathered into `gat` once; each
+/// group of eight receivers then sums those within reach of its bounding
+/// sphere, the receivers in the lanes. Pushes (point, sums) to `res`;
+/// returns the pairs evaluated. The order of the sums is fixed by the
+/// leaves, so they do not depend on the thread count.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool>(
+fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, const F: bool>(
     s: &Setup,
     ks: &[K; 3],
     cols: &Columns,
     rl: &Leaf,
     near: &[Near],
-    ps: Option<&Columns>,
+    ps: Option<&Gathered>,
+    gat: &mut Gathered,
     res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
     let mut pairs = 0u64;
-    let mut list: Vec<(usize, [f32; 3])> = Vec::new();
     let end = rl.col + rl.len;
-    let recv = |c: usize| Receiver {
-        x: cols.p(c)[0],
-        y: cols.p(c)[1],
-        z: cols.p(c)[2],
-        nx: cols.nx[c],
-        ny: cols.ny[c],
-        nz: cols.nz[c],
-    };
-    for gs in (rl.col..end).step_by(LANES) {
-        let gi = gs / LANES;
-        let [cx, cy, cz, cr] = cols.hot[gi].sphere;
-        let reach = s.ld1 * (1.0 + 1e-6) + cr;
-        list.clear();
-        for nb in near {
-            // The receiver group's centre in `nb`'s frame.
-            let (ox, oy, oz) = (cx + nb.off[0], cy + nb.off[1], cz + nb.off[2]);
-            let gx = (nb.lo[0] - ox).max(ox - nb.hi[0]).max(0.0);
-            let gy = (nb.lo[1] - oy).max(oy - nb.hi[1]).max(0.0);
-            let gz = (nb.lo[2] - oz).max(oz - nb.hi[2]).max(0.0);
-            if gx * gx + gy * gy + gz * gz > reach * reach {
+    let len = cols.a.len();
+    // The leaf's box in its own frame, grown by the reach (and a little
+    // for rounding).
+    let grow = 1e-5 * (rl.hi - rl.lo).max_element() + 1e-6 * s.ld1 as f64;
+    let blo = (rl.lo - rl.origin - grow).as_vec3().to_array();
+    let bhi = (rl.hi - rl.origin + grow).as_vec3().to_array();
+    let reach = s.ld1 * (1.0 + 1e-6);
+    gat.clear();
+    for nb in near {
+        let src_end = nb.col + nb.src;
+        for g in (nb.col..src_end).step_by(LANES) {
+            let [sx, sy, sz, sr] = cols.hot[g / LANES].sphere;
+            // The group's centre in the leaf's frame, against its box.
+            let (ox, oy, oz) = (sx - nb.off[0], sy - nb.off[1], sz - nb.off[2]);
+            let gx = (blo[0] - ox).max(ox - bhi[0]).max(0.0);
+            let gy = (blo[1] - oy).max(oy - bhi[1]).max(0.0);
+            let gz = (blo[2] - oz).max(oz - bhi[2]).max(0.0);
+            let rr = reach + sr;
+            if gx * gx + gy * gy + gz * gz > rr * rr {
                 continue;
             }
-            for g in (nb.col..nb.col + nb.n).step_by(LANES) {
-                let sg = g / LANES;
-                let [sx, sy, sz, sr] = cols.hot[sg].sphere;
-                let (dx, dy, dz) = (sx - ox, sy - oy, sz - oz);
-                let rr = reach + sr;
-                if dx * dx + dy * dy + dz * dz <= rr * rr {
-                    list.push((g, nb.off));
-                }
-            }
+            let valid = (1u32 << (src_end - g).min(LANES)) - 1;
+            gat.group(cols, g, nb.off, valid, [BOUNCE, LOCAL, K::RMIN]);
         }
-        let gend = (gs + LANES).min(end);
-        // Two receivers at a time (the last one of an odd group twice);
-        // the pairs are fixed by the leaf's order, so the sums do not
-        // depend on the thread count.
-        for c in (gs..gend).step_by(2) {
-            let (oa, ob) = (recv(c), recv((c + 1).min(gend - 1)));
-            let mut acc = [Acc::new(), Acc::new()];
-            pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
-                s,
-                ks,
-                cols,
-                list.iter().copied(),
-                [&oa, &ob],
-                &mut acc,
-            );
-            if let Some(ps) = ps {
-                pairs += block2_g::<K, SINGLE, BOUNCE, LOCAL>(
-                    s,
-                    ks,
-                    ps,
-                    (0..ps.a.len()).step_by(LANES).map(|g| (g, [0.0; 3])),
-                    [&oa, &ob],
-                    &mut acc,
-                );
-            }
-            for (k, a) in acc.iter_mut().enumerate().take(gend - c) {
-                a.flush();
-                res.push((cols.id[c + k], a.total));
-            }
+    }
+    gat.seal();
+    for gs in (rl.col..end).step_by(LANES) {
+        let h = &cols.hot[gs / LANES];
+        let [cx, cy, cz, cr] = h.sphere;
+        gat.select::<F>([cx, cy, cz], reach + cr);
+        assert!(gs + LANES <= len);
+        let lanes = |v: &[f32]| -> Lanes { v[gs..gs + LANES].try_into().expect("a group") };
+        let r = Recv8 {
+            x: h.x,
+            y: h.y,
+            z: h.z,
+            nx: lanes(&cols.nx),
+            ny: lanes(&cols.ny),
+            nz: lanes(&cols.nz),
+        };
+        let mut acc = Sums8 {
+            total: [[0.0; LANES]; 6],
+        };
+        pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, gat, &r, &mut acc);
+        if let Some(ps) = ps {
+            pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, ps, &r, &mut acc);
+        }
+        for k in 0..(end - gs).min(LANES) {
+            res.push((cols.id[gs + k], acc.total.map(|t| t[k])));
         }
     }
     pairs
@@ -1173,44 +1333,46 @@ impl Kernels {
     }
 }
 
-/// One receiver leaf with the run's kernel and switches.
+/// One receiver leaf with the run's kernel and switches (`F`: fused
+/// multiply-adds).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn leaf(
+fn leaf<const F: bool>(
     s: &Setup,
     kern: &Kernels,
     cols: &Columns,
     rl: &Leaf,
     near: &[Near],
-    ps: Option<&Columns>,
+    ps: Option<&Gathered>,
+    gat: &mut Gathered,
     res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
     macro_rules! go {
         ($ks:expr) => {
             match (s.single, s.bounce > 0.0, s.local) {
                 (true, false, false) => {
-                    leaf_g::<_, true, false, false>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, true, false, false, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (true, false, true) => {
-                    leaf_g::<_, true, false, true>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, true, false, true, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (true, true, false) => {
-                    leaf_g::<_, true, true, false>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, true, true, false, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (true, true, true) => {
-                    leaf_g::<_, true, true, true>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, true, true, true, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (false, false, false) => {
-                    leaf_g::<_, false, false, false>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, false, false, false, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (false, false, true) => {
-                    leaf_g::<_, false, false, true>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, false, false, true, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (false, true, false) => {
-                    leaf_g::<_, false, true, false>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, false, true, false, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
                 (false, true, true) => {
-                    leaf_g::<_, false, true, true>(s, $ks, cols, rl, near, ps, res)
+                    leaf_g::<_, false, true, true, F>(s, $ks, cols, rl, near, ps, gat, res)
                 }
             }
         };
@@ -1231,43 +1393,65 @@ unsafe fn leaf_avx2(
     cols: &Columns,
     rl: &Leaf,
     near: &[Near],
-    ps: Option<&Columns>,
+    ps: Option<&Gathered>,
+    gat: &mut Gathered,
     res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
-    leaf(s, kern, cols, rl, near, ps, res)
+    leaf::<true>(s, kern, cols, rl, near, ps, gat, res)
 }
 
-/// `leaf`, with AVX2 and FMA when the CPU has them.
+/// The instruction sets the pair loop is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Isa {
+    Base,
+    Avx2,
+}
+
+/// `leaf`, compiled for `isa`.
 #[allow(clippy::too_many_arguments)]
 fn run_leaf(
-    avx2: bool,
+    isa: Isa,
     s: &Setup,
     kern: &Kernels,
     cols: &Columns,
     rl: &Leaf,
     near: &[Near],
-    ps: Option<&Columns>,
+    ps: Option<&Gathered>,
+    gat: &mut Gathered,
     res: &mut Vec<(u32, [f64; 6])>,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` is true only when the CPU reports AVX2 and FMA.
-        return unsafe { leaf_avx2(s, kern, cols, rl, near, ps, res) };
+    match isa {
+        // SAFETY: `isa` is what `Isa::detect` found the CPU to have.
+        Isa::Avx2 => return unsafe { leaf_avx2(s, kern, cols, rl, near, ps, gat, res) },
+        Isa::Base => {}
     }
-    let _ = avx2;
-    leaf(s, kern, cols, rl, near, ps, res)
+    let _ = isa;
+    leaf::<false>(s, kern, cols, rl, near, ps, gat, res)
 }
 
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::env::var_os("PCSSS_NO_AVX2").is_none()
-            && is_x86_feature_detected!("avx2")
-            && is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+impl Isa {
+    /// What this CPU has; `PCSSS_NO_AVX2=1` forces the baseline loop.
+    /// (AVX-512: sixteen lanes evaluate more pairs past the reach, and
+    /// eight lanes with its 32 registers came out slower: 14 ms against
+    /// 12 at 100k x 200, the compiler merging lanes into 512-bit
+    /// vectors.)
+    fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let off = |v: &str| std::env::var_os(v).is_some();
+            if off("PCSSS_NO_AVX2")
+                || !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
+            {
+                Isa::Base
+            } else {
+                Isa::Avx2
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Isa::Base
+        }
     }
 }
 
@@ -1400,7 +1584,9 @@ pub fn ssmulti_values(
     progress: &Progress,
 ) -> Result<(Vec<[f32; 3]>, Report)> {
     validate(p)?;
+    let mut ph = Phases::new("ssmulti");
     let inp = inputs(cloud)?;
+    ph.mark("inputs");
     let n = inp.pts.len();
     if let Some(w) = want {
         if w.len() != n {
@@ -1483,6 +1669,7 @@ fn sum_all(
     report: &mut Report,
     out: &mut [[f32; 3]],
 ) {
+    let mut ph = Phases::new("ssmulti");
     let local = p.norm == Norm::Local;
     let is_source: Vec<bool> = inp
         .pts
@@ -1492,6 +1679,7 @@ fn sum_all(
     report.sources = is_source.iter().filter(|&&s| s).count();
     let want_rmin = matches!(p.falloff, Falloff::Burley { .. });
     let (leaves, cols, nodes) = build(inp, &is_source, want_rmin);
+    ph.mark("build");
     let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
     let setup = Setup {
         ld: ld.map(|x| x as f32),
@@ -1501,13 +1689,13 @@ fn sum_all(
         single,
         local,
     };
-    let avx2 = has_avx2();
+    let isa = Isa::detect();
     let norm = Normaliser::new(p, ld, ld1);
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     progress.start("summing", inp.pts.len() as u64);
     let per_leaf: Vec<LeafSums> = leaves
         .par_iter()
-        .map(|rl| {
+        .map_init(Gathered::default, |gat, rl| {
             if let Some(w) = want {
                 if !cols.id[rl.col..rl.col + rl.len]
                     .iter()
@@ -1518,8 +1706,7 @@ fn sum_all(
                 }
             }
             // The source leaves in reach of this leaf, each with the
-            // offset between the two origins and its box in its own frame
-            // (f32, grown a little for rounding); with a tolerance, far
+            // offset between the two origins; with a tolerance, far
             // enough clusters of them become single pseudo-sources.
             let (exact_leaves, pseudo) = if p.tolerance > 0.0 {
                 let (ex, ps) = approx_plan(&nodes, rl, p, ld, ld1);
@@ -1531,25 +1718,23 @@ fn sum_all(
                 .into_iter()
                 .map(|sl| {
                     let s = &leaves[sl];
-                    let grow = 1e-5 * (s.hi - s.lo).max_element() + 1e-6 * ld1;
                     Near {
                         col: s.col,
-                        n: padded(s.src),
+                        src: s.src,
                         off: (rl.origin - s.origin).as_vec3().to_array(),
-                        lo: (s.lo - s.origin - grow).as_vec3().to_array(),
-                        hi: (s.hi - s.origin + grow).as_vec3().to_array(),
                     }
                 })
                 .collect();
             let mut res = Vec::with_capacity(rl.len);
             let pairs = run_leaf(
-                avx2,
+                isa,
                 &setup,
                 &kern,
                 &cols,
                 rl,
                 &near,
                 pseudo.as_ref(),
+                gat,
                 &mut res,
             );
             progress.inc(rl.len as u64);
@@ -1562,6 +1747,7 @@ fn sum_all(
         })
         .collect();
     progress.finish();
+    ph.mark("sums");
     for (res, pairs) in per_leaf {
         report.pairs += pairs;
         report.computed += res.len();
@@ -1569,6 +1755,7 @@ fn sum_all(
             out[i as usize] = v;
         }
     }
+    ph.mark("scatter");
 }
 
 /// For receiver leaf `rl`: the source leaves to sum exactly, and the
@@ -1590,7 +1777,7 @@ fn approx_plan(
     p: &Params,
     ld: [f64; 3],
     ld1: f64,
-) -> (Vec<usize>, Columns) {
+) -> (Vec<usize>, Gathered) {
     let dmin = ld.iter().copied().filter(|&d| d > 0.0).fold(ld1, f64::min);
     let dmin = if p.rgb { dmin } else { ld1 };
     let jumps = !matches!(p.falloff, Falloff::Smooth);
@@ -1640,17 +1827,17 @@ fn approx_plan(
     }
     exact.sort_unstable();
     // Whole groups; no culling spheres (every pseudo-source counts).
-    let ps = Columns::of_points(&ps);
+    let ps = Gathered::of_points(&ps);
     (exact, ps)
 }
 
-/// A source leaf as a receiver leaf sees it.
+/// A source leaf as a receiver leaf sees it: its first column, its
+/// sources (the first `src` lanes), and the offset from its origin to the
+/// receiver leaf's.
 struct Near {
     col: usize,
-    n: usize,
+    src: usize,
     off: [f32; 3],
-    lo: [f32; 3],
-    hi: [f32; 3],
 }
 
 /// The leaves with sources whose boxes come within `ld1` of `rl`'s box,
