@@ -306,6 +306,23 @@ struct Leaf {
     origin: DVec3,
     lo: DVec3,
     hi: DVec3,
+    /// What its sources add up to (the tree's leaf node).
+    sum: SrcSum,
+}
+
+/// What a set of sources adds up to: their box, areas, `illum *
+/// ptarea`, area-weighted normals, area-weighted centroid and the largest
+/// distance from it to a source.
+#[derive(Clone, Copy, Debug, Default)]
+struct SrcSum {
+    lo: DVec3,
+    hi: DVec3,
+    a: f64,
+    q: [f64; 3],
+    n: DVec3,
+    centre: DVec3,
+    radius: f64,
+    sources: usize,
 }
 
 /// What the pair loop reads of a group of `LANES` sources, together (one
@@ -322,15 +339,8 @@ struct Hot {
     sphere: [f32; 4],
 }
 
-impl Hot {
-    const ZERO: Hot = Hot {
-        x: [0.0; LANES],
-        y: [0.0; LANES],
-        z: [0.0; LANES],
-        q: [[0.0; LANES]; 3],
-        sphere: [0.0; 4],
-    };
-}
+// SAFETY: all zero bits are a valid `Hot` (f32 zeros).
+unsafe impl bytemuck::Zeroable for Hot {}
 
 /// A cluster standing in for its sources: position (receiver leaf's
 /// frame), mean normal, `sum illum * ptarea`, `sum ptarea`, Burley's
@@ -360,15 +370,28 @@ fn padded(n: usize) -> usize {
     n.div_ceil(LANES) * LANES
 }
 
-/// Interleaves the low 21 bits of `v` with two zero bits between each.
+/// Interleaves the low 21 bits of `v` with two zero bits between each,
+/// a byte at a time from a table (the shift-and-mask form is a chain of
+/// fifteen dependent steps: three times slower here).
+#[inline(always)]
 fn spread(v: u64) -> u64 {
-    let mut x = v & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f00000000ffff;
-    x = (x | x << 16) & 0x1f0000ff0000ff;
-    x = (x | x << 8) & 0x100f00f00f00f00f;
-    x = (x | x << 4) & 0x10c30c30c30c30c3;
-    x = (x | x << 2) & 0x1249249249249249;
-    x
+    const BYTE: [u64; 256] = {
+        let mut t = [0u64; 256];
+        let mut b = 0;
+        while b < 256 {
+            let mut k = 0;
+            while k < 8 {
+                t[b] |= ((b as u64 >> k) & 1) << (3 * k);
+                k += 1;
+            }
+            b += 1;
+        }
+        t
+    };
+    let v = v & 0x1f_ffff;
+    BYTE[(v & 0xff) as usize]
+        | BYTE[(v >> 8 & 0xff) as usize] << 24
+        | BYTE[(v >> 16) as usize] << 48
 }
 
 /// A point as the pair loop's columns are built from it.
@@ -386,7 +409,9 @@ struct Inputs {
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
 /// most `LEAF` points that share a prefix (equal codes are cut in runs).
-fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Columns, Vec<TNode>) {
+/// A point is a source when it has light, or (`all_sources`) always.
+/// `want`: the normals, areas and `r_min` columns (see `Columns::zeroed`).
+fn build(inp: &Inputs, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Columns, Vec<TNode>) {
     let mut pb = Phases::new("ssmulti build");
     let n = inp.pts.len();
     let (lo, hi) = inp
@@ -418,7 +443,9 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
         .enumerate()
         .map(|(i, p)| {
             let q = (DVec3::from_array(p.pos) - lo) * scale;
-            let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
+            let code = spread(q.x as i64 as u64)
+                | spread(q.y as i64 as u64) << 1
+                | spread(q.z as i64 as u64) << 2;
             code << idx_bits | i as u64
         })
         .collect();
@@ -435,10 +462,11 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
     pb.mark("split");
     // Every leaf's columns written in parallel, in place (fresh zeroed
     // pages are first touched by the thread that fills them).
+    pb.mark("pre-lens");
     let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
     let glens: Vec<usize> = lens.iter().map(|l| l / LANES).collect();
     let total: usize = lens.iter().sum();
-    let mut cols = Columns::zeroed(total);
+    let mut cols = Columns::zeroed(total, want);
     pb.mark("zeroed");
     let mut leaves: Vec<Leaf> = {
         let Columns {
@@ -469,7 +497,7 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
             .into_par_iter()
             .zip(ranges.par_iter())
             .map(|(cm, &(start, end))| {
-                leaf_columns(cm, &order[start..end], idx_mask, inp, is_source, want_rmin)
+                leaf_columns(cm, &order[start..end], idx_mask, inp, all_sources)
             })
             .collect()
     };
@@ -479,7 +507,7 @@ fn build(inp: &Inputs, is_source: &[bool], want_rmin: bool) -> (Vec<Leaf>, Colum
         leaf.col = col;
         col += len;
     }
-    aggregate(&mut nodes, &leaves, &cols);
+    aggregate(&mut nodes, &leaves);
     pb.mark("aggregate");
     (leaves, cols, nodes)
 }
@@ -495,9 +523,14 @@ struct ColsMut<'a> {
     id: &'a mut [u32],
 }
 
-/// `v` cut into consecutive pieces of the given sizes.
+/// `v` cut into consecutive pieces of the given sizes (empty pieces when
+/// `v` is empty: a column not in use).
 fn pieces<'a, T>(v: &'a mut [T], sizes: &[usize]) -> std::vec::IntoIter<&'a mut [T]> {
     let mut out = Vec::with_capacity(sizes.len());
+    if v.is_empty() {
+        out.resize_with(sizes.len(), Default::default);
+        return out.into_iter();
+    }
     let mut rest = v;
     for &n in sizes {
         let (head, tail) = std::mem::take(&mut rest).split_at_mut(n);
@@ -510,60 +543,100 @@ fn pieces<'a, T>(v: &'a mut [T], sizes: &[usize]) -> std::vec::IntoIter<&'a mut 
 /// One leaf's points (a run of the Morton order) into its columns:
 /// sources first, f32 relative to the leaf's origin, padded to whole
 /// groups, with the groups' bounding spheres.
-fn leaf_columns(
-    cm: ColsMut,
-    run: &[u64],
-    idx_mask: u64,
-    inp: &Inputs,
-    is_source: &[bool],
-    want_rmin: bool,
-) -> Leaf {
-    let mut ids: Vec<u32> = run.iter().map(|&k| (k & idx_mask) as u32).collect();
-    // Sources first, each group in Morton order.
-    ids.sort_by_key(|&i| !is_source[i as usize]);
-    let src = ids.iter().filter(|&&i| is_source[i as usize]).count();
+fn leaf_columns(cm: ColsMut, run: &[u64], idx_mask: u64, inp: &Inputs, all_sources: bool) -> Leaf {
+    let is_source = |i: u32| all_sources || inp.pts[i as usize].illum.iter().any(|&x| x != 0.0);
+    // Sources first, each part in Morton order (a leaf holds at most
+    // LEAF points: `split`).
+    assert!(run.len() <= LEAF);
+    let mut all = [0u32; LEAF];
+    let mut src = 0;
+    for &k in run {
+        let i = (k & idx_mask) as u32;
+        if is_source(i) {
+            all[src] = i;
+            src += 1;
+        }
+    }
+    let mut m = src;
+    for &k in run {
+        let i = (k & idx_mask) as u32;
+        if !is_source(i) {
+            all[m] = i;
+            m += 1;
+        }
+    }
+    let ids = &all[..run.len()];
     let mut llo = DVec3::splat(f64::INFINITY);
     let mut lhi = DVec3::splat(f64::NEG_INFINITY);
-    for &i in &ids {
-        let p = DVec3::from_array(inp.pts[i as usize].pos);
+    let mut sum = SrcSum {
+        lo: llo,
+        hi: lhi,
+        sources: src,
+        ..SrcSum::default()
+    };
+    let mut ax = DVec3::ZERO;
+    for (k, &i) in ids.iter().enumerate() {
+        let pt = &inp.pts[i as usize];
+        let p = DVec3::from_array(pt.pos);
         llo = llo.min(p);
         lhi = lhi.max(p);
+        if k < src {
+            let w = pt.area as f64;
+            sum.a += w;
+            ax += p * w;
+            for c in 0..3 {
+                sum.q[c] += (pt.illum[c] as f64 * w) as f32 as f64;
+            }
+            sum.n += DVec3::from_array(pt.nrm.map(f64::from)) * w;
+            sum.lo = sum.lo.min(p);
+            sum.hi = sum.hi.max(p);
+        }
+    }
+    sum.centre = if sum.a > 0.0 {
+        ax / sum.a
+    } else {
+        (sum.lo + sum.hi) * 0.5
+    };
+    for &i in &ids[..src] {
+        let p = DVec3::from_array(inp.pts[i as usize].pos);
+        sum.radius = sum.radius.max((p - sum.centre).length());
     }
     let origin = (llo + lhi) * 0.5;
-    for k in 0..cm.a.len() {
+    let (normals, area, rmin) = (!cm.nx.is_empty(), !cm.a.is_empty(), !cm.rmin.is_empty());
+    for k in 0..cm.id.len() {
         let (h, l) = (&mut cm.hot[k / LANES], k % LANES);
         match ids.get(k) {
             Some(&i) => {
                 let pt = &inp.pts[i as usize];
                 let p = DVec3::from_array(pt.pos) - origin;
                 (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
-                let nn = pt.nrm;
-                (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
                 let a = pt.area as f64;
                 let e = pt.illum;
                 for c in 0..3 {
                     h.q[c][l] = (e[c] as f64 * a) as f32;
                 }
-                cm.a[k] = pt.area;
-                cm.rmin[k] = if want_rmin {
-                    burley::rmin(a) as f32
-                } else {
-                    0.0
-                };
+                if normals {
+                    let nn = pt.nrm;
+                    (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
+                }
+                if area {
+                    cm.a[k] = pt.area;
+                }
+                if rmin {
+                    cm.rmin[k] = burley::rmin(a) as f32;
+                }
                 cm.id[k] = i;
             }
             None => {
+                // (The zeroed columns' other values stand.)
                 (h.x[l], h.y[l], h.z[l]) = (FAR, FAR, FAR);
-                (cm.nx[k], cm.ny[k], cm.nz[k]) = (0.0, 0.0, 0.0);
-                (h.q[0][l], h.q[1][l], h.q[2][l]) = (0.0, 0.0, 0.0);
-                (cm.a[k], cm.rmin[k]) = (0.0, 0.0);
                 cm.id[k] = u32::MAX;
             }
         }
     }
     // Bounding spheres of the groups of LANES (sources and receivers
     // alike; padding lanes left out).
-    for (gi, g) in (0..cm.a.len()).step_by(LANES).enumerate() {
+    for (gi, g) in (0..cm.id.len()).step_by(LANES).enumerate() {
         let m = (ids.len() - g).min(LANES);
         let h = &mut cm.hot[gi];
         let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -590,35 +663,26 @@ fn leaf_columns(
         origin,
         lo: llo,
         hi: lhi,
+        sum,
     }
 }
 
 impl Columns {
     /// `n` zeroed lanes (`n` a multiple of `LANES`).
-    fn zeroed(n: usize) -> Columns {
-        let f = || vec![0f32; n];
+    /// The normals, areas and `r_min` only when `want`ed (else empty).
+    /// (Zeroed allocations: fresh pages are not touched here but by the
+    /// thread that fills them.)
+    fn zeroed(n: usize, [normals, area, rmin]: [bool; 3]) -> Columns {
+        let f = |on: bool| if on { vec![0f32; n] } else { Vec::new() };
         Columns {
-            hot: vec![Hot::ZERO; n / LANES],
-            nx: f(),
-            ny: f(),
-            nz: f(),
-            a: f(),
-            rmin: f(),
+            hot: bytemuck::zeroed_vec(n / LANES),
+            nx: f(normals),
+            ny: f(normals),
+            nz: f(normals),
+            a: f(area),
+            rmin: f(rmin),
             id: vec![0u32; n],
         }
-    }
-
-    /// Lane `c`'s position (leaf-local).
-    #[inline(always)]
-    fn p(&self, c: usize) -> [f32; 3] {
-        let (h, l) = (&self.hot[c / LANES], c % LANES);
-        [h.x[l], h.y[l], h.z[l]]
-    }
-
-    /// Lane `c`'s `illum[k] * ptarea`.
-    #[inline(always)]
-    fn q(&self, c: usize, k: usize) -> f32 {
-        self.hot[c / LANES].q[k][c % LANES]
     }
 }
 
@@ -691,40 +755,23 @@ fn split(
 }
 
 /// Fills the nodes' sums, bottom-up (children come before parents).
-fn aggregate(nodes: &mut [TNode], leaves: &[Leaf], cols: &Columns) {
+fn aggregate(nodes: &mut [TNode], leaves: &[Leaf]) {
     for t in 0..nodes.len() {
-        if nodes[t].kids.is_empty() {
-            let l = &leaves[nodes[t].first];
-            let (mut a, mut q, mut n, mut ax) = (0.0, [0.0; 3], DVec3::ZERO, DVec3::ZERO);
-            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            for c in l.col..l.col + l.src {
-                let x = l.origin + DVec3::from_array(cols.p(c).map(f64::from));
-                let w = cols.a[c] as f64;
-                a += w;
-                ax += x * w;
-                for k in 0..3 {
-                    q[k] += cols.q(c, k) as f64;
-                }
-                n += DVec3::new(cols.nx[c] as f64, cols.ny[c] as f64, cols.nz[c] as f64) * w;
-                lo = lo.min(x);
-                hi = hi.max(x);
-            }
-            let centre = if a > 0.0 { ax / a } else { (lo + hi) * 0.5 };
-            let mut radius: f64 = 0.0;
-            for c in l.col..l.col + l.src {
-                let x = l.origin + DVec3::from_array(cols.p(c).map(f64::from));
-                radius = radius.max((x - centre).length());
-            }
-            let node = &mut nodes[t];
-            (node.a, node.q, node.n, node.centre, node.radius) = (a, q, n, centre, radius);
-            (node.lo, node.hi, node.sources) = (lo, hi, l.src);
+        // Children come before their parent.
+        let (done, rest) = nodes.split_at_mut(t);
+        let node = &mut rest[0];
+        if node.kids.is_empty() {
+            let l = &leaves[node.first].sum;
+            (node.a, node.q, node.n, node.centre, node.radius) =
+                (l.a, l.q, l.n, l.centre, l.radius);
+            (node.lo, node.hi, node.sources) = (l.lo, l.hi, l.sources);
         } else {
-            let kids = nodes[t].kids.clone();
+            let kids = &node.kids;
             let (mut a, mut q, mut n, mut ax, mut sources) =
                 (0.0, [0.0; 3], DVec3::ZERO, DVec3::ZERO, 0);
             let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            for &k in &kids {
-                let c = &nodes[k];
+            for &k in kids {
+                let c = &done[k];
                 if c.sources == 0 {
                     continue;
                 }
@@ -740,13 +787,12 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf], cols: &Columns) {
             }
             let centre = if a > 0.0 { ax / a } else { (lo + hi) * 0.5 };
             let mut radius: f64 = 0.0;
-            for &k in &kids {
-                let c = &nodes[k];
+            for &k in kids {
+                let c = &done[k];
                 if c.sources > 0 {
                     radius = radius.max(c.radius + (c.centre - centre).length());
                 }
             }
-            let node = &mut nodes[t];
             (node.a, node.q, node.n, node.centre, node.radius) = (a, q, n, centre, radius);
             (node.lo, node.hi, node.sources) = (lo, hi, sources);
         }
@@ -904,10 +950,6 @@ impl Gathered {
     fn clear(&mut self) {
         self.n = 0;
         self.m = 0;
-        for v in [&mut self.sx, &mut self.sy, &mut self.sz, &mut self.sr] {
-            v.clear();
-        }
-        self.valid.clear();
     }
 
     /// Room for `more` lanes after the first `n`.
@@ -932,6 +974,12 @@ impl Gathered {
             }
             // (`select` writes eight at a time.)
             self.idx.resize(len + LANES, 0);
+            // A sphere a group, padded to whole lanes (`seal`).
+            let groups = len / LANES + LANES;
+            for v in [&mut self.sx, &mut self.sy, &mut self.sz, &mut self.sr] {
+                v.resize(groups, 0.0);
+            }
+            self.valid.resize(groups, 0);
         }
     }
 
@@ -975,22 +1023,19 @@ impl Gathered {
             put(&mut self.rmin, &lanes(&cols.rmin), 0.0);
         }
         let [sx, sy, sz, sr] = h.sphere;
-        self.sx.push(sx - off[0]);
-        self.sy.push(sy - off[1]);
-        self.sz.push(sz - off[2]);
-        self.sr.push(sr);
-        self.valid.push(valid);
+        let j = n / LANES;
+        (self.sx[j], self.sy[j], self.sz[j], self.sr[j]) =
+            (sx - off[0], sy - off[1], sz - off[2], sr);
+        self.valid[j] = valid;
         self.n += LANES;
     }
 
     /// Pads the spheres to whole lanes (far away: never within reach).
     fn seal(&mut self) {
-        while !self.sx.len().is_multiple_of(LANES) {
-            for v in [&mut self.sx, &mut self.sy, &mut self.sz] {
-                v.push(FAR);
-            }
-            self.sr.push(0.0);
-            self.valid.push(0);
+        let g = self.n / LANES;
+        for j in g..padded(g).min(self.sx.len()) {
+            (self.sx[j], self.sy[j], self.sz[j], self.sr[j]) = (FAR, FAR, FAR, 0.0);
+            self.valid[j] = 0;
         }
     }
 
@@ -1009,7 +1054,7 @@ impl Gathered {
         let idx = &mut self.idx[..n + LANES];
         let reach2 = [reach * reach; LANES];
         let mut m = 0;
-        let ng = self.sx.len();
+        let ng = padded(n / LANES);
         for j0 in (0..ng).step_by(LANES) {
             let g = |v: &[f32]| -> Lanes { v[j0..j0 + LANES].try_into().expect("sealed") };
             let (sx, sy, sz, sr) = (g(&self.sx), g(&self.sy), g(&self.sz), g(&self.sr));
@@ -1235,8 +1280,9 @@ fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, cons
 /// own frame) and the pseudo-sources `ps` (in `rl`'s frame). The source
 /// groups within reach of the leaf are gathered into `gat` once; each
 /// group of eight receivers then sums those within reach of its bounding
-/// sphere, the receivers in the lanes. Pushes (point, sums) to `res`;
-/// returns the pairs evaluated. The order of the sums is fixed by the
+/// sphere, the receivers in the lanes. Writes the receivers' `ssM`
+/// (`norm` of their sums) to `out` (the leaf's lanes); returns the pairs
+/// evaluated. The order of the sums is fixed by the
 /// leaves, so they do not depend on the thread count.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -1248,11 +1294,12 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    res: &mut Vec<(u32, [f64; 6])>,
+    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    out: &mut [[f32; 3]],
 ) -> u64 {
     let mut pairs = 0u64;
     let end = rl.col + rl.len;
-    let len = cols.a.len();
+    let len = cols.id.len();
     // The leaf's box in its own frame, grown by the reach (and a little
     // for rounding).
     let grow = 1e-5 * (rl.hi - rl.lo).max_element() + 1e-6 * s.ld1 as f64;
@@ -1284,13 +1331,14 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
         gat.select::<F>([cx, cy, cz], reach + cr);
         assert!(gs + LANES <= len);
         let lanes = |v: &[f32]| -> Lanes { v[gs..gs + LANES].try_into().expect("a group") };
+        let zero = [0.0; LANES];
         let r = Recv8 {
             x: h.x,
             y: h.y,
             z: h.z,
-            nx: lanes(&cols.nx),
-            ny: lanes(&cols.ny),
-            nz: lanes(&cols.nz),
+            nx: if BOUNCE { lanes(&cols.nx) } else { zero },
+            ny: if BOUNCE { lanes(&cols.ny) } else { zero },
+            nz: if BOUNCE { lanes(&cols.nz) } else { zero },
         };
         let mut acc = Sums8 {
             total: [[0.0; LANES]; 6],
@@ -1300,7 +1348,7 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
             pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, ps, &r, &mut acc);
         }
         for k in 0..(end - gs).min(LANES) {
-            res.push((cols.id[gs + k], acc.total.map(|t| t[k])));
+            out[gs - rl.col + k] = norm(&acc.total.map(|t| t[k]));
         }
     }
     pairs
@@ -1345,34 +1393,35 @@ fn leaf<const F: bool>(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    res: &mut Vec<(u32, [f64; 6])>,
+    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    out: &mut [[f32; 3]],
 ) -> u64 {
     macro_rules! go {
         ($ks:expr) => {
             match (s.single, s.bounce > 0.0, s.local) {
                 (true, false, false) => {
-                    leaf_g::<_, true, false, false, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, true, false, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (true, false, true) => {
-                    leaf_g::<_, true, false, true, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, true, false, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (true, true, false) => {
-                    leaf_g::<_, true, true, false, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, true, true, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (true, true, true) => {
-                    leaf_g::<_, true, true, true, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, true, true, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (false, false, false) => {
-                    leaf_g::<_, false, false, false, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, false, false, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (false, false, true) => {
-                    leaf_g::<_, false, false, true, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, false, false, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (false, true, false) => {
-                    leaf_g::<_, false, true, false, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, false, true, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
                 (false, true, true) => {
-                    leaf_g::<_, false, true, true, F>(s, $ks, cols, rl, near, ps, gat, res)
+                    leaf_g::<_, false, true, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
                 }
             }
         };
@@ -1395,9 +1444,10 @@ unsafe fn leaf_avx2(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    res: &mut Vec<(u32, [f64; 6])>,
+    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    out: &mut [[f32; 3]],
 ) -> u64 {
-    leaf::<true>(s, kern, cols, rl, near, ps, gat, res)
+    leaf::<true>(s, kern, cols, rl, near, ps, gat, norm, out)
 }
 
 /// The instruction sets the pair loop is compiled for.
@@ -1418,16 +1468,17 @@ fn run_leaf(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    res: &mut Vec<(u32, [f64; 6])>,
+    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    out: &mut [[f32; 3]],
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
     match isa {
         // SAFETY: `isa` is what `Isa::detect` found the CPU to have.
-        Isa::Avx2 => return unsafe { leaf_avx2(s, kern, cols, rl, near, ps, gat, res) },
+        Isa::Avx2 => return unsafe { leaf_avx2(s, kern, cols, rl, near, ps, gat, norm, out) },
         Isa::Base => {}
     }
     let _ = isa;
-    leaf::<false>(s, kern, cols, rl, near, ps, gat, res)
+    leaf::<false>(s, kern, cols, rl, near, ps, gat, norm, out)
 }
 
 impl Isa {
@@ -1566,7 +1617,9 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
 /// Adds `ssM` to `cloud`.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
     let (out, report) = ssmulti_values(cloud, p, None, progress)?;
+    let mut ph = Phases::new("ssmulti");
     cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
+    ph.mark("output");
     cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
     cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
     Ok(report)
@@ -1607,9 +1660,6 @@ pub fn ssmulti_values(
     }
     Ok((out, report))
 }
-
-/// A receiver leaf's results: (point, ssM) and the pairs it evaluated.
-type LeafSums = (Vec<(u32, [f32; 3])>, u64);
 
 /// Turns a receiver's sums into `ssM`: the normalisation, worked out once
 /// per run.
@@ -1671,14 +1721,13 @@ fn sum_all(
 ) {
     let mut ph = Phases::new("ssmulti");
     let local = p.norm == Norm::Local;
-    let is_source: Vec<bool> = inp
-        .pts
-        .par_iter()
-        .map(|q| local || q.illum.iter().any(|&x| x != 0.0))
-        .collect();
-    report.sources = is_source.iter().filter(|&&s| s).count();
-    let want_rmin = matches!(p.falloff, Falloff::Burley { .. });
-    let (leaves, cols, nodes) = build(inp, &is_source, want_rmin);
+    let columns = [
+        p.bounce > 0.0,
+        local,
+        matches!(p.falloff, Falloff::Burley { .. }),
+    ];
+    let (leaves, cols, nodes) = build(inp, local, columns);
+    report.sources = leaves.iter().map(|l| l.src).sum();
     ph.mark("build");
     let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
     let setup = Setup {
@@ -1693,66 +1742,75 @@ fn sum_all(
     let norm = Normaliser::new(p, ld, ld1);
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     progress.start("summing", inp.pts.len() as u64);
-    let per_leaf: Vec<LeafSums> = leaves
+    let walk = walk_order(&nodes);
+    // Each leaf's results in its own share of the columns' order.
+    let mut vals = vec![[0f32; 3]; cols.id.len()];
+    let lens: Vec<usize> = leaves.iter().map(|l| padded(l.len)).collect();
+    let shares: Vec<&mut [[f32; 3]]> = pieces(&mut vals, &lens).collect();
+    let per_leaf: Vec<(u64, usize)> = leaves
         .par_iter()
-        .map_init(Gathered::default, |gat, rl| {
-            if let Some(w) = want {
-                if !cols.id[rl.col..rl.col + rl.len]
-                    .iter()
-                    .any(|&i| w[i as usize])
-                {
-                    progress.inc(rl.len as u64);
-                    return (Vec::new(), 0);
-                }
-            }
-            // The source leaves in reach of this leaf, each with the
-            // offset between the two origins; with a tolerance, far
-            // enough clusters of them become single pseudo-sources.
-            let (exact_leaves, pseudo) = if p.tolerance > 0.0 {
-                let (ex, ps) = approx_plan(&nodes, rl, p, ld, ld1);
-                (ex, Some(ps))
-            } else {
-                (near_leaves(&nodes, rl, ld1), None)
-            };
-            let near: Vec<Near> = exact_leaves
-                .into_iter()
-                .map(|sl| {
-                    let s = &leaves[sl];
-                    Near {
-                        col: s.col,
-                        src: s.src,
-                        off: (rl.origin - s.origin).as_vec3().to_array(),
+        .zip(shares)
+        .map_init(
+            || (Gathered::default(), Vec::new()),
+            |(gat, found), (rl, share)| {
+                if let Some(w) = want {
+                    if !cols.id[rl.col..rl.col + rl.len]
+                        .iter()
+                        .any(|&i| w[i as usize])
+                    {
+                        progress.inc(rl.len as u64);
+                        return (0, 0);
                     }
-                })
-                .collect();
-            let mut res = Vec::with_capacity(rl.len);
-            let pairs = run_leaf(
-                isa,
-                &setup,
-                &kern,
-                &cols,
-                rl,
-                &near,
-                pseudo.as_ref(),
-                gat,
-                &mut res,
-            );
-            progress.inc(rl.len as u64);
-            // Normalised here: a leaf's results are 16 bytes a point.
-            let res: Vec<(u32, [f32; 3])> = res
-                .into_iter()
-                .map(|(i, acc)| (i, norm.apply(&acc)))
-                .collect();
-            (res, pairs)
-        })
+                }
+                // The source leaves in reach of this leaf, each with the
+                // offset between the two origins; with a tolerance, far
+                // enough clusters of them become single pseudo-sources.
+                let pseudo = if p.tolerance > 0.0 {
+                    let (ex, ps) = approx_plan(&nodes, rl, p, ld, ld1);
+                    *found = ex;
+                    Some(ps)
+                } else {
+                    near_leaves(&walk, rl, ld1, found);
+                    None
+                };
+                let near: Vec<Near> = found
+                    .iter()
+                    .map(|&sl| {
+                        let s = &leaves[sl];
+                        Near {
+                            col: s.col,
+                            src: s.src,
+                            off: (rl.origin - s.origin).as_vec3().to_array(),
+                        }
+                    })
+                    .collect();
+                let pairs = run_leaf(
+                    isa,
+                    &setup,
+                    &kern,
+                    &cols,
+                    rl,
+                    &near,
+                    pseudo.as_ref(),
+                    gat,
+                    &|s| norm.apply(s),
+                    share,
+                );
+                progress.inc(rl.len as u64);
+                (pairs, rl.len)
+            },
+        )
         .collect();
     progress.finish();
     ph.mark("sums");
-    for (res, pairs) in per_leaf {
+    let mut ph = Phases::new("ssmulti");
+    for (pairs, computed) in per_leaf {
         report.pairs += pairs;
-        report.computed += res.len();
-        for (i, v) in res {
-            out[i as usize] = v;
+        report.computed += computed;
+    }
+    for (&i, v) in cols.id.iter().zip(&vals) {
+        if i != u32::MAX {
+            out[i as usize] = *v;
         }
     }
     ph.mark("scatter");
@@ -1840,23 +1898,106 @@ struct Near {
     off: [f32; 3],
 }
 
-/// The leaves with sources whose boxes come within `ld1` of `rl`'s box,
-/// in order: the Morton tree walked from the root, skipping subtrees out
-/// of reach (their sources' box is farther than `ld1`).
-fn near_leaves(nodes: &[TNode], rl: &Leaf, ld1: f64) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut stack = vec![nodes.len() - 1];
-    while let Some(t) = stack.pop() {
+/// The tree in pre-order for the exact method's search: each node's
+/// sources' box, where its subtree ends, and its leaf (`u32::MAX` for an
+/// inner node). Subtrees without sources are left out.
+struct WalkNode {
+    lo: DVec3,
+    hi: DVec3,
+    skip: u32,
+    leaf: u32,
+}
+
+fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
+    fn add(nodes: &[TNode], t: usize, out: &mut Vec<WalkNode>) {
         let node = &nodes[t];
-        if node.sources == 0 || box_gap(rl.lo, rl.hi, node.lo, node.hi) > ld1 {
+        if node.sources == 0 {
+            return;
+        }
+        let at = out.len();
+        out.push(WalkNode {
+            lo: node.lo,
+            hi: node.hi,
+            skip: 0,
+            leaf: if node.kids.is_empty() {
+                node.first as u32
+            } else {
+                u32::MAX
+            },
+        });
+        for &k in &node.kids {
+            add(nodes, k, out);
+        }
+        out[at].skip = out.len() as u32;
+    }
+    let mut out = Vec::with_capacity(nodes.len());
+    if let Some(root) = nodes.len().checked_sub(1) {
+        add(nodes, root, &mut out);
+    }
+    out
+}
+
+/// The leaves with sources whose boxes come within `ld1` of `rl`'s box,
+/// in order (into `out`): the tree scanned in pre-order, skipping the
+/// subtrees out of reach.
+fn near_leaves(walk: &[WalkNode], rl: &Leaf, ld1: f64, out: &mut Vec<usize>) {
+    out.clear();
+    // (A margin for the f32 rounding of the pair loop's distances.)
+    let reach = ld1 * (1.0 + 1e-6);
+    let mut i = 0;
+    while i < walk.len() {
+        let w = &walk[i];
+        let d = (w.lo - rl.hi).max(rl.lo - w.hi).max(DVec3::ZERO);
+        if d.length_squared() > reach * reach {
+            i = w.skip as usize;
             continue;
         }
-        if node.kids.is_empty() {
-            out.push(node.first);
-        } else {
-            stack.extend(node.kids.iter().copied());
+        if w.leaf != u32::MAX {
+            out.push(w.leaf as usize);
+        }
+        i += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bit `j` of the input lands on bit `3 j`, nothing else is set.
+    #[test]
+    fn spread_puts_bit_j_at_3j() {
+        let slow = |v: u64| (0..21).fold(0u64, |acc, j| acc | ((v >> j) & 1) << (3 * j));
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for v in [0, 1, 0x1f_ffff, 0x15_5555, 0x0a_aaaa, 1 << 20, u64::MAX] {
+            assert_eq!(spread(v), slow(v), "{v:#x}");
+        }
+        for _ in 0..10_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            assert_eq!(spread(x), slow(x), "{x:#x}");
         }
     }
-    out.sort_unstable();
-    out
+
+    /// Each mask's set bits, in order, at the front.
+    #[test]
+    fn pack_lists_the_set_bits() {
+        for bits in 0..256usize {
+            let want: Vec<u8> = (0..LANES as u8).filter(|&k| bits >> k & 1 == 1).collect();
+            assert_eq!(&PACK[bits][..want.len()], &want[..], "{bits:#b}");
+        }
+    }
+
+    /// The vector mask agrees with the plain one, NaN included (false).
+    #[test]
+    fn le_bits_matches_lane_by_lane() {
+        let a = [0.0, 1.0, -1.0, f32::NAN, 2.0, 3.0, f32::INFINITY, -0.0];
+        let b = [0.0, 0.5, -0.5, 1.0, f32::NAN, 3.0, 1e30, 0.0];
+        let plain = le_bits::<false>(&a, &b);
+        assert_eq!(plain, 0b1010_0101);
+        #[cfg(target_arch = "x86_64")]
+        if Isa::detect() == Isa::Avx2 {
+            assert_eq!(le_bits::<true>(&a, &b), plain);
+        }
+    }
 }
