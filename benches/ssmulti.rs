@@ -16,8 +16,9 @@
 //!    blue-noise scatter at equal point counts.
 //!
 //! `BENCH_QUICK=1` runs only the 100k and 1M clouds. `BENCH_CASE=1000000,200`
-//! times only the exact method on that case (points, neighbours), five
-//! runs (`BENCH_RUNS` to change), for profiling.
+//! times only the exact method on that case (points, neighbours; a third
+//! number is a tolerance), five runs (`BENCH_RUNS` to change), for
+//! profiling (with `PCSSS_TIMES=1`, the phases).
 
 mod common;
 
@@ -212,11 +213,12 @@ fn main() {
     let dir = bench_dir();
     let mesh = uv_sphere(500, 1000, true, |_, _| 1.0);
     if let Ok(case) = std::env::var("BENCH_CASE") {
-        let v: Vec<usize> = case.split(',').map(|x| x.parse().unwrap()).collect();
-        let (n, nb) = (v[0], v[1]);
+        let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
+        let (n, nb) = (v[0] as usize, v[1] as usize);
         let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
         let p = Params {
             sd: 2.0 * (nb as f64 / n as f64).sqrt(),
+            tolerance: v.get(2).copied().unwrap_or(0.0),
             ..Params::default()
         };
         let runs = std::env::var("BENCH_RUNS").map_or(5, |r| r.parse().unwrap());

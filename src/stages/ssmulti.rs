@@ -799,10 +799,13 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf]) {
     }
 }
 
-/// Distance between two boxes.
-fn box_gap(alo: DVec3, ahi: DVec3, blo: DVec3, bhi: DVec3) -> f64 {
-    let d = (blo - ahi).max(alo - bhi).max(DVec3::ZERO);
-    d.length()
+/// Squared distance between a node's box and a leaf's.
+#[inline]
+fn gap2(w: &WalkNode, rl: &Leaf) -> f64 {
+    (w.lo - rl.hi)
+        .max(rl.lo - w.hi)
+        .max(DVec3::ZERO)
+        .length_squared()
 }
 
 // ---------------------------------------------------------------------
@@ -1090,21 +1093,20 @@ impl Gathered {
         self.m = m;
     }
 
-    /// Pseudo-sources, every column filled, every one summed.
-    fn of_points(pts: &[Pseudo]) -> Gathered {
-        let mut g = Gathered::default();
-        g.room(pts.len());
-        for (i, &(p, n, q, a, rmin)) in pts.iter().enumerate() {
-            (g.x[i], g.y[i], g.z[i]) = (p[0], p[1], p[2]);
-            for c in 0..3 {
-                g.q[c][i] = q[c];
-            }
-            (g.nx[i], g.ny[i], g.nz[i]) = (n[0], n[1], n[2]);
-            (g.a[i], g.rmin[i]) = (a, rmin);
-            g.idx[i] = i as u32;
+    /// Adds a pseudo-source, every column filled, summed by every
+    /// receiver (no spheres: `select` is not used on these).
+    fn point(&mut self, (p, n, q, a, rmin): Pseudo) {
+        self.room(1);
+        let i = self.n;
+        (self.x[i], self.y[i], self.z[i]) = (p[0], p[1], p[2]);
+        for c in 0..3 {
+            self.q[c][i] = q[c];
         }
-        (g.n, g.m) = (pts.len(), pts.len());
-        g
+        (self.nx[i], self.ny[i], self.nz[i]) = (n[0], n[1], n[2]);
+        (self.a[i], self.rmin[i]) = (a, rmin);
+        self.idx[i] = i as u32;
+        self.n += 1;
+        self.m += 1;
     }
 }
 
@@ -1751,8 +1753,8 @@ fn sum_all(
         .par_iter()
         .zip(shares)
         .map_init(
-            || (Gathered::default(), Vec::new()),
-            |(gat, found), (rl, share)| {
+            || (Gathered::default(), Gathered::default(), Vec::new()),
+            |(gat, pseudo, found), (rl, share)| {
                 if let Some(w) = want {
                     if !cols.id[rl.col..rl.col + rl.len]
                         .iter()
@@ -1766,9 +1768,8 @@ fn sum_all(
                 // offset between the two origins; with a tolerance, far
                 // enough clusters of them become single pseudo-sources.
                 let pseudo = if p.tolerance > 0.0 {
-                    let (ex, ps) = approx_plan(&nodes, rl, p, ld, ld1);
-                    *found = ex;
-                    Some(ps)
+                    approx_plan(&walk, &nodes, rl, p, ld, ld1, found, pseudo);
+                    Some(&*pseudo)
                 } else {
                     near_leaves(&walk, rl, ld1, found);
                     None
@@ -1791,7 +1792,7 @@ fn sum_all(
                     &cols,
                     rl,
                     &near,
-                    pseudo.as_ref(),
+                    pseudo,
                     gat,
                     &|s| norm.apply(s),
                     share,
@@ -1829,64 +1830,66 @@ fn sum_all(
 /// and `ptarea`, and its mean normal (for `bounce`). Relative error
 /// against the exact method, measured in `benches/ssmulti.rs`, grows like
 /// `tolerance^2`.
+#[allow(clippy::too_many_arguments)]
 fn approx_plan(
+    walk: &[WalkNode],
     nodes: &[TNode],
     rl: &Leaf,
     p: &Params,
     ld: [f64; 3],
     ld1: f64,
-) -> (Vec<usize>, Gathered) {
+    exact: &mut Vec<usize>,
+    ps: &mut Gathered,
+) {
     let dmin = ld.iter().copied().filter(|&d| d > 0.0).fold(ld1, f64::min);
     let dmin = if p.rgb { dmin } else { ld1 };
     let jumps = !matches!(p.falloff, Falloff::Smooth);
-    let mut exact = Vec::new();
-    let mut ps = Vec::new();
-    let mut stack = vec![nodes.len() - 1];
-    while let Some(t) = stack.pop() {
-        let node = &nodes[t];
-        if node.sources == 0 {
+    exact.clear();
+    ps.clear();
+    // The tree in pre-order: a subtree out of reach or taken as one
+    // cluster is skipped whole (the exact leaves come out in order).
+    let mut i = 0;
+    while i < walk.len() {
+        let w = &walk[i];
+        let gap2 = gap2(w, rl);
+        if gap2 > ld1 * ld1 {
+            i = w.skip as usize;
             continue;
         }
-        let gap = box_gap(rl.lo, rl.hi, node.lo, node.hi);
-        if gap > ld1 {
-            continue;
-        }
-        let far = (node.hi - rl.lo)
-            .abs()
-            .max((rl.hi - node.lo).abs())
-            .length();
         let scale = match p.falloff {
             Falloff::Smooth => dmin,
             Falloff::Exp { sigma } => dmin / sigma.max(1.0),
-            Falloff::Burley { kappa } => (dmin / kappa).min(gap),
+            Falloff::Burley { kappa } => (dmin / kappa).min(gap2.sqrt()),
         };
-        let straddles = jumps
-            && (0..3).any(|c| {
+        let straddles = jumps && {
+            let gap = gap2.sqrt();
+            let far = (w.hi - rl.lo).abs().max((rl.hi - w.lo).abs()).length();
+            (0..3).any(|c| {
                 let d = if p.rgb { ld[c] } else { ld1 };
                 d > 0.0 && gap <= d && far > d
-            });
-        if scale > 0.0 && node.radius <= p.tolerance * scale && !straddles {
+            })
+        };
+        if scale > 0.0 && w.radius <= p.tolerance * scale && !straddles {
+            let node = &nodes[w.node as usize];
             let x = (node.centre - rl.origin).as_vec3();
             let nn = node.n.normalize_or_zero().as_vec3();
             // Burley's regularisation for the cluster's whole area (a
             // single-source cluster gets exactly its source's).
-            ps.push((
+            ps.point((
                 x.to_array(),
                 nn.to_array(),
                 node.q.map(|v| v as f32),
                 node.a as f32,
                 burley::rmin(node.a) as f32,
             ));
-        } else if node.kids.is_empty() {
-            exact.push(node.first);
+            i = w.skip as usize;
         } else {
-            stack.extend(node.kids.iter().copied());
+            if w.leaf != u32::MAX {
+                exact.push(w.leaf as usize);
+            }
+            i += 1;
         }
     }
-    exact.sort_unstable();
-    // Whole groups; no culling spheres (every pseudo-source counts).
-    let ps = Gathered::of_points(&ps);
-    (exact, ps)
 }
 
 /// A source leaf as a receiver leaf sees it: its first column, its
@@ -1898,14 +1901,17 @@ struct Near {
     off: [f32; 3],
 }
 
-/// The tree in pre-order for the exact method's search: each node's
-/// sources' box, where its subtree ends, and its leaf (`u32::MAX` for an
-/// inner node). Subtrees without sources are left out.
+/// The tree in pre-order for the searches: each node's sources' box and
+/// radius, where its subtree ends, its leaf (`u32::MAX` for an inner
+/// node) and its index in the tree (the rest of its sums). Subtrees
+/// without sources are left out.
 struct WalkNode {
     lo: DVec3,
     hi: DVec3,
+    radius: f64,
     skip: u32,
     leaf: u32,
+    node: u32,
 }
 
 fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
@@ -1918,6 +1924,8 @@ fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
         out.push(WalkNode {
             lo: node.lo,
             hi: node.hi,
+            radius: node.radius,
+            node: t as u32,
             skip: 0,
             leaf: if node.kids.is_empty() {
                 node.first as u32
@@ -1947,8 +1955,7 @@ fn near_leaves(walk: &[WalkNode], rl: &Leaf, ld1: f64, out: &mut Vec<usize>) {
     let mut i = 0;
     while i < walk.len() {
         let w = &walk[i];
-        let d = (w.lo - rl.hi).max(rl.lo - w.hi).max(DVec3::ZERO);
-        if d.length_squared() > reach * reach {
+        if gap2(w, rl) > reach * reach {
             i = w.skip as usize;
             continue;
         }
