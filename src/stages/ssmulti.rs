@@ -403,15 +403,17 @@ struct Pt {
     illum: [f32; 3],
 }
 
-struct Inputs {
+struct Inputs<'a> {
     pts: Vec<Pt>,
+    /// The positions as read (the Morton codes come from these).
+    p: [Src<'a>; 3],
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
 /// most `LEAF` points that share a prefix (equal codes are cut in runs).
 /// A point is a source when it has light, or (`all_sources`) always.
 /// `want`: the normals, areas and `r_min` columns (see `Columns::zeroed`).
-fn build(inp: &Inputs, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Columns, Vec<TNode>) {
+fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Columns, Vec<TNode>) {
     let mut pb = Phases::new("ssmulti build");
     let n = inp.pts.len();
     let (lo, hi) = inp
@@ -437,12 +439,11 @@ fn build(inp: &Inputs, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Column
     let idx_bits = (usize::BITS - n.max(2).saturating_sub(1).leading_zeros()).max(1);
     let axis_bits = ((64 - idx_bits) / 3).min(21);
     let scale = ((1u64 << axis_bits) - 1) as f64 / extent;
-    let mut order: Vec<u64> = inp
-        .pts
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let q = (DVec3::from_array(p.pos) - lo) * scale;
+    let ps = &inp.p;
+    let mut order: Vec<u64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let q = (DVec3::new(ps[0].get(i), ps[1].get(i), ps[2].get(i)) - lo) * scale;
             let code = spread(q.x as i64 as u64)
                 | spread(q.y as i64 as u64) << 1
                 | spread(q.z as i64 as u64) << 2;
@@ -455,8 +456,9 @@ fn build(inp: &Inputs, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Column
     order.par_sort_unstable();
     pb.mark("sort");
     let idx_mask = (1u64 << idx_bits) - 1;
-    let mut ranges = Vec::new();
-    let mut nodes = Vec::new();
+    // At most one leaf a point, fewer than two nodes a leaf.
+    let mut ranges = Vec::with_capacity(2 * n / LEAF + 1);
+    let mut nodes = Vec::with_capacity(4 * n / LEAF + 1);
     let top = (idx_bits + 3 * axis_bits) as i32 - 1;
     split(&order, 0, n, top, idx_bits as i32, &mut ranges, &mut nodes);
     pb.mark("split");
@@ -543,7 +545,13 @@ fn pieces<'a, T>(v: &'a mut [T], sizes: &[usize]) -> std::vec::IntoIter<&'a mut 
 /// One leaf's points (a run of the Morton order) into its columns:
 /// sources first, f32 relative to the leaf's origin, padded to whole
 /// groups, with the groups' bounding spheres.
-fn leaf_columns(cm: ColsMut, run: &[u64], idx_mask: u64, inp: &Inputs, all_sources: bool) -> Leaf {
+fn leaf_columns(
+    cm: ColsMut,
+    run: &[u64],
+    idx_mask: u64,
+    inp: &Inputs<'_>,
+    all_sources: bool,
+) -> Leaf {
     let is_source = |i: u32| all_sources || inp.pts[i as usize].illum.iter().any(|&x| x != 0.0);
     // Sources first, each part in Morton order (a leaf holds at most
     // LEAF points: `split`).
@@ -692,7 +700,8 @@ impl Columns {
 #[derive(Clone, Debug, Default)]
 struct TNode {
     first: usize,
-    kids: Vec<usize>,
+    /// (Two but for a run of equal codes: inline, no allocation a node.)
+    kids: smallvec::SmallVec<[usize; 2]>,
     /// Box of its sources.
     lo: DVec3,
     hi: DVec3,
@@ -720,7 +729,7 @@ fn split(
     nodes: &mut Vec<TNode>,
 ) -> usize {
     let first = out.len();
-    let mut kids = Vec::new();
+    let mut kids = smallvec::SmallVec::new();
     if end - start <= LEAF {
         out.push((start, end));
     } else if bit < lowest {
@@ -1542,7 +1551,7 @@ impl<'a> Src<'a> {
 /// Reads and checks the inputs, in parallel, into one record a point
 /// (the Morton ordering gathers them at random: one cache line a point).
 /// The first bad point (lowest index) is reported.
-fn inputs(cloud: &Cloud) -> Result<Inputs> {
+fn inputs(cloud: &Cloud) -> Result<Inputs<'_>> {
     let pts = cloud.points();
     for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
         if !pts.has(name) {
@@ -1613,7 +1622,7 @@ fn inputs(cloud: &Cloud) -> Result<Inputs> {
     if bad != usize::MAX {
         read(bad)?;
     }
-    Ok(Inputs { pts: all })
+    Ok(Inputs { pts: all, p })
 }
 
 /// Adds `ssM` to `cloud`.
@@ -1712,7 +1721,7 @@ impl Normaliser {
 /// leaves holding a wanted point (all without `want`).
 #[allow(clippy::too_many_arguments)]
 fn sum_all(
-    inp: &Inputs,
+    inp: &Inputs<'_>,
     p: &Params,
     ld: [f64; 3],
     ld1: f64,
