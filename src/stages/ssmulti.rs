@@ -58,8 +58,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cloud::{Cloud, DetailValue, Role};
-use crate::column::Column;
+use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::column::{Column, Scalar};
 use crate::error::{Error, Result};
 use crate::progress::{Phases, Progress};
 
@@ -464,7 +464,6 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     pb.mark("split");
     // Every leaf's columns written in parallel, in place (fresh zeroed
     // pages are first touched by the thread that fills them).
-    pb.mark("pre-lens");
     let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
     let glens: Vec<usize> = lens.iter().map(|l| l / LANES).collect();
     let total: usize = lens.iter().sum();
@@ -1627,10 +1626,9 @@ fn inputs(cloud: &Cloud) -> Result<Inputs<'_>> {
 
 /// Adds `ssM` to `cloud`.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
-    let (out, report) = ssmulti_values(cloud, p, None, progress)?;
-    let mut ph = Phases::new("ssmulti");
-    cloud.points_mut().set_vec3("ssM", Role::Color, &out)?;
-    ph.mark("output");
+    let (out, report) = ssmulti_columns(cloud, p, None, progress)?;
+    let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
+    cloud.points_mut().set(ssm)?;
     cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
     cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
     Ok(report)
@@ -1647,6 +1645,18 @@ pub fn ssmulti_values(
     want: Option<&[bool]>,
     progress: &Progress,
 ) -> Result<(Vec<[f32; 3]>, Report)> {
+    let ([x, y, z], report) = ssmulti_columns(cloud, p, want, progress)?;
+    let rows = (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect();
+    Ok((rows, report))
+}
+
+/// `ssmulti_values` as the three columns of `ssM`.
+fn ssmulti_columns(
+    cloud: &Cloud,
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<([Vec<f32>; 3], Report)> {
     validate(p)?;
     let mut ph = Phases::new("ssmulti");
     let inp = inputs(cloud)?;
@@ -1659,7 +1669,7 @@ pub fn ssmulti_values(
     }
     let ld = p.rd.map(|r| r * p.sd);
     let ld1 = ld.iter().copied().fold(0.0, f64::max);
-    let mut out = vec![[0f32; 3]; n];
+    let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
     let mut report = Report {
         points: n,
         ..Report::default()
@@ -1728,7 +1738,7 @@ fn sum_all(
     want: Option<&[bool]>,
     progress: &Progress,
     report: &mut Report,
-    out: &mut [[f32; 3]],
+    out: &mut [Vec<f32>; 3],
 ) {
     let mut ph = Phases::new("ssmulti");
     let local = p.norm == Norm::Local;
@@ -1818,9 +1828,11 @@ fn sum_all(
         report.pairs += pairs;
         report.computed += computed;
     }
+    let [x, y, z] = out;
     for (&i, v) in cols.id.iter().zip(&vals) {
         if i != u32::MAX {
-            out[i as usize] = *v;
+            let i = i as usize;
+            (x[i], y[i], z[i]) = (v[0], v[1], v[2]);
         }
     }
     ph.mark("scatter");
