@@ -394,17 +394,19 @@ fn spread(v: u64) -> u64 {
         | BYTE[(v >> 16) as usize] << 48
 }
 
-/// A point as the pair loop's columns are built from it.
+/// A point as the pair loop's columns are built from it (40 bytes: its
+/// normal is kept apart, and only when `bounce` reads it).
 #[derive(Clone, Copy, Default)]
 struct Pt {
     pos: [f64; 3],
-    nrm: [f32; 3],
     area: f32,
     illum: [f32; 3],
 }
 
 struct Inputs<'a> {
     pts: Vec<Pt>,
+    /// Unit normals, or nothing (no `bounce`).
+    nrm: Vec<[f32; 3]>,
     /// The positions as read (the Morton codes come from these).
     p: [Src<'a>; 3],
 }
@@ -594,7 +596,9 @@ fn leaf_columns(
             for c in 0..3 {
                 sum.q[c] += (pt.illum[c] as f64 * w) as f32 as f64;
             }
-            sum.n += DVec3::from_array(pt.nrm.map(f64::from)) * w;
+            if let Some(nn) = inp.nrm.get(ids[k] as usize) {
+                sum.n += DVec3::from_array(nn.map(f64::from)) * w;
+            }
             sum.lo = sum.lo.min(p);
             sum.hi = sum.hi.max(p);
         }
@@ -623,7 +627,7 @@ fn leaf_columns(
                     h.q[c][l] = (e[c] as f64 * a) as f32;
                 }
                 if normals {
-                    let nn = pt.nrm;
+                    let nn = inp.nrm[i as usize];
                     (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
                 }
                 if area {
@@ -1550,7 +1554,8 @@ impl<'a> Src<'a> {
 /// Reads and checks the inputs, in parallel, into one record a point
 /// (the Morton ordering gathers them at random: one cache line a point).
 /// The first bad point (lowest index) is reported.
-fn inputs(cloud: &Cloud) -> Result<Inputs<'_>> {
+/// The normals are checked always, kept only when `normals`.
+fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
     let pts = cloud.points();
     for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
         if !pts.has(name) {
@@ -1566,7 +1571,7 @@ fn inputs(cloud: &Cloud) -> Result<Inputs<'_>> {
     // Positions in f64 (leaf origins keep their precision); the rest as
     // the f32 the pair loop uses (an f64 value beyond f32's range is
     // reported as not finite).
-    let read = |i: usize| -> Result<Pt> {
+    let read = |i: usize| -> Result<(Pt, [f32; 3])> {
         let pos = [p[0].get(i), p[1].get(i), p[2].get(i)];
         if !pos.iter().all(|x| x.is_finite()) {
             return Err(Error::invalid(format!(
@@ -1597,31 +1602,41 @@ fn inputs(cloud: &Cloud) -> Result<Inputs<'_>> {
                 "point {i}: N is {n32:?}, which has no direction"
             )));
         }
-        Ok(Pt {
-            pos,
-            nrm: u.as_vec3().to_array(),
-            area: a,
-            illum,
-        })
+        Ok((
+            Pt {
+                pos,
+                area: a,
+                illum,
+            },
+            u.as_vec3().to_array(),
+        ))
     };
     // Filled in place in parallel; the first bad point (lowest index) is
     // then read again for its message.
     let first_bad = std::sync::atomic::AtomicUsize::new(usize::MAX);
-    let mut all = Vec::new();
-    (0..pts.len())
-        .into_par_iter()
-        .map(|i| {
-            read(i).unwrap_or_else(|_| {
-                first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
-                Pt::default()
-            })
+    let checked = |i: usize| {
+        read(i).unwrap_or_else(|_| {
+            first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
+            Default::default()
         })
-        .collect_into_vec(&mut all);
+    };
+    let (mut all, mut nrm) = (Vec::new(), Vec::new());
+    if normals {
+        (0..pts.len())
+            .into_par_iter()
+            .map(checked)
+            .unzip_into_vecs(&mut all, &mut nrm);
+    } else {
+        (0..pts.len())
+            .into_par_iter()
+            .map(|i| checked(i).0)
+            .collect_into_vec(&mut all);
+    }
     let bad = first_bad.into_inner();
     if bad != usize::MAX {
         read(bad)?;
     }
-    Ok(Inputs { pts: all, p })
+    Ok(Inputs { pts: all, nrm, p })
 }
 
 /// Adds `ssM` to `cloud`.
@@ -1659,7 +1674,7 @@ fn ssmulti_columns(
 ) -> Result<([Vec<f32>; 3], Report)> {
     validate(p)?;
     let mut ph = Phases::new("ssmulti");
-    let inp = inputs(cloud)?;
+    let inp = inputs(cloud, p.bounce > 0.0)?;
     ph.mark("inputs");
     let n = inp.pts.len();
     if let Some(w) = want {
