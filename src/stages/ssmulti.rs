@@ -1308,7 +1308,7 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    norm: &Normaliser,
     out: &mut [[f32; 3]],
 ) -> u64 {
     let mut pairs = 0u64;
@@ -1362,7 +1362,7 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
             pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, ps, &r, &mut acc);
         }
         for k in 0..(end - gs).min(LANES) {
-            out[gs - rl.col + k] = norm(&acc.total.map(|t| t[k]));
+            out[gs - rl.col + k] = norm.apply(&acc.total.map(|t| t[k]));
         }
     }
     pairs
@@ -1407,7 +1407,7 @@ fn leaf<const F: bool>(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    norm: &Normaliser,
     out: &mut [[f32; 3]],
 ) -> u64 {
     macro_rules! go {
@@ -1458,7 +1458,7 @@ unsafe fn leaf_avx2(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    norm: &Normaliser,
     out: &mut [[f32; 3]],
 ) -> u64 {
     leaf::<true>(s, kern, cols, rl, near, ps, gat, norm, out)
@@ -1482,7 +1482,7 @@ fn run_leaf(
     near: &[Near],
     ps: Option<&Gathered>,
     gat: &mut Gathered,
-    norm: &dyn Fn(&[f64; 6]) -> [f32; 3],
+    norm: &Normaliser,
     out: &mut [[f32; 3]],
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
@@ -1725,6 +1725,7 @@ impl Normaliser {
         }
     }
 
+    #[inline(always)]
     fn apply(&self, s: &[f64; 6]) -> [f32; 3] {
         [0, 1, 2].map(|c| {
             let v = if self.local {
@@ -1820,16 +1821,7 @@ fn sum_all(
                     })
                     .collect();
                 let pairs = run_leaf(
-                    isa,
-                    &setup,
-                    &kern,
-                    &cols,
-                    rl,
-                    &near,
-                    pseudo,
-                    gat,
-                    &|s| norm.apply(s),
-                    share,
+                    isa, &setup, &kern, &cols, rl, &near, pseudo, gat, &norm, share,
                 );
                 progress.inc(rl.len as u64);
                 (pairs, rl.len)
