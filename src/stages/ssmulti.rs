@@ -35,15 +35,17 @@
 //! `LEAF` points (a binary tree over them from the same splits), each
 //! leaf's points stored as f32 columns relative to the leaf's own origin
 //! (an f64), sources first, in groups of eight with a bounding sphere per
-//! group. A receiver leaf walks the tree once for the source leaves whose
-//! boxes come within `ld1` of its box; every receiver point then runs
-//! through those leaves (culled by box, then by group sphere) in groups of
-//! eight lanes that the compiler vectorises (AVX2 and FMA when the CPU has
+//! group. A receiver leaf scans the tree once for the source leaves whose
+//! boxes come within `ld1` of its box and copies their source groups
+//! within reach into one scratch, in its own frame (`Gathered`); each
+//! group of eight receivers, one a vector lane, then lists the scratch's
+//! sources within reach of its bounding sphere and sums them, one source
+//! broadcast to the eight lanes at a time (AVX2 and FMA when the CPU has
 //! them, chosen at run time, one compiled loop per kernel and switch).
 //! Pair differences are taken between two small local coordinates plus
 //! the leaves' offset, so a cloud 1e6 from the origin loses nothing when
 //! its positions are f64. The f32 lanes are added into f64 every `FLUSH`
-//! groups: the rounding does not grow with the neighbour count. Points
+//! sources: the rounding does not grow with the neighbour count. Points
 //! with zero `illum` are not sources (except for `Local`, which needs
 //! their area); a receiver's sums run in a fixed order, so the output bits
 //! do not depend on the thread count. The approximate method
@@ -325,10 +327,10 @@ struct SrcSum {
     sources: usize,
 }
 
-/// What the pair loop reads of a group of `LANES` sources, together (one
-/// base pointer and one bounds check a group): positions relative to the
-/// leaf origin, `illum[c] * ptarea`, and the group's bounding sphere
-/// (leaf-local centre and radius).
+/// What the gather reads of a group of `LANES` points, together:
+/// positions relative to the leaf origin, `illum[c] * ptarea`, and the
+/// group's bounding sphere (leaf-local centre and radius). The same
+/// groups are the receivers' lanes.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 struct Hot {
@@ -698,25 +700,14 @@ impl Columns {
 }
 
 /// A node of the binary tree the Morton splits make over the leaves: its
-/// first leaf (the leaf itself when it has no children), its children, and (after `aggregate`)
-/// what its sources add up to.
+/// first leaf (the leaf itself when it has no children), its children,
+/// and (after `aggregate`) what its sources add up to.
 #[derive(Clone, Debug, Default)]
 struct TNode {
     first: usize,
     /// (Two but for a run of equal codes: inline, no allocation a node.)
     kids: smallvec::SmallVec<[usize; 2]>,
-    /// Box of its sources.
-    lo: DVec3,
-    hi: DVec3,
-    /// Sum of the sources' areas, `illum * ptarea`, area-weighted normals.
-    a: f64,
-    q: [f64; 3],
-    n: DVec3,
-    /// Area-weighted centroid and the largest distance from it to a
-    /// source.
-    centre: DVec3,
-    radius: f64,
-    sources: usize,
+    sum: SrcSum,
 }
 
 /// Cuts the sorted `order[start..end]` at Morton bit `bit` and below into
@@ -773,17 +764,14 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf]) {
         let (done, rest) = nodes.split_at_mut(t);
         let node = &mut rest[0];
         if node.kids.is_empty() {
-            let l = &leaves[node.first].sum;
-            (node.a, node.q, node.n, node.centre, node.radius) =
-                (l.a, l.q, l.n, l.centre, l.radius);
-            (node.lo, node.hi, node.sources) = (l.lo, l.hi, l.sources);
+            node.sum = leaves[node.first].sum;
         } else {
             let kids = &node.kids;
             let (mut a, mut q, mut n, mut ax, mut sources) =
                 (0.0, [0.0; 3], DVec3::ZERO, DVec3::ZERO, 0);
             let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
             for &k in kids {
-                let c = &done[k];
+                let c = &done[k].sum;
                 if c.sources == 0 {
                     continue;
                 }
@@ -800,13 +788,21 @@ fn aggregate(nodes: &mut [TNode], leaves: &[Leaf]) {
             let centre = if a > 0.0 { ax / a } else { (lo + hi) * 0.5 };
             let mut radius: f64 = 0.0;
             for &k in kids {
-                let c = &done[k];
+                let c = &done[k].sum;
                 if c.sources > 0 {
                     radius = radius.max(c.radius + (c.centre - centre).length());
                 }
             }
-            (node.a, node.q, node.n, node.centre, node.radius) = (a, q, n, centre, radius);
-            (node.lo, node.hi, node.sources) = (lo, hi, sources);
+            node.sum = SrcSum {
+                lo,
+                hi,
+                a,
+                q,
+                n,
+                centre,
+                radius,
+                sources,
+            };
         }
     }
 }
@@ -1898,7 +1894,7 @@ fn approx_plan(
             })
         };
         if scale > 0.0 && w.radius <= p.tolerance * scale && !straddles {
-            let node = &nodes[w.node as usize];
+            let node = &nodes[w.node as usize].sum;
             let x = (node.centre - rl.origin).as_vec3();
             let nn = node.n.normalize_or_zero().as_vec3();
             // Burley's regularisation for the cluster's whole area (a
@@ -1945,14 +1941,14 @@ struct WalkNode {
 fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
     fn add(nodes: &[TNode], t: usize, out: &mut Vec<WalkNode>) {
         let node = &nodes[t];
-        if node.sources == 0 {
+        if node.sum.sources == 0 {
             return;
         }
         let at = out.len();
         out.push(WalkNode {
-            lo: node.lo,
-            hi: node.hi,
-            radius: node.radius,
+            lo: node.sum.lo,
+            hi: node.sum.hi,
+            radius: node.sum.radius,
             node: t as u32,
             skip: 0,
             leaf: if node.kids.is_empty() {
