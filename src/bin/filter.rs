@@ -8,7 +8,7 @@ use clap::Parser;
 use pcsss::cli::{self, IoArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
-use pcsss::stages::filter::{self, Params, Reach, Source};
+use pcsss::stages::filter::{self, Params, Source};
 
 /// Reconstructs ssM at shade points (the input: a PLY/EXR cloud, a mesh's
 /// own vertices, or an OpenEXR image of P/N passes) from the cloud's
@@ -27,9 +27,9 @@ struct Args {
     #[arg(long, value_name = "N", conflicts_with = "radius")]
     nfp: Option<usize>,
     /// Use the cloud points within this fraction of the scattering
-    /// distance D = sd * max(Rd) [default: 0.25].
-    #[arg(long, value_name = "FRACTION")]
-    radius: Option<f64>,
+    /// distance D = sd * max(Rd).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.25)]
+    radius: f64,
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     facing: bool,
@@ -42,20 +42,15 @@ fn run(args: Args) -> anyhow::Result<()> {
     let name = args.io.input_name();
     let cloud_name = cli::display_name(Some(&args.cloud));
     let lazy_params = args.ss.params()?;
-    if let Some(r) = args.radius {
-        if !(r.is_finite() && r > 0.0) {
-            anyhow::bail!("parameter --radius: {r}: must be a finite fraction > 0");
-        }
+    let r = args.radius;
+    if !(r.is_finite() && r > 0.0) {
+        anyhow::bail!("parameter --radius: {r}: must be a finite fraction > 0");
     }
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     let source = Source::choose(&cloud, lazy_params.as_ref()).map_err(cli::at(&cloud_name))?;
-    let reach = match args.nfp {
-        Some(n) => Reach::Nearest(n),
-        None => {
-            let d = source.distance(&cloud).map_err(cli::at(&cloud_name))?;
-            Reach::Radius(args.radius.unwrap_or(0.25) * d)
-        }
-    };
+    let reach = source
+        .reach(&cloud, args.nfp, args.radius)
+        .map_err(cli::at(&cloud_name))?;
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());

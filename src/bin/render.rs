@@ -12,7 +12,7 @@ use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
 use pcsss::lights;
 use pcsss::mesh::TriMesh;
-use pcsss::stages::filter::{self, Params, Reach, Source};
+use pcsss::stages::filter::{self, Params, Source};
 use pcsss::stages::render::{self, Camera};
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
@@ -116,10 +116,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         rep.covered, rep.pixels
     ));
     let source = Source::choose(&cloud, lazy.as_ref()).map_err(cli::at(&cloud_name))?;
-    let reach = match args.nfp {
-        Some(n) => Reach::Nearest(n),
-        None => Reach::Radius(args.radius * source.distance(&cloud).map_err(cli::at(&cloud_name))?),
-    };
+    let reach = source
+        .reach(&cloud, args.nfp, args.radius)
+        .map_err(cli::at(&cloud_name))?;
     let progress = msg.progress();
     let frep = filter::filter(
         &cloud,

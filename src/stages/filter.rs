@@ -213,6 +213,15 @@ impl<'a> Source<'a> {
         }
     }
 
+    /// The reach asked for on the command line: the `nfp` nearest, else
+    /// all within `fraction` of D (`distance`).
+    pub fn reach(&self, cloud: &Cloud, nfp: Option<usize>, fraction: f64) -> Result<Reach> {
+        Ok(match nfp {
+            Some(n) => Reach::Nearest(n),
+            None => Reach::Radius(fraction * self.distance(cloud)?),
+        })
+    }
+
     /// The scattering distance D = sd * max(Rd): the lazy run's, else the
     /// one ssmulti recorded in the cloud (`ssmulti_sd`, `ssmulti_rd`).
     pub fn distance(&self, cloud: &Cloud) -> Result<f64> {
