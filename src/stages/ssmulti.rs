@@ -1826,7 +1826,6 @@ fn sum_all(
         .collect();
     progress.finish();
     ph.mark("sums");
-    let mut ph = Phases::new("ssmulti");
     for (pairs, computed) in per_leaf {
         report.pairs += pairs;
         report.computed += computed;
