@@ -24,12 +24,14 @@ pub mod bvh;
 pub mod cli;
 pub mod cloud;
 pub mod column;
+pub(crate) mod disjoint;
 pub mod error;
 pub mod formats;
 pub mod geom;
 pub mod lights;
 pub mod mesh;
 pub mod progress;
+pub mod radix;
 pub mod stages;
 pub mod tools;
 

@@ -62,6 +62,7 @@ use rayon::prelude::*;
 
 use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::{Column, Scalar};
+use crate::disjoint::Disjoint;
 use crate::error::{Error, Result};
 use crate::progress::{Phases, Progress};
 
@@ -454,10 +455,9 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
             code << idx_bits | i as u64
         })
         .collect();
-    // (A radix sort, rdst, took 51-78 ms against 45 ms for (code, index)
-    // pairs; one u64 sorts faster still.)
     pb.mark("codes");
-    order.par_sort_unstable();
+    // The keys are in index order: only the code's bits need sorting.
+    crate::radix::sort_bits(&mut order, idx_bits, idx_bits + 3 * axis_bits);
     pb.mark("sort");
     let idx_mask = (1u64 << idx_bits) - 1;
     // At most one leaf a point, fewer than two nodes a leaf.
@@ -1588,10 +1588,14 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
         }
         let n32 = [nm[0].get(i), nm[1].get(i), nm[2].get(i)].map(|x| x as f32);
         let v = DVec3::new(n32[0] as f64, n32[1] as f64, n32[2] as f64);
-        let u = if v.is_finite() {
-            v.normalize_or_zero()
-        } else {
+        // (Squares of f32 values do not overflow or underflow in f64: a
+        // finite, non-zero N has a direction. Normalised only when kept.)
+        let u = if !(v.is_finite() && v.length_squared() > 0.0) {
             DVec3::ZERO
+        } else if normals {
+            v.normalize()
+        } else {
+            v
         };
         if u == DVec3::ZERO {
             return Err(Error::invalid(format!(
@@ -1776,16 +1780,24 @@ fn sum_all(
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     progress.start("summing", inp.pts.len() as u64);
     let walk = walk_order(&nodes);
-    // Each leaf's results in its own share of the columns' order.
-    let mut vals = vec![[0f32; 3]; cols.id.len()];
-    let lens: Vec<usize> = leaves.iter().map(|l| padded(l.len)).collect();
-    let shares: Vec<&mut [[f32; 3]]> = pieces(&mut vals, &lens).collect();
+    // Each leaf writes its points' results in place: the ids are a
+    // permutation of the points, so no two leaves write one position.
+    let n = inp.pts.len();
+    let [x, y, z] = out;
+    // SAFETY: the columns are only written below, each position by the
+    // one leaf holding that point, until the leaves are joined.
+    let put = unsafe {
+        [
+            Disjoint::new(x, n),
+            Disjoint::new(y, n),
+            Disjoint::new(z, n),
+        ]
+    };
     let per_leaf: Vec<(u64, usize)> = leaves
         .par_iter()
-        .zip(shares)
         .map_init(
             || (Gathered::default(), Gathered::default(), Vec::new()),
-            |(gat, pseudo, found), (rl, share)| {
+            |(gat, pseudo, found), rl| {
                 if let Some(w) = want {
                     if !cols.id[rl.col..rl.col + rl.len]
                         .iter()
@@ -1816,9 +1828,15 @@ fn sum_all(
                         }
                     })
                     .collect();
+                let mut res = [[0f32; 3]; LEAF];
                 let pairs = run_leaf(
-                    isa, &setup, &kern, &cols, rl, &near, pseudo, gat, &norm, share,
+                    isa, &setup, &kern, &cols, rl, &near, pseudo, gat, &norm, &mut res,
                 );
+                for (&i, v) in cols.id[rl.col..rl.col + rl.len].iter().zip(&res) {
+                    for c in 0..3 {
+                        put[c].write(i as usize, v[c]);
+                    }
+                }
                 progress.inc(rl.len as u64);
                 (pairs, rl.len)
             },
@@ -1830,14 +1848,6 @@ fn sum_all(
         report.pairs += pairs;
         report.computed += computed;
     }
-    let [x, y, z] = out;
-    for (&i, v) in cols.id.iter().zip(&vals) {
-        if i != u32::MAX {
-            let i = i as usize;
-            (x[i], y[i], z[i]) = (v[0], v[1], v[2]);
-        }
-    }
-    ph.mark("scatter");
 }
 
 /// For receiver leaf `rl`: the source leaves to sum exactly, and the
