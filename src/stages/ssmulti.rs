@@ -412,6 +412,9 @@ struct Inputs<'a> {
     nrm: Vec<[f32; 3]>,
     /// The positions as read (the Morton codes come from these).
     p: [Src<'a>; 3],
+    /// The positions' box.
+    lo: DVec3,
+    hi: DVec3,
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
@@ -421,21 +424,7 @@ struct Inputs<'a> {
 fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Columns, Vec<TNode>) {
     let mut pb = Phases::new("ssmulti build");
     let n = inp.pts.len();
-    let (lo, hi) = inp
-        .pts
-        .par_iter()
-        .fold(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| {
-                let p = DVec3::from_array(p.pos);
-                (lo.min(p), hi.max(p))
-            },
-        )
-        .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    pb.mark("bbox");
+    let (lo, hi) = (inp.lo, inp.hi);
     let extent = (hi - lo).max_element().max(f64::MIN_POSITIVE);
     // One u64 a point: the Morton code above, the point's index below (so
     // every key is distinct and the order is the same on any thread
@@ -1611,32 +1600,67 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
             u.as_vec3().to_array(),
         ))
     };
-    // Filled in place in parallel; the first bad point (lowest index) is
-    // then read again for its message.
+    // Filled in place in parallel, chunk by chunk, with the positions'
+    // box; the first bad point (lowest index) is then read again for its
+    // message.
+    let n = pts.len();
     let first_bad = std::sync::atomic::AtomicUsize::new(usize::MAX);
-    let checked = |i: usize| {
-        read(i).unwrap_or_else(|_| {
-            first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
-            Default::default()
-        })
-    };
-    let (mut all, mut nrm) = (Vec::new(), Vec::new());
+    let (mut all, mut nrm) = (Vec::<Pt>::with_capacity(n), Vec::<[f32; 3]>::new());
     if normals {
-        (0..pts.len())
-            .into_par_iter()
-            .map(checked)
-            .unzip_into_vecs(&mut all, &mut nrm);
+        nrm.reserve_exact(n);
+    }
+    const CHUNK: usize = 4096;
+    // The normals' chunks beside the records' (none without normals).
+    let nrm_chunks: Vec<Option<&mut [std::mem::MaybeUninit<[f32; 3]>]>> = if normals {
+        nrm.spare_capacity_mut()[..n]
+            .chunks_mut(CHUNK)
+            .map(Some)
+            .collect()
     } else {
-        (0..pts.len())
-            .into_par_iter()
-            .map(|i| checked(i).0)
-            .collect_into_vec(&mut all);
+        (0..n.div_ceil(CHUNK)).map(|_| None).collect()
+    };
+    let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let boxes = all.spare_capacity_mut()[..n]
+        .par_chunks_mut(CHUNK)
+        .zip(nrm_chunks)
+        .enumerate()
+        .map(|(ci, (slots, mut nslots))| {
+            let (mut lo, mut hi) = empty;
+            for (k, slot) in slots.iter_mut().enumerate() {
+                let i = ci * CHUNK + k;
+                let (pt, nn) = read(i).unwrap_or_else(|_| {
+                    first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
+                    Default::default()
+                });
+                let q = DVec3::from_array(pt.pos);
+                (lo, hi) = (lo.min(q), hi.max(q));
+                slot.write(pt);
+                if let Some(ns) = nslots.as_deref_mut() {
+                    ns[k].write(nn);
+                }
+            }
+            (lo, hi)
+        })
+        .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    // SAFETY: every slot of the first `n` was written above (bad points
+    // with a default record).
+    unsafe {
+        all.set_len(n);
+        if normals {
+            nrm.set_len(n);
+        }
     }
     let bad = first_bad.into_inner();
     if bad != usize::MAX {
         read(bad)?;
     }
-    Ok(Inputs { pts: all, nrm, p })
+    Ok(Inputs {
+        pts: all,
+        nrm,
+        p,
+        lo: boxes.0,
+        hi: boxes.1,
+    })
 }
 
 /// Adds `ssM` to `cloud`.
