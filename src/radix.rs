@@ -15,7 +15,9 @@ use crate::disjoint::Disjoint;
 /// share).
 const PAR_MIN: usize = 1 << 15;
 
-/// Widest digit: 2^11 counters a chunk (8 KiB) stay in L1.
+/// Widest digit: 2^11 counters a chunk stay in L1. (Nine bits, five
+/// passes for 42 bits: 0.81 against 0.92 ms at 100k points but 10.5
+/// against 9.4 at 1M in ssmulti's build.)
 const MAX_DIGIT: u32 = 11;
 
 /// Sorts `keys` by bits `lo..hi` (`hi <= 64`), stably: keys equal there

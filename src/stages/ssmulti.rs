@@ -428,10 +428,11 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     let extent = (hi - lo).max_element().max(f64::MIN_POSITIVE);
     // One u64 a point: the Morton code above, the point's index below (so
     // every key is distinct and the order is the same on any thread
-    // count). 14 bits an axis for 4M points: points that share a code are
-    // cut into leaves in index order.
+    // count). 14 bits an axis (as 4M points leave room for) at every
+    // size: points that share a code are cut into leaves in index order,
+    // and 42 code bits sort in four radix passes.
     let idx_bits = (usize::BITS - n.max(2).saturating_sub(1).leading_zeros()).max(1);
-    let axis_bits = ((64 - idx_bits) / 3).min(21);
+    let axis_bits = ((64 - idx_bits) / 3).min(14);
     let scale = ((1u64 << axis_bits) - 1) as f64 / extent;
     let ps = &inp.p;
     let mut order: Vec<u64> = (0..n)
@@ -1820,8 +1821,15 @@ fn sum_all(
     let per_leaf: Vec<(u64, usize)> = leaves
         .par_iter()
         .map_init(
-            || (Gathered::default(), Gathered::default(), Vec::new()),
-            |(gat, pseudo, found), rl| {
+            || {
+                (
+                    Gathered::default(),
+                    Gathered::default(),
+                    Vec::new(),
+                    Vec::new(),
+                )
+            },
+            |(gat, pseudo, found, near), rl| {
                 if let Some(w) = want {
                     if !cols.id[rl.col..rl.col + rl.len]
                         .iter()
@@ -1841,20 +1849,18 @@ fn sum_all(
                     near_leaves(&walk, rl, ld1, found);
                     None
                 };
-                let near: Vec<Near> = found
-                    .iter()
-                    .map(|&sl| {
-                        let s = &leaves[sl];
-                        Near {
-                            col: s.col,
-                            src: s.src,
-                            off: (rl.origin - s.origin).as_vec3().to_array(),
-                        }
-                    })
-                    .collect();
+                near.clear();
+                near.extend(found.iter().map(|&sl| {
+                    let s = &leaves[sl];
+                    Near {
+                        col: s.col,
+                        src: s.src,
+                        off: (rl.origin - s.origin).as_vec3().to_array(),
+                    }
+                }));
                 let mut res = [[0f32; 3]; LEAF];
                 let pairs = run_leaf(
-                    isa, &setup, &kern, &cols, rl, &near, pseudo, gat, &norm, &mut res,
+                    isa, &setup, &kern, &cols, rl, near, pseudo, gat, &norm, &mut res,
                 );
                 for (&i, v) in cols.id[rl.col..rl.col + rl.len].iter().zip(&res) {
                     for c in 0..3 {
