@@ -1620,6 +1620,9 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
     } else {
         (0..n.div_ceil(CHUNK)).map(|_| None).collect()
     };
+    // (The zip below must not cut the records' chunks short: every slot
+    // is then written, as `set_len` needs.)
+    assert_eq!(nrm_chunks.len(), n.div_ceil(CHUNK));
     let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let boxes = all.spare_capacity_mut()[..n]
         .par_chunks_mut(CHUNK)
