@@ -32,8 +32,15 @@ fn run(args: Args) -> anyhow::Result<()> {
     let progress = msg.progress();
     let rep = ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?;
     msg.info(format!(
-        "{} points, {} sources, {} pairs",
-        rep.points, rep.sources, rep.pairs
+        "{} points, {} sources, {} pairs{}",
+        rep.points,
+        rep.sources,
+        rep.pairs,
+        if rep.grey {
+            " (white light: one channel)"
+        } else {
+            ""
+        }
     ));
     args.io.write(&cloud)
 }

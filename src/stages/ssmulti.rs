@@ -47,7 +47,9 @@
 //! its positions are f64. The f32 lanes are added into f64 every `FLUSH`
 //! sources: the rounding does not grow with the neighbour count. Points
 //! with zero `illum` are not sources (except for `Local`, which needs
-//! their area); a receiver's sums run in a fixed order, so the output bits
+//! their area); white light (every `illum` with three equal channels)
+//! under one kernel is summed in one channel, the others copied (the
+//! same numbers); a receiver's sums run in a fixed order, so the output bits
 //! do not depend on the thread count. The approximate method
 //! (`tolerance > 0`, see `approx_plan`) replaces far enough clusters of
 //! the tree by one pseudo-source each and runs the same loop.
@@ -135,6 +137,9 @@ pub struct Report {
     /// Points whose `ssM` was computed (all of them, or with a subset the
     /// leaves of 64 that hold a wanted point).
     pub computed: usize,
+    /// Every `illum` had three equal channels (white light) and one kernel
+    /// served all channels: one channel was summed, the others copied.
+    pub grey: bool,
 }
 
 /// Points per leaf (a multiple of the lane count).
@@ -329,9 +334,8 @@ struct SrcSum {
 }
 
 /// What the gather reads of a group of `LANES` points, together:
-/// positions relative to the leaf origin, `illum[c] * ptarea`, and the
-/// group's bounding sphere (leaf-local centre and radius). The same
-/// groups are the receivers' lanes.
+/// positions relative to the leaf origin and `illum[c] * ptarea`. The
+/// same groups are the receivers' lanes.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 struct Hot {
@@ -339,7 +343,6 @@ struct Hot {
     y: Lanes,
     z: Lanes,
     q: [Lanes; 3],
-    sphere: [f32; 4],
 }
 
 // SAFETY: all zero bits are a valid `Hot` (f32 zeros).
@@ -355,6 +358,10 @@ type Pseudo = ([f32; 3], [f32; 3], [f32; 3], f32, f32);
 #[derive(Default)]
 struct Columns {
     hot: Vec<Hot>,
+    /// The groups' bounding spheres, a column each (centre in the leaf's
+    /// frame, radius), one entry a group and `LANES` far away after the
+    /// last (a leaf's groups are read eight at a time).
+    sph: [Vec<f32>; 4],
     nx: Vec<f32>,
     ny: Vec<f32>,
     nz: Vec<f32>,
@@ -415,6 +422,8 @@ struct Inputs<'a> {
     /// The positions' box.
     lo: DVec3,
     hi: DVec3,
+    /// Every point's `illum` has three equal channels.
+    grey: bool,
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
@@ -466,6 +475,7 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     let mut leaves: Vec<Leaf> = {
         let Columns {
             hot,
+            sph,
             nx,
             ny,
             nz,
@@ -473,13 +483,17 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
             rmin,
             id,
         } = &mut cols;
+        let ng = hot.len();
         let mut phot = pieces(hot, &glens);
+        let [sx, sy, sz, sr] = sph;
+        let mut psph = [sx, sy, sz, sr].map(|v| pieces(&mut v[..ng], &glens));
         let (mut pnx, mut pny, mut pnz) = (pieces(nx, &lens), pieces(ny, &lens), pieces(nz, &lens));
         let (mut pa, mut prm, mut pid) = (pieces(a, &lens), pieces(rmin, &lens), pieces(id, &lens));
         let mut shares = Vec::with_capacity(ranges.len());
         for _ in 0..ranges.len() {
             shares.push(ColsMut {
                 hot: phot.next().expect("one piece a leaf"),
+                sph: [0, 1, 2, 3].map(|a| psph[a].next().expect("one piece a leaf")),
                 nx: pnx.next().expect("one piece a leaf"),
                 ny: pny.next().expect("one piece a leaf"),
                 nz: pnz.next().expect("one piece a leaf"),
@@ -510,6 +524,7 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
 /// One leaf's share of the columns, written in place.
 struct ColsMut<'a> {
     hot: &'a mut [Hot],
+    sph: [&'a mut [f32]; 4],
     nx: &'a mut [f32],
     ny: &'a mut [f32],
     nz: &'a mut [f32],
@@ -641,7 +656,7 @@ fn leaf_columns(
     // alike; padding lanes left out).
     for (gi, g) in (0..cm.id.len()).step_by(LANES).enumerate() {
         let m = (ids.len() - g).min(LANES);
-        let h = &mut cm.hot[gi];
+        let h = &cm.hot[gi];
         let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for l in 0..m {
             for (a, v) in [h.x[l], h.y[l], h.z[l]].into_iter().enumerate() {
@@ -657,7 +672,9 @@ fn leaf_columns(
         }
         // Rounding of the receiver's offset and of this sum: a margin.
         let r = r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
-        h.sphere = [c[0], c[1], c[2], r];
+        for (a, v) in [c[0], c[1], c[2], r].into_iter().enumerate() {
+            cm.sph[a][gi] = v;
+        }
     }
     Leaf {
         col: 0,
@@ -677,8 +694,15 @@ impl Columns {
     /// thread that fills them.)
     fn zeroed(n: usize, [normals, area, rmin]: [bool; 3]) -> Columns {
         let f = |on: bool| if on { vec![0f32; n] } else { Vec::new() };
+        // (The spheres after the last group: far away, radius 0.)
+        let far = |v: f32| {
+            let mut s = vec![0f32; n / LANES + LANES];
+            s[n / LANES..].fill(v);
+            s
+        };
         Columns {
             hot: bytemuck::zeroed_vec(n / LANES),
+            sph: [far(FAR), far(FAR), far(FAR), far(0.0)],
             nx: f(normals),
             ny: f(normals),
             nz: f(normals),
@@ -819,6 +843,8 @@ struct Setup {
     bounce: f32,
     /// One kernel for all channels (not t_rgb, or equal distances).
     single: bool,
+    /// Every source's `illum` has three equal channels (summed once).
+    grey: bool,
     local: bool,
 }
 
@@ -916,6 +942,20 @@ pub fn exp_approx(x: f32) -> f32 {
 /// Lanes of f32: eight receivers, one a lane.
 type Lanes = [f32; LANES];
 
+// A leaf's groups fit one `Lanes` (the gather tests them at once).
+const _: () = assert!(LEAF <= LANES * LANES);
+
+/// The larger of `a` and `b` (`b` when either is NaN: one instruction,
+/// where `f32::max`'s NaN rule costs three).
+#[inline(always)]
+fn maxf(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
 /// The sources a receiver leaf sums, gathered from the source groups
 /// within its reach into its frame, one column a value: the pair loop
 /// broadcasts each source to the eight receivers in the lanes. Whole
@@ -985,7 +1025,8 @@ impl Gathered {
     }
 
     /// Copies a whole group of sources (lanes `c..c + LANES` of `cols`,
-    /// `valid` the source lanes), moved by `-off`; the normals
+    /// `valid` the source lanes), moved by `-off`; the second and third
+    /// channels of `illum * ptarea` (`with_q12`: not when grey), the normals
     /// (`with_n`), areas (`with_a`) and Burley's `r_min` (`with_rm`) when
     /// the run reads them.
     #[inline(always)]
@@ -995,7 +1036,7 @@ impl Gathered {
         c: usize,
         off: [f32; 3],
         valid: u32,
-        [with_n, with_a, with_rm]: [bool; 3],
+        [with_q12, with_n, with_a, with_rm]: [bool; 4],
     ) {
         self.room(LANES);
         let (n, h) = (self.n, &cols.hot[c / LANES]);
@@ -1008,8 +1049,10 @@ impl Gathered {
         put(&mut self.x, &h.x, off[0]);
         put(&mut self.y, &h.y, off[1]);
         put(&mut self.z, &h.z, off[2]);
-        for j in 0..3 {
-            put(&mut self.q[j], &h.q[j], 0.0);
+        put(&mut self.q[0], &h.q[0], 0.0);
+        if with_q12 {
+            put(&mut self.q[1], &h.q[1], 0.0);
+            put(&mut self.q[2], &h.q[2], 0.0);
         }
         let lanes = |v: &[f32]| -> Lanes { v[c..c + LANES].try_into().expect("a group") };
         if with_n {
@@ -1023,7 +1066,7 @@ impl Gathered {
         if with_rm {
             put(&mut self.rmin, &lanes(&cols.rmin), 0.0);
         }
-        let [sx, sy, sz, sr] = h.sphere;
+        let [sx, sy, sz, sr] = [0, 1, 2, 3].map(|a| cols.sph[a][c / LANES]);
         let j = n / LANES;
         (self.sx[j], self.sy[j], self.sz[j], self.sr[j]) =
             (sx - off[0], sy - off[1], sz - off[2], sr);
@@ -1175,7 +1218,14 @@ const FLUSH: usize = 64;
 /// itself or is masked). `K` is the kernel at `ld1` (`SINGLE`) or per
 /// channel; `F` fuses multiply-adds. Returns the pairs evaluated.
 #[inline(always)]
-fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, const F: bool>(
+fn sum8<
+    K: Kern,
+    const SINGLE: bool,
+    const GREY: bool,
+    const BOUNCE: bool,
+    const LOCAL: bool,
+    const F: bool,
+>(
     s: &Setup,
     ks: &[K; 3],
     g: &Gathered,
@@ -1186,7 +1236,9 @@ fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, cons
     let r2max = s.ld1 * s.ld1;
     let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
     let (x, y, z) = (&g.x[..n], &g.y[..n], &g.z[..n]);
-    let (q0, q1, q2) = (&g.q[0][..n], &g.q[1][..n], &g.q[2][..n]);
+    // (Grey: only the first channel is gathered and summed.)
+    let q0 = &g.q[0][..n];
+    let (q1, q2) = (&g.q[1][..n * !GREY as usize], &g.q[2][..n * !GREY as usize]);
     // Columns a run does not use are empty: sliced only when used.
     let used = |v: &'_ [f32], on: bool| -> usize {
         if on {
@@ -1235,8 +1287,10 @@ fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, cons
                     let w = ks[0].w::<F>(d, rmi);
                     let kw = kb * w;
                     s0[k] = madd::<F>(q0[i], kw, s0[k]);
-                    s1[k] = madd::<F>(q1[i], kw, s1[k]);
-                    s2[k] = madd::<F>(q2[i], kw, s2[k]);
+                    if !GREY {
+                        s1[k] = madd::<F>(q1[i], kw, s1[k]);
+                        s2[k] = madd::<F>(q2[i], kw, s2[k]);
+                    }
                     if LOCAL {
                         a0[k] = madd::<F>(ar[i], m * w, a0[k]);
                     }
@@ -1286,7 +1340,14 @@ fn sum8<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, cons
 /// leaves, so they do not depend on the thread count.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, const F: bool>(
+fn leaf_g<
+    K: Kern,
+    const SINGLE: bool,
+    const GREY: bool,
+    const BOUNCE: bool,
+    const LOCAL: bool,
+    const F: bool,
+>(
     s: &Setup,
     ks: &[K; 3],
     cols: &Columns,
@@ -1309,25 +1370,33 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
     gat.clear();
     for nb in near {
         let src_end = nb.col + nb.src;
-        for g in (nb.col..src_end).step_by(LANES) {
-            let [sx, sy, sz, sr] = cols.hot[g / LANES].sphere;
-            // The group's centre in the leaf's frame, against its box.
-            let (ox, oy, oz) = (sx - nb.off[0], sy - nb.off[1], sz - nb.off[2]);
-            let gx = (blo[0] - ox).max(ox - bhi[0]).max(0.0);
-            let gy = (blo[1] - oy).max(oy - bhi[1]).max(0.0);
-            let gz = (blo[2] - oz).max(oz - bhi[2]).max(0.0);
-            let rr = reach + sr;
-            if gx * gx + gy * gy + gz * gz > rr * rr {
-                continue;
-            }
+        // The source leaf's groups' spheres, all at once (a leaf has at
+        // most `LANES` groups; the columns are padded after the last),
+        // their centres in this leaf's frame, against its box.
+        let g0 = nb.col / LANES;
+        let l = |v: &[f32]| -> Lanes { v[g0..g0 + LANES].try_into().expect("padded") };
+        let [sx, sy, sz, sr] = [0, 1, 2, 3].map(|a| l(&cols.sph[a]));
+        let (mut d2, mut rr) = ([0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            let (ox, oy, oz) = (sx[k] - nb.off[0], sy[k] - nb.off[1], sz[k] - nb.off[2]);
+            let gx = maxf(maxf(blo[0] - ox, ox - bhi[0]), 0.0);
+            let gy = maxf(maxf(blo[1] - oy, oy - bhi[1]), 0.0);
+            let gz = maxf(maxf(blo[2] - oz, oz - bhi[2]), 0.0);
+            d2[k] = gx * gx + gy * gy + gz * gz;
+            rr[k] = (reach + sr[k]) * (reach + sr[k]);
+        }
+        let mut near = le_bits::<F>(&d2, &rr) & ((1u32 << nb.src.div_ceil(LANES)) - 1);
+        while near != 0 {
+            let g = nb.col + near.trailing_zeros() as usize * LANES;
+            near &= near - 1;
             let valid = (1u32 << (src_end - g).min(LANES)) - 1;
-            gat.group(cols, g, nb.off, valid, [BOUNCE, LOCAL, K::RMIN]);
+            gat.group(cols, g, nb.off, valid, [!GREY, BOUNCE, LOCAL, K::RMIN]);
         }
     }
     gat.seal();
     for gs in (rl.col..end).step_by(LANES) {
         let h = &cols.hot[gs / LANES];
-        let [cx, cy, cz, cr] = h.sphere;
+        let [cx, cy, cz, cr] = [0, 1, 2, 3].map(|a| cols.sph[a][gs / LANES]);
         gat.select::<F>([cx, cy, cz], reach + cr);
         assert!(gs + LANES <= len);
         let lanes = |v: &[f32]| -> Lanes { v[gs..gs + LANES].try_into().expect("a group") };
@@ -1343,9 +1412,14 @@ fn leaf_g<K: Kern, const SINGLE: bool, const BOUNCE: bool, const LOCAL: bool, co
         let mut acc = Sums8 {
             total: [[0.0; LANES]; 6],
         };
-        pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, gat, &r, &mut acc);
+        pairs += sum8::<K, SINGLE, GREY, BOUNCE, LOCAL, F>(s, ks, gat, &r, &mut acc);
         if let Some(ps) = ps {
-            pairs += sum8::<K, SINGLE, BOUNCE, LOCAL, F>(s, ks, ps, &r, &mut acc);
+            pairs += sum8::<K, SINGLE, GREY, BOUNCE, LOCAL, F>(s, ks, ps, &r, &mut acc);
+        }
+        if GREY {
+            // (The other channels' sums would be the same numbers.)
+            acc.total[1] = acc.total[0];
+            acc.total[2] = acc.total[0];
         }
         for k in 0..(end - gs).min(LANES) {
             out[gs - rl.col + k] = norm.apply(&acc.total.map(|t| t[k]));
@@ -1396,34 +1470,25 @@ fn leaf<const F: bool>(
     norm: &Normaliser,
     out: &mut [[f32; 3]],
 ) -> u64 {
+    // Grey light is summed in one channel, and only with one kernel.
+    let grey = s.single && s.grey;
     macro_rules! go {
-        ($ks:expr) => {
-            match (s.single, s.bounce > 0.0, s.local) {
-                (true, false, false) => {
-                    leaf_g::<_, true, false, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (true, false, true) => {
-                    leaf_g::<_, true, false, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (true, true, false) => {
-                    leaf_g::<_, true, true, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (true, true, true) => {
-                    leaf_g::<_, true, true, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (false, false, false) => {
-                    leaf_g::<_, false, false, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (false, false, true) => {
-                    leaf_g::<_, false, false, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (false, true, false) => {
-                    leaf_g::<_, false, true, false, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
-                (false, true, true) => {
-                    leaf_g::<_, false, true, true, F>(s, $ks, cols, rl, near, ps, gat, norm, out)
-                }
+        ($ks:expr; $(($si:literal, $g:literal, $b:literal, $l:literal)),*) => {
+            match (s.single, grey, s.bounce > 0.0, s.local) {
+                $(($si, $g, $b, $l) => leaf_g::<_, $si, $g, $b, $l, F>(
+                    s, $ks, cols, rl, near, ps, gat, norm, out,
+                ),)*
+                (false, true, _, _) => unreachable!("grey is single"),
             }
+        };
+        ($ks:expr) => {
+            go!($ks;
+                (true, true, false, false), (true, true, false, true),
+                (true, true, true, false), (true, true, true, true),
+                (true, false, false, false), (true, false, false, true),
+                (true, false, true, false), (true, false, true, true),
+                (false, false, false, false), (false, false, false, true),
+                (false, false, true, false), (false, false, true, true))
         };
     }
     match kern {
@@ -1434,7 +1499,7 @@ fn leaf<const F: bool>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1")]
 #[allow(clippy::too_many_arguments)]
 unsafe fn leaf_avx2(
     s: &Setup,
@@ -1492,7 +1557,10 @@ impl Isa {
         {
             let off = |v: &str| std::env::var_os(v).is_some();
             if off("PCSSS_NO_AVX2")
-                || !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
+                || !(is_x86_feature_detected!("avx2")
+                    && is_x86_feature_detected!("fma")
+                    && is_x86_feature_detected!("popcnt")
+                    && is_x86_feature_detected!("bmi1"))
             {
                 Isa::Base
             } else {
@@ -1623,13 +1691,17 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
     // (The zip below must not cut the records' chunks short: every slot
     // is then written, as `set_len` needs.)
     assert_eq!(nrm_chunks.len(), n.div_ceil(CHUNK));
-    let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let empty = (
+        DVec3::splat(f64::INFINITY),
+        DVec3::splat(f64::NEG_INFINITY),
+        true,
+    );
     let boxes = all.spare_capacity_mut()[..n]
         .par_chunks_mut(CHUNK)
         .zip(nrm_chunks)
         .enumerate()
         .map(|(ci, (slots, mut nslots))| {
-            let (mut lo, mut hi) = empty;
+            let (mut lo, mut hi, mut grey) = empty;
             for (k, slot) in slots.iter_mut().enumerate() {
                 let i = ci * CHUNK + k;
                 let (pt, nn) = read(i).unwrap_or_else(|_| {
@@ -1638,14 +1710,15 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
                 });
                 let q = DVec3::from_array(pt.pos);
                 (lo, hi) = (lo.min(q), hi.max(q));
+                grey &= pt.illum[0] == pt.illum[1] && pt.illum[1] == pt.illum[2];
                 slot.write(pt);
                 if let Some(ns) = nslots.as_deref_mut() {
                     ns[k].write(nn);
                 }
             }
-            (lo, hi)
+            (lo, hi, grey)
         })
-        .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 && b.2));
     // SAFETY: every slot of the first `n` was written above (bad points
     // with a default record).
     unsafe {
@@ -1664,6 +1737,7 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
         p,
         lo: boxes.0,
         hi: boxes.1,
+        grey: boxes.2,
     })
 }
 
@@ -1795,12 +1869,14 @@ fn sum_all(
     report.sources = leaves.iter().map(|l| l.src).sum();
     ph.mark("build");
     let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
+    report.grey = single && inp.grey;
     let setup = Setup {
         ld: ld.map(|x| x as f32),
         ld1: ld1 as f32,
         inv_ld1: (1.0 / ld1) as f32,
         bounce: p.bounce as f32,
         single,
+        grey: inp.grey,
         local,
     };
     let isa = Isa::detect();

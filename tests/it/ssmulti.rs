@@ -131,11 +131,30 @@ fn rel_err(a: f64, b: f64) -> f64 {
     (a - b).abs() / a.abs().max(b.abs()).max(1e-30)
 }
 
+/// `c` under white light: every `illum` its first channel three times.
+fn white(c: &Cloud) -> Cloud {
+    let mut c = c.clone();
+    let e: Vec<[f32; 3]> = c
+        .points()
+        .vec3_f64("illum")
+        .unwrap()
+        .iter()
+        .map(|v| [v[0] as f32; 3])
+        .collect();
+    c.points_mut().set_vec3("illum", Role::Color, &e).unwrap();
+    c
+}
+
 #[test]
 fn exact_method_equals_the_f64_double_loop_for_every_setting() {
-    let c = wavy(700, DVec3::ZERO, 1.0, 1);
+    let coloured = wavy(700, DVec3::ZERO, 1.0, 1);
+    // White light takes the one-channel path where one kernel serves all.
+    let grey = white(&coloured);
     let mut worst: f64 = 0.0;
-    for falloff in falloffs() {
+    for (c, falloff) in [&coloured, &grey]
+        .into_iter()
+        .flat_map(|c| falloffs().map(|f| (c, f)))
+    {
         for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
             for (rgb, rd) in [
                 (false, [0.8, 0.5, 0.3]),
@@ -153,8 +172,8 @@ fn exact_method_equals_the_f64_double_loop_for_every_setting() {
                         norm,
                         tolerance: 0.0,
                     };
-                    let got = run(&c, &p);
-                    let want = brute(&c, &p);
+                    let got = run(c, &p);
+                    let want = brute(c, &p);
                     // f32 pair arithmetic puts ~1e-7 ld1 of error on each
                     // distance: a receiver whose sum is all near-edge
                     // pairs (unlit itself, small value) sees that
@@ -185,6 +204,27 @@ fn exact_method_equals_the_f64_double_loop_for_every_setting() {
         }
     }
     eprintln!("worst relative difference {worst:e}");
+}
+
+/// White light is summed in one channel when one kernel serves all three
+/// (the values: `exact_method_equals_the_f64_double_loop_for_every_setting`).
+#[test]
+fn white_light_sums_one_channel() {
+    let coloured = wavy(300, DVec3::ZERO, 1.0, 2);
+    let grey = white(&coloured);
+    let report = |c: &Cloud, rgb: bool, rd: [f64; 3]| {
+        let p = Params {
+            rd,
+            sd: 0.5,
+            rgb,
+            ..Params::default()
+        };
+        ssmulti::ssmulti(&mut c.clone(), &p, &Progress::hidden()).unwrap()
+    };
+    assert!(report(&grey, false, [0.8, 0.5, 0.3]).grey);
+    assert!(report(&grey, true, [0.6, 0.6, 0.6]).grey);
+    assert!(!report(&grey, true, [0.8, 0.5, 0.3]).grey);
+    assert!(!report(&coloured, false, [0.8, 0.5, 0.3]).grey);
 }
 
 /// A square grid of `k` x `k` points of spacing `h` on z = 0, area `h^2`
