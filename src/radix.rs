@@ -2,10 +2,12 @@
 //! bits: what the Morton orders (ssmulti's leaves) are sorted with.
 //!
 //! Keys built as `code << index_bits | index` in index order are already
-//! in order in their low bits, so only the code's bits need passes: four
-//! of about 11 bits for 100k to 4M points, against a comparison sort's
-//! ~20 compares a key. The result does not depend on the thread count
-//! (a stable sort has one answer).
+//! in order in their low bits, so only the code's bits need passes (11
+//! bits a pass), against a comparison sort's ~20 compares a key; and
+//! where the code's high bits already tell most keys apart, those alone
+//! (`sort_bits`) and then the short runs that share them (`sort_runs`).
+//! The result does not depend on the thread count (a sort has one
+//! answer).
 
 use rayon::prelude::*;
 
@@ -95,6 +97,55 @@ pub fn sort_bits(keys: &mut Vec<u64>, lo: u32, hi: u32) {
     *keys = src;
 }
 
+/// Sorts each run of `keys` that agree above bit `shift` (`k >> shift`
+/// equal) by the whole key: after `sort_bits(keys, shift, 64)` this
+/// completes a full sort, at the cost of the runs alone (where the high
+/// bits already separate most keys, a pass or two less). In parallel over
+/// pieces cut between runs; the result does not depend on the thread
+/// count (a sort has one answer).
+pub fn sort_runs(keys: &mut [u64], shift: u32) {
+    let n = keys.len();
+    if n < 2 || shift == 0 {
+        return;
+    }
+    let top = |k: u64| k.checked_shr(shift).unwrap_or(0);
+    let sort = |c: &mut [u64]| {
+        let mut s = 0;
+        while s < c.len() {
+            let mut e = s + 1;
+            while e < c.len() && top(c[e]) == top(c[s]) {
+                e += 1;
+            }
+            if e - s > 1 {
+                c[s..e].sort_unstable();
+            }
+            s = e;
+        }
+    };
+    if n < PAR_MIN {
+        return sort(keys);
+    }
+    // Pieces of about n / (4 threads), each cut moved on to a run's start.
+    let parts = 4 * rayon::current_num_threads().clamp(1, 64);
+    let mut cuts = vec![0];
+    for p in 1..parts {
+        let mut c = (p * n / parts).max(*cuts.last().expect("one cut"));
+        while c > 0 && c < n && top(keys[c - 1]) == top(keys[c]) {
+            c += 1;
+        }
+        cuts.push(c);
+    }
+    cuts.push(n);
+    let mut pieces = Vec::with_capacity(parts);
+    let mut rest = keys;
+    for w in cuts.windows(2) {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
+        pieces.push(head);
+        rest = tail;
+    }
+    pieces.into_par_iter().for_each(sort);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,6 +166,28 @@ mod tests {
                 b.sort_unstable();
                 assert_eq!(a, b, "n {n} bits {bits}");
             }
+        }
+    }
+
+    #[test]
+    fn high_bits_then_runs_is_a_full_sort() {
+        // Few distinct high parts (long runs), many (short runs), and
+        // runs across the parallel pieces' first cuts.
+        for (n, code_bits) in [
+            (10, 2),
+            (5000, 3),
+            (100_000, 4),
+            (100_000, 30),
+            (300_000, 1),
+        ] {
+            let mut a = keys(n, 3 + code_bits as u64, 40);
+            let mut b = a.clone();
+            // (The top 40 - shift bits: `code_bits` of them vary.)
+            let shift = 40 - code_bits;
+            sort_bits(&mut a, shift, 64);
+            sort_runs(&mut a, shift);
+            b.sort_unstable();
+            assert_eq!(a, b, "n {n} code bits {code_bits}");
         }
     }
 

@@ -455,8 +455,14 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
         })
         .collect();
     pb.mark("codes");
-    // The keys are in index order: only the code's bits need sorting.
-    crate::radix::sort_bits(&mut order, idx_bits, idx_bits + 3 * axis_bits);
+    // The keys are in index order: only the code's bits need sorting;
+    // the top 33 in three radix passes (11 levels: a cell 1/2048 of the
+    // box wide, which mostly holds one point or none), then the points
+    // that share a cell by their whole codes.
+    let top = idx_bits + 3 * axis_bits;
+    let rest = top - top.saturating_sub(idx_bits).min(33);
+    crate::radix::sort_bits(&mut order, rest, top);
+    crate::radix::sort_runs(&mut order, rest);
     pb.mark("sort");
     let idx_mask = (1u64 << idx_bits) - 1;
     // At most one leaf a point, fewer than two nodes a leaf.
