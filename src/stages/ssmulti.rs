@@ -1609,6 +1609,43 @@ impl<'a> Src<'a> {
             Src::Other(c) => c.get_f64(i),
         }
     }
+
+    /// Values `start..start + out.len()` as f64 (one type dispatch a
+    /// block, not a value).
+    fn f64s(self, start: usize, out: &mut [f64]) {
+        let end = start + out.len();
+        match self {
+            Src::F32(v) => {
+                for (o, &x) in out.iter_mut().zip(&v[start..end]) {
+                    *o = x as f64;
+                }
+            }
+            Src::F64(v) => out.copy_from_slice(&v[start..end]),
+            Src::Other(c) => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = c.get_f64(start + k);
+                }
+            }
+        }
+    }
+
+    /// `f64s` as f32 (a value beyond f32's range becomes infinite).
+    fn f32s(self, start: usize, out: &mut [f32]) {
+        let end = start + out.len();
+        match self {
+            Src::F32(v) => out.copy_from_slice(&v[start..end]),
+            Src::F64(v) => {
+                for (o, &x) in out.iter_mut().zip(&v[start..end]) {
+                    *o = x as f32;
+                }
+            }
+            Src::Other(c) => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = c.get_f64(start + k) as f32;
+                }
+            }
+        }
+    }
 }
 
 /// Reads and checks the inputs, in parallel, into one record a point
@@ -1708,18 +1745,52 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
         .enumerate()
         .map(|(ci, (slots, mut nslots))| {
             let (mut lo, mut hi, mut grey) = empty;
-            for (k, slot) in slots.iter_mut().enumerate() {
-                let i = ci * CHUNK + k;
-                let (pt, nn) = read(i).unwrap_or_else(|_| {
-                    first_bad.fetch_min(i, std::sync::atomic::Ordering::Relaxed);
-                    Default::default()
-                });
-                let q = DVec3::from_array(pt.pos);
-                (lo, hi) = (lo.min(q), hi.max(q));
-                grey &= pt.illum[0] == pt.illum[1] && pt.illum[1] == pt.illum[2];
-                slot.write(pt);
-                if let Some(ns) = nslots.as_deref_mut() {
-                    ns[k].write(nn);
+            // The columns a block at a time, checked as `read` does (a
+            // bad point gets a default record and is read again below).
+            const BLOCK: usize = 256;
+            let (mut pb, mut nb, mut eb) =
+                ([[0f64; BLOCK]; 3], [[0f32; BLOCK]; 3], [[0f32; BLOCK]; 3]);
+            let mut ab = [0f32; BLOCK];
+            for (bi, bslots) in slots.chunks_mut(BLOCK).enumerate() {
+                let (start, m) = (ci * CHUNK + bi * BLOCK, bslots.len());
+                for k in 0..3 {
+                    p[k].f64s(start, &mut pb[k][..m]);
+                    nm[k].f32s(start, &mut nb[k][..m]);
+                    e[k].f32s(start, &mut eb[k][..m]);
+                }
+                area.f32s(start, &mut ab[..m]);
+                for (j, slot) in bslots.iter_mut().enumerate() {
+                    let pos = [pb[0][j], pb[1][j], pb[2][j]];
+                    let illum = [eb[0][j], eb[1][j], eb[2][j]];
+                    let a = ab[j];
+                    let v = DVec3::new(nb[0][j] as f64, nb[1][j] as f64, nb[2][j] as f64);
+                    let ok = pos.iter().all(|x| x.is_finite())
+                        && illum.iter().all(|x| x.is_finite())
+                        && a.is_finite()
+                        && a >= 0.0
+                        && v.is_finite()
+                        && v.length_squared() > 0.0;
+                    let (pt, nn) = if ok {
+                        let u = if normals { v.normalize() } else { v };
+                        (
+                            Pt {
+                                pos,
+                                area: a,
+                                illum,
+                            },
+                            u.as_vec3().to_array(),
+                        )
+                    } else {
+                        first_bad.fetch_min(start + j, std::sync::atomic::Ordering::Relaxed);
+                        Default::default()
+                    };
+                    let q = DVec3::from_array(pt.pos);
+                    (lo, hi) = (lo.min(q), hi.max(q));
+                    grey &= pt.illum[0] == pt.illum[1] && pt.illum[1] == pt.illum[2];
+                    slot.write(pt);
+                    if let Some(ns) = nslots.as_deref_mut() {
+                        ns[bi * BLOCK + j].write(nn);
+                    }
                 }
             }
             (lo, hi, grey)
