@@ -566,28 +566,24 @@ fn leaf_columns(
     inp: &Inputs<'_>,
     all_sources: bool,
 ) -> Leaf {
-    let is_source = |i: u32| all_sources || inp.pts[i as usize].illum.iter().any(|&x| x != 0.0);
     // Sources first, each part in Morton order (a leaf holds at most
     // LEAF points: `split`).
     assert!(run.len() <= LEAF);
-    let mut all = [0u32; LEAF];
-    let mut src = 0;
+    let (mut all, mut unlit) = ([0u32; LEAF], [0u32; LEAF]);
+    let (mut src, mut m) = (0, 0);
     for &k in run {
         let i = (k & idx_mask) as u32;
-        if is_source(i) {
+        if all_sources || inp.pts[i as usize].illum.iter().any(|&x| x != 0.0) {
             all[src] = i;
             src += 1;
-        }
-    }
-    let mut m = src;
-    for &k in run {
-        let i = (k & idx_mask) as u32;
-        if !is_source(i) {
-            all[m] = i;
+        } else {
+            unlit[m] = i;
             m += 1;
         }
     }
+    all[src..src + m].copy_from_slice(&unlit[..m]);
     let ids = &all[..run.len()];
+    // The leaf's box, and its sources' sums.
     let mut llo = DVec3::splat(f64::INFINITY);
     let mut lhi = DVec3::splat(f64::NEG_INFINITY);
     let mut sum = SrcSum {
@@ -609,7 +605,7 @@ fn leaf_columns(
             for c in 0..3 {
                 sum.q[c] += (pt.illum[c] as f64 * w) as f32 as f64;
             }
-            if let Some(nn) = inp.nrm.get(ids[k] as usize) {
+            if let Some(nn) = inp.nrm.get(i as usize) {
                 sum.n += DVec3::from_array(nn.map(f64::from)) * w;
             }
             sum.lo = sum.lo.min(p);
@@ -621,18 +617,20 @@ fn leaf_columns(
     } else {
         (sum.lo + sum.hi) * 0.5
     };
-    for &i in &ids[..src] {
-        let p = DVec3::from_array(inp.pts[i as usize].pos);
-        sum.radius = sum.radius.max((p - sum.centre).length());
-    }
     let origin = (llo + lhi) * 0.5;
+    // The columns, and the sources' farthest distance from their centre.
     let (normals, area, rmin) = (!cm.nx.is_empty(), !cm.a.is_empty(), !cm.rmin.is_empty());
+    let mut far2: f64 = 0.0;
     for k in 0..cm.id.len() {
         let (h, l) = (&mut cm.hot[k / LANES], k % LANES);
         match ids.get(k) {
             Some(&i) => {
                 let pt = &inp.pts[i as usize];
-                let p = DVec3::from_array(pt.pos) - origin;
+                let q = DVec3::from_array(pt.pos);
+                if k < src {
+                    far2 = far2.max((q - sum.centre).length_squared());
+                }
+                let p = q - origin;
                 (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
                 let a = pt.area as f64;
                 let e = pt.illum;
@@ -658,6 +656,7 @@ fn leaf_columns(
             }
         }
     }
+    sum.radius = far2.sqrt();
     // Bounding spheres of the groups of LANES (sources and receivers
     // alike; padding lanes left out).
     for (gi, g) in (0..cm.id.len()).step_by(LANES).enumerate() {
@@ -671,13 +670,13 @@ fn leaf_columns(
             }
         }
         let c = [0, 1, 2].map(|a| 0.5 * (glo[a] + ghi[a]));
-        let mut r: f32 = 0.0;
+        let mut r2: f32 = 0.0;
         for l in 0..m {
             let d = [h.x[l] - c[0], h.y[l] - c[1], h.z[l] - c[2]];
-            r = r.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
+            r2 = r2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         }
         // Rounding of the receiver's offset and of this sum: a margin.
-        let r = r * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
+        let r = r2.sqrt() * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
         for (a, v) in [c[0], c[1], c[2], r].into_iter().enumerate() {
             cm.sph[a][gi] = v;
         }
