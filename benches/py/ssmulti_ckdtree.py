@@ -6,7 +6,7 @@ Usage: ssmulti_ckdtree.py DIR SD RD_R RD_G RD_B SUBSET SEED OUT.npz
 DIR holds P.npy (n x 3, f64), illum.npy (n x 3), ptarea.npy (n). Writes the
 receivers' indices and ssM to OUT.npz; prints one JSON line: receivers,
 pairs (within reach, the receiver itself included), seconds (trees and
-sums; the best of three runs).
+sums; the best of five runs).
 """
 import json
 import sys
@@ -26,9 +26,9 @@ def main():
     rng = np.random.default_rng(int(seed))
     n = len(p)
     recv = np.sort(rng.choice(n, size=min(int(subset), n), replace=False))
-    # Best of three runs, as the Rust side takes its best of three.
+    # Best of five runs, as the Rust side takes its best of five.
     dt = float("inf")
-    for _ in range(3):
+    for _ in range(5):
         t = time.perf_counter()
         # Points with zero light are not sources (as in pcsss).
         src = np.nonzero(illum.any(axis=1))[0]
