@@ -58,6 +58,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use std::f64::consts::PI;
+use std::mem::MaybeUninit;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -345,9 +346,6 @@ struct Hot {
     q: [Lanes; 3],
 }
 
-// SAFETY: all zero bits are a valid `Hot` (f32 zeros).
-unsafe impl bytemuck::Zeroable for Hot {}
-
 /// A cluster standing in for its sources: position (receiver leaf's
 /// frame), mean normal, `sum illum * ptarea`, `sum ptarea`, Burley's
 /// `r_min` for that area.
@@ -429,7 +427,7 @@ struct Inputs<'a> {
 /// Sorts the points along a Morton curve and cuts them into leaves of at
 /// most `LEAF` points that share a prefix (equal codes are cut in runs).
 /// A point is a source when it has light, or (`all_sources`) always.
-/// `want`: the normals, areas and `r_min` columns (see `Columns::zeroed`).
+/// `want`: the normals, areas and `r_min` columns (others left empty).
 fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Columns, Vec<TNode>) {
     let mut pb = Phases::new("ssmulti build");
     let n = inp.pts.len();
@@ -471,13 +469,26 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     let top = (idx_bits + 3 * axis_bits) as i32 - 1;
     split(&order, 0, n, top, idx_bits as i32, &mut ranges, &mut nodes);
     pb.mark("split");
-    // Every leaf's columns written in parallel, in place (fresh zeroed
-    // pages are first touched by the thread that fills them).
+    // Every leaf's columns written in parallel, in place.
     let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
     let glens: Vec<usize> = lens.iter().map(|l| l / LANES).collect();
     let total: usize = lens.iter().sum();
-    let mut cols = Columns::zeroed(total, want);
-    pb.mark("zeroed");
+    let ng = total / LANES;
+    // Allocated, not written: every leaf writes every slot of its pieces
+    // (fresh pages are first touched by the thread that fills them).
+    let [normals, area, rmin] = want;
+    let on = |w: bool| if w { total } else { 0 };
+    let mut cols = Columns {
+        hot: Vec::with_capacity(ng),
+        sph: std::array::from_fn(|_| Vec::with_capacity(ng + LANES)),
+        nx: Vec::with_capacity(on(normals)),
+        ny: Vec::with_capacity(on(normals)),
+        nz: Vec::with_capacity(on(normals)),
+        a: Vec::with_capacity(on(area)),
+        rmin: Vec::with_capacity(on(rmin)),
+        id: Vec::with_capacity(total),
+    };
+    pb.mark("alloc");
     let mut leaves: Vec<Leaf> = {
         let Columns {
             hot,
@@ -486,15 +497,24 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
             ny,
             nz,
             a,
-            rmin,
+            rmin: rm,
             id,
         } = &mut cols;
-        let ng = hot.len();
-        let mut phot = pieces(hot, &glens);
-        let [sx, sy, sz, sr] = sph;
-        let mut psph = [sx, sy, sz, sr].map(|v| pieces(&mut v[..ng], &glens));
-        let (mut pnx, mut pny, mut pnz) = (pieces(nx, &lens), pieces(ny, &lens), pieces(nz, &lens));
-        let (mut pa, mut prm, mut pid) = (pieces(a, &lens), pieces(rmin, &lens), pieces(id, &lens));
+        let mut phot = pieces(&mut hot.spare_capacity_mut()[..ng], &glens);
+        let mut psph = sph
+            .each_mut()
+            .map(|v| pieces(&mut v.spare_capacity_mut()[..ng], &glens));
+        fn col<'a>(
+            v: &'a mut Vec<f32>,
+            len: usize,
+            lens: &[usize],
+        ) -> std::vec::IntoIter<&'a mut [MaybeUninit<f32>]> {
+            pieces(&mut v.spare_capacity_mut()[..len], lens)
+        }
+        let (mut pnx, mut pny) = (col(nx, on(normals), &lens), col(ny, on(normals), &lens));
+        let mut pnz = col(nz, on(normals), &lens);
+        let (mut pa, mut prm) = (col(a, on(area), &lens), col(rm, on(rmin), &lens));
+        let mut pid = pieces(&mut id.spare_capacity_mut()[..total], &lens);
         let mut shares = Vec::with_capacity(ranges.len());
         for _ in 0..ranges.len() {
             shares.push(ColsMut {
@@ -516,6 +536,29 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
             })
             .collect()
     };
+    // SAFETY: the pieces above cover the first `ng` groups and `total`
+    // lanes of each column (`on` of the unused ones: none), and
+    // `leaf_columns` wrote every slot of its pieces.
+    unsafe {
+        cols.hot.set_len(ng);
+        for v in &mut cols.sph {
+            v.set_len(ng);
+        }
+        for (v, w) in [
+            (&mut cols.nx, normals),
+            (&mut cols.ny, normals),
+            (&mut cols.nz, normals),
+            (&mut cols.a, area),
+            (&mut cols.rmin, rmin),
+        ] {
+            v.set_len(on(w));
+        }
+        cols.id.set_len(total);
+    }
+    // The spheres after the last group: far away, radius 0.
+    for (a, v) in cols.sph.iter_mut().enumerate() {
+        v.resize(ng + LANES, if a < 3 { FAR } else { 0.0 });
+    }
     pb.mark("cols");
     let mut col = 0;
     for (leaf, len) in leaves.iter_mut().zip(&lens) {
@@ -527,16 +570,17 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     (leaves, cols, nodes)
 }
 
-/// One leaf's share of the columns, written in place.
+/// One leaf's share of the columns, written in place: every slot (the
+/// normals, areas and `r_min` when not empty).
 struct ColsMut<'a> {
-    hot: &'a mut [Hot],
-    sph: [&'a mut [f32]; 4],
-    nx: &'a mut [f32],
-    ny: &'a mut [f32],
-    nz: &'a mut [f32],
-    a: &'a mut [f32],
-    rmin: &'a mut [f32],
-    id: &'a mut [u32],
+    hot: &'a mut [MaybeUninit<Hot>],
+    sph: [&'a mut [MaybeUninit<f32>]; 4],
+    nx: &'a mut [MaybeUninit<f32>],
+    ny: &'a mut [MaybeUninit<f32>],
+    nz: &'a mut [MaybeUninit<f32>],
+    a: &'a mut [MaybeUninit<f32>],
+    rmin: &'a mut [MaybeUninit<f32>],
+    id: &'a mut [MaybeUninit<u32>],
 }
 
 /// `v` cut into consecutive pieces of the given sizes (empty pieces when
@@ -560,7 +604,7 @@ fn pieces<'a, T>(v: &'a mut [T], sizes: &[usize]) -> std::vec::IntoIter<&'a mut 
 /// sources first, f32 relative to the leaf's origin, padded to whole
 /// groups, with the groups' bounding spheres.
 fn leaf_columns(
-    cm: ColsMut,
+    mut cm: ColsMut,
     run: &[u64],
     idx_mask: u64,
     inp: &Inputs<'_>,
@@ -621,47 +665,54 @@ fn leaf_columns(
     // The columns, and the sources' farthest distance from their centre.
     let (normals, area, rmin) = (!cm.nx.is_empty(), !cm.a.is_empty(), !cm.rmin.is_empty());
     let mut far2: f64 = 0.0;
-    for k in 0..cm.id.len() {
-        let (h, l) = (&mut cm.hot[k / LANES], k % LANES);
-        match ids.get(k) {
-            Some(&i) => {
-                let pt = &inp.pts[i as usize];
-                let q = DVec3::from_array(pt.pos);
-                if k < src {
-                    far2 = far2.max((q - sum.centre).length_squared());
-                }
-                let p = q - origin;
-                (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
-                let a = pt.area as f64;
-                let e = pt.illum;
-                for c in 0..3 {
-                    h.q[c][l] = (e[c] as f64 * a) as f32;
-                }
-                if normals {
-                    let nn = inp.nrm[i as usize];
-                    (cm.nx[k], cm.ny[k], cm.nz[k]) = (nn[0], nn[1], nn[2]);
-                }
-                if area {
-                    cm.a[k] = pt.area;
-                }
-                if rmin {
-                    cm.rmin[k] = burley::rmin(a) as f32;
-                }
-                cm.id[k] = i;
-            }
-            None => {
-                // (The zeroed columns' other values stand.)
-                (h.x[l], h.y[l], h.z[l]) = (FAR, FAR, FAR);
-                cm.id[k] = u32::MAX;
-            }
-        }
-    }
-    sum.radius = far2.sqrt();
-    // Bounding spheres of the groups of LANES (sources and receivers
-    // alike; padding lanes left out).
+    // A group at a time: its lanes, then its bounding sphere (sources and
+    // receivers alike; padding lanes left out).
     for (gi, g) in (0..cm.id.len()).step_by(LANES).enumerate() {
         let m = (ids.len() - g).min(LANES);
-        let h = &cm.hot[gi];
+        // Padding lanes: far away, carrying nothing.
+        let mut h = Hot {
+            x: [FAR; LANES],
+            y: [FAR; LANES],
+            z: [FAR; LANES],
+            q: [[0.0; LANES]; 3],
+        };
+        for l in 0..LANES {
+            let k = g + l;
+            let Some(&i) = ids.get(k) else {
+                for v in [&mut cm.nx, &mut cm.ny, &mut cm.nz, &mut cm.a, &mut cm.rmin] {
+                    if !v.is_empty() {
+                        v[k].write(0.0);
+                    }
+                }
+                cm.id[k].write(u32::MAX);
+                continue;
+            };
+            let pt = &inp.pts[i as usize];
+            let q = DVec3::from_array(pt.pos);
+            if k < src {
+                far2 = far2.max((q - sum.centre).length_squared());
+            }
+            let p = q - origin;
+            (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
+            let a = pt.area as f64;
+            let e = pt.illum;
+            for c in 0..3 {
+                h.q[c][l] = (e[c] as f64 * a) as f32;
+            }
+            if normals {
+                let nn = inp.nrm[i as usize];
+                cm.nx[k].write(nn[0]);
+                cm.ny[k].write(nn[1]);
+                cm.nz[k].write(nn[2]);
+            }
+            if area {
+                cm.a[k].write(pt.area);
+            }
+            if rmin {
+                cm.rmin[k].write(burley::rmin(a) as f32);
+            }
+            cm.id[k].write(i);
+        }
         let (mut glo, mut ghi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for l in 0..m {
             for (a, v) in [h.x[l], h.y[l], h.z[l]].into_iter().enumerate() {
@@ -678,9 +729,11 @@ fn leaf_columns(
         // Rounding of the receiver's offset and of this sum: a margin.
         let r = r2.sqrt() * (1.0 + 1e-5) + 1e-6 * (c[0].abs() + c[1].abs() + c[2].abs());
         for (a, v) in [c[0], c[1], c[2], r].into_iter().enumerate() {
-            cm.sph[a][gi] = v;
+            cm.sph[a][gi].write(v);
         }
+        cm.hot[gi].write(h);
     }
+    sum.radius = far2.sqrt();
     Leaf {
         col: 0,
         len: ids.len(),
@@ -689,32 +742,6 @@ fn leaf_columns(
         lo: llo,
         hi: lhi,
         sum,
-    }
-}
-
-impl Columns {
-    /// `n` zeroed lanes (`n` a multiple of `LANES`).
-    /// The normals, areas and `r_min` only when `want`ed (else empty).
-    /// (Zeroed allocations: fresh pages are not touched here but by the
-    /// thread that fills them.)
-    fn zeroed(n: usize, [normals, area, rmin]: [bool; 3]) -> Columns {
-        let f = |on: bool| if on { vec![0f32; n] } else { Vec::new() };
-        // (The spheres after the last group: far away, radius 0.)
-        let far = |v: f32| {
-            let mut s = vec![0f32; n / LANES + LANES];
-            s[n / LANES..].fill(v);
-            s
-        };
-        Columns {
-            hot: bytemuck::zeroed_vec(n / LANES),
-            sph: [far(FAR), far(FAR), far(FAR), far(0.0)],
-            nx: f(normals),
-            ny: f(normals),
-            nz: f(normals),
-            a: f(area),
-            rmin: f(rmin),
-            id: vec![0u32; n],
-        }
     }
 }
 
