@@ -2014,6 +2014,11 @@ fn sum_all(
     let kern = Kernels::new(p.falloff, setup.ld, setup.ld1, single);
     progress.start("summing", inp.pts.len() as u64);
     let walk = walk_order(&nodes);
+    let clusters = if p.tolerance > 0.0 {
+        walk_clusters(&walk, &nodes)
+    } else {
+        Vec::new()
+    };
     // Each leaf writes its points' results in place: the ids are a
     // permutation of the points, so no two leaves write one position.
     let n = inp.pts.len();
@@ -2052,7 +2057,7 @@ fn sum_all(
                 // offset between the two origins; with a tolerance, far
                 // enough clusters of them become single pseudo-sources.
                 let pseudo = if p.tolerance > 0.0 {
-                    approx_plan(&walk, &nodes, rl, p, ld, ld1, found, pseudo);
+                    approx_plan(&walk, &clusters, rl, p, ld, ld1, found, pseudo);
                     Some(&*pseudo)
                 } else {
                     near_leaves(&walk, rl, ld1, found);
@@ -2105,7 +2110,7 @@ fn sum_all(
 #[allow(clippy::too_many_arguments)]
 fn approx_plan(
     walk: &[WalkNode],
-    nodes: &[TNode],
+    clusters: &[Cluster],
     rl: &Leaf,
     p: &Params,
     ld: [f64; 3],
@@ -2142,18 +2147,9 @@ fn approx_plan(
             })
         };
         if scale > 0.0 && w.radius <= p.tolerance * scale && !straddles {
-            let node = &nodes[w.node as usize].sum;
-            let x = (node.centre - rl.origin).as_vec3();
-            let nn = node.n.normalize_or_zero().as_vec3();
-            // Burley's regularisation for the cluster's whole area (a
-            // single-source cluster gets exactly its source's).
-            ps.point((
-                x.to_array(),
-                nn.to_array(),
-                node.q.map(|v| v as f32),
-                node.a as f32,
-                burley::rmin(node.a) as f32,
-            ));
+            let c = &clusters[i];
+            let x = (c.centre - rl.origin).as_vec3();
+            ps.point((x.to_array(), c.n, c.q, c.a, c.rmin));
             i = w.skip as usize;
         } else {
             if w.leaf != u32::MAX {
@@ -2184,6 +2180,35 @@ struct WalkNode {
     skip: u32,
     leaf: u32,
     node: u32,
+}
+
+/// A node as a pseudo-source (beside the walk, in its order): its sources'
+/// area-weighted centroid and mean normal, `sum illum * ptarea`, `sum
+/// ptarea`, and Burley's `r_min` for that whole area (a single-source
+/// cluster gets exactly its source's).
+struct Cluster {
+    centre: DVec3,
+    n: [f32; 3],
+    q: [f32; 3],
+    a: f32,
+    rmin: f32,
+}
+
+/// Each walk node's `Cluster`, made once (not at every receiver leaf that
+/// takes it).
+fn walk_clusters(walk: &[WalkNode], nodes: &[TNode]) -> Vec<Cluster> {
+    walk.par_iter()
+        .map(|w| {
+            let node = &nodes[w.node as usize].sum;
+            Cluster {
+                centre: node.centre,
+                n: node.n.normalize_or_zero().as_vec3().to_array(),
+                q: node.q.map(|v| v as f32),
+                a: node.a as f32,
+                rmin: burley::rmin(node.a) as f32,
+            }
+        })
+        .collect()
 }
 
 fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
