@@ -32,8 +32,10 @@
 //!   [`burley`] for the derivation.
 //!
 //! The method: points sorted along a Morton curve into leaves of at most
-//! `LEAF` points (a binary tree over them from the same splits), each
-//! leaf's points stored as f32 columns relative to the leaf's own origin
+//! `LEAF` points (a binary tree over them from the same splits; a cell
+//! that still holds more than a leaf is coded again within its own box,
+//! so that an outlier far away or a small part of a large scene does not
+//! make its leaves wide), each leaf's points stored as f32 columns relative to the leaf's own origin
 //! (an f64), sources first, in groups of eight with a bounding sphere per
 //! group. A receiver leaf scans the tree once for the source leaves whose
 //! boxes come within `ld1` of its box and copies their source groups
@@ -411,6 +413,13 @@ struct Pt {
     illum: [f32; 3],
 }
 
+impl Pt {
+    #[inline(always)]
+    fn pos_v(&self) -> DVec3 {
+        DVec3::from_array(self.pos)
+    }
+}
+
 struct Inputs<'a> {
     pts: Vec<Pt>,
     /// Unit normals, or nothing (no `bounce`).
@@ -441,15 +450,22 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     let idx_bits = (usize::BITS - n.max(2).saturating_sub(1).leading_zeros()).max(1);
     let axis_bits = ((64 - idx_bits) / 3).min(14);
     let scale = ((1u64 << axis_bits) - 1) as f64 / extent;
+    let cut = Cut {
+        pts: &inp.pts,
+        idx_bits,
+        axis_bits,
+    };
+    // (From the columns as read: the records are wider.)
     let ps = &inp.p;
     let mut order: Vec<u64> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let q = (DVec3::new(ps[0].get(i), ps[1].get(i), ps[2].get(i)) - lo) * scale;
-            let code = spread(q.x as i64 as u64)
-                | spread(q.y as i64 as u64) << 1
-                | spread(q.z as i64 as u64) << 2;
-            code << idx_bits | i as u64
+            cut.key(
+                i,
+                DVec3::new(ps[0].get(i), ps[1].get(i), ps[2].get(i)),
+                lo,
+                scale,
+            )
         })
         .collect();
     pb.mark("codes");
@@ -466,8 +482,16 @@ fn build(inp: &Inputs<'_>, all_sources: bool, want: [bool; 3]) -> (Vec<Leaf>, Co
     // At most one leaf a point, fewer than two nodes a leaf.
     let mut ranges = Vec::with_capacity(2 * n / LEAF + 1);
     let mut nodes = Vec::with_capacity(4 * n / LEAF + 1);
-    let top = (idx_bits + 3 * axis_bits) as i32 - 1;
-    split(&order, 0, n, top, idx_bits as i32, &mut ranges, &mut nodes);
+    split(
+        &cut,
+        &mut order,
+        0,
+        n,
+        cut.top(),
+        0,
+        &mut ranges,
+        &mut nodes,
+    );
     pb.mark("split");
     // Every leaf's columns written in parallel, in place.
     let lens: Vec<usize> = ranges.iter().map(|&(s, e)| padded(e - s)).collect();
@@ -756,15 +780,80 @@ struct TNode {
     sum: SrcSum,
 }
 
+/// What the Morton keys are made of: `code << idx_bits | index`, codes
+/// of `axis_bits` an axis.
+struct Cut<'a> {
+    pts: &'a [Pt],
+    idx_bits: u32,
+    axis_bits: u32,
+}
+
+/// How many times a cell that holds more than a leaf of distinct points
+/// is coded again within its own box (each time `axis_bits` more bits an
+/// axis: four give about 100 bits, a range of 1e29).
+const MAX_RECODE: u32 = 4;
+
+impl Cut<'_> {
+    /// The highest code bit of a key.
+    fn top(&self) -> i32 {
+        (self.idx_bits + 3 * self.axis_bits) as i32 - 1
+    }
+
+    /// The Morton key of point `i` at `pos` within the cube from `lo`
+    /// that `scale` maps onto the codes.
+    #[inline(always)]
+    fn key(&self, i: usize, pos: DVec3, lo: DVec3, scale: f64) -> u64 {
+        let q = (pos - lo) * scale;
+        // (Through i64: x86 converts f64 to u64 in many steps. A point of
+        // the box codes within `axis_bits`; NaN, from a box too small for
+        // a finite `scale`, as 0.)
+        let c = |v: f64| spread(v as i64 as u64);
+        let code = c(q.x) | c(q.y) << 1 | c(q.z) << 2;
+        code << self.idx_bits | i as u64
+    }
+
+    /// Codes the points of `keys` (which share a code) again within
+    /// their own box and sorts them by the new keys; false when they are
+    /// all at one position (nothing to cut by) or within a box too small
+    /// to scale (1e-304).
+    fn recode(&self, keys: &mut [u64]) -> bool {
+        let mask = (1u64 << self.idx_bits) - 1;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for &k in keys.iter() {
+            let p = self.pts[(k & mask) as usize].pos_v();
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        let extent = (hi - lo).max_element();
+        let scale = ((1u64 << self.axis_bits) - 1) as f64 / extent;
+        if !(extent > 0.0 && scale.is_finite()) {
+            return false;
+        }
+        for k in keys.iter_mut() {
+            let i = (*k & mask) as usize;
+            *k = self.key(i, self.pts[i].pos_v(), lo, scale);
+        }
+        keys.sort_unstable();
+        true
+    }
+}
+
 /// Cuts the sorted `order[start..end]` at Morton bit `bit` and below into
 /// leaf ranges (`out`) and tree nodes (`nodes`, children before parents);
-/// returns the node's index.
+/// returns the node's index. A cell that holds more than a leaf when the
+/// code bits run out (a cloud whose points are far apart in scale: an
+/// outlier far away, a small detailed part in a large scene) is coded
+/// again within its own box (`depth` times so far), so that its leaves
+/// stay small in space; points at one position are cut in runs of
+/// `LEAF`.
+#[allow(clippy::too_many_arguments)]
 fn split(
-    order: &[u64],
+    cut: &Cut<'_>,
+    order: &mut [u64],
     start: usize,
     end: usize,
     bit: i32,
-    lowest: i32,
+    depth: u32,
     out: &mut Vec<(usize, usize)>,
     nodes: &mut Vec<TNode>,
 ) -> usize {
@@ -772,8 +861,11 @@ fn split(
     let mut kids = smallvec::SmallVec::new();
     if end - start <= LEAF {
         out.push((start, end));
-    } else if bit < lowest {
-        // Equal codes (duplicate or very close points): runs of LEAF.
+    } else if bit < cut.idx_bits as i32 {
+        if depth < MAX_RECODE && cut.recode(&mut order[start..end]) {
+            return split(cut, order, start, end, cut.top(), depth + 1, out, nodes);
+        }
+        // Equal positions (duplicate points): runs of LEAF.
         let mut s = start;
         while s < end {
             let e = (s + LEAF).min(end);
@@ -790,10 +882,10 @@ fn split(
         let mid = start + order[start..end].partition_point(|&o| o & mask == 0);
         if mid == start || mid == end {
             // One side empty: no node for this bit.
-            return split(order, start, end, bit - 1, lowest, out, nodes);
+            return split(cut, order, start, end, bit - 1, depth, out, nodes);
         }
-        kids.push(split(order, start, mid, bit - 1, lowest, out, nodes));
-        kids.push(split(order, mid, end, bit - 1, lowest, out, nodes));
+        kids.push(split(cut, order, start, mid, bit - 1, depth, out, nodes));
+        kids.push(split(cut, order, mid, end, bit - 1, depth, out, nodes));
     }
     nodes.push(TNode {
         first,

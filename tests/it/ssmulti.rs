@@ -863,3 +863,107 @@ fn one_and_two_point_clouds_are_summed_exactly() {
         }
     }
 }
+
+/// `a` and `b` as one cloud, `a`'s points first.
+fn joined(a: &Cloud, b: &Cloud) -> Cloud {
+    let cols = |c: &Cloud| {
+        let pts = c.points();
+        (
+            pts.vec3_f64("P").unwrap(),
+            pts.vec3_f64("N").unwrap(),
+            pts.scalar_f64("ptarea").unwrap(),
+            pts.vec3_f64("illum").unwrap(),
+        )
+    };
+    let (mut p, mut n, mut ar, mut e) = cols(a);
+    let (p2, n2, a2, e2) = cols(b);
+    p.extend(p2);
+    n.extend(n2);
+    ar.extend(a2);
+    e.extend(e2);
+    cloud_of(&p, &n, &ar, &e)
+}
+
+/// Sums and report of `c`.
+fn run_report(c: &Cloud, p: &Params) -> (Vec<[f64; 3]>, ssmulti::Report) {
+    let mut c = c.clone();
+    let r = ssmulti::ssmulti(&mut c, p, &Progress::hidden()).unwrap();
+    (c.points().vec3_f64("ssM").unwrap(), r)
+}
+
+#[test]
+fn an_outlier_or_a_tiny_part_far_away_costs_nothing_and_changes_nothing() {
+    let p = Params {
+        sd: 0.2,
+        bounce: 0.5,
+        ..Params::default()
+    };
+    let same = |a: &[[f64; 3]], b: &[[f64; 3]], what: &str| {
+        let top = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (x, y) in a.iter().zip(b) {
+            for ch in 0..3 {
+                assert!(
+                    (x[ch] - y[ch]).abs() <= 1e-6 * top,
+                    "{what}: {x:?} vs {y:?}"
+                );
+            }
+        }
+    };
+    let part = wavy(20000, DVec3::ZERO, 1.0, 11);
+    let (alone, r_alone) = run_report(&part, &p);
+    // One point 1e6 away: the box the Morton codes quantise is a million
+    // times the part's, which fits in one cell of it.
+    let far = cloud_of(
+        &[[1e6, -1e6, 1e6]],
+        &[[0.0, 0.0, 1.0]],
+        &[0.01],
+        &[[1.0; 3]],
+    );
+    let (got, r) = run_report(&joined(&part, &far), &p);
+    same(&alone, &got[..20000], "outlier");
+    assert!(got[20000].iter().all(|v| v.is_finite()));
+    assert!(
+        r.pairs <= r_alone.pairs + 64,
+        "with the outlier {} pairs, without {}",
+        r.pairs,
+        r_alone.pairs
+    );
+    // The same part beside a scene 1e5 wide whose points see only
+    // themselves.
+    let scene = wavy(2000, DVec3::new(0.0, 1e3, 0.0), 1e5, 12);
+    let (got, r) = run_report(&joined(&part, &scene), &p);
+    same(&alone, &got[..20000], "small part");
+    assert!(
+        r.pairs <= r_alone.pairs + 2000 * 64,
+        "in the scene {} pairs, alone {}",
+        r.pairs,
+        r_alone.pairs
+    );
+}
+
+#[test]
+fn points_spread_over_every_scale_give_finite_sums() {
+    // x = 1.5^-k down to subnormal numbers: more scales than the
+    // leaves' recoding follows (the deepest are cut in runs).
+    let n = 1900;
+    let pos: Vec<[f64; 3]> = (0..n)
+        .map(|k| [1.5f64.powi(-(k as i32)), 0.0, 0.0])
+        .collect();
+    let c = cloud_of(
+        &pos,
+        &vec![[0.0, 0.0, 1.0]; n],
+        &vec![1e-3; n],
+        &vec![[1.0, 0.5, 0.25]; n],
+    );
+    let p = Params {
+        sd: 4.0,
+        ..Params::default()
+    };
+    let got = run(&c, &p);
+    let want = brute(&c, &p);
+    for (g, w) in got.iter().zip(&want) {
+        for ch in 0..3 {
+            assert!(rel_err(g[ch], w[ch]) < 1e-6, "{g:?} vs {w:?}");
+        }
+    }
+}
