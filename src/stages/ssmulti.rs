@@ -1253,7 +1253,10 @@ impl Gathered {
                 d2[k] = dx * dx + dy * dy + dz * dz;
                 rr[k] = (reach + sr[k]) * (reach + sr[k]);
             }
-            let mut near = le_bits::<F>(&d2, &rr);
+            // (Not the padding spheres: a reach beyond f32's range, or
+            // beyond `FAR`, would take them in.)
+            let live = (n.div_ceil(LANES) - j0).min(LANES);
+            let mut near = le_bits::<F>(&d2, &rr) & ((1u32 << live) - 1);
             while near != 0 {
                 let k = near.trailing_zeros() as usize;
                 near &= near - 1;

@@ -584,6 +584,36 @@ fn sd_beyond_the_whole_object_sums_every_pair() {
             }
         }
     }
+    // Reaches beyond f32's range (and beyond the padding lanes' "far
+    // away"): every pair, no padding lane, finite sums; the seed's
+    // normalisation divides by ~sd^2 (an f32 0), the local one gives the
+    // mean light.
+    for sd in [1e20, 1e30, 1e300] {
+        for (norm, tolerance) in [
+            (Norm::Seed, 0.0),
+            (Norm::Local, 0.0),
+            (Norm::Local, 0.3),
+        ] {
+            let p = Params {
+                rd: [1.0, 0.5, 0.25],
+                sd,
+                norm,
+                tolerance,
+                ..Params::default()
+            };
+            let got = run(&c, &p);
+            let want = brute(&c, &p);
+            for (g, w) in got.iter().zip(&want) {
+                for ch in 0..3 {
+                    let ok = match norm {
+                        Norm::Local => rel_err(g[ch], w[ch]) < 1e-5,
+                        _ => (g[ch] - w[ch]).abs() < 1e-30,
+                    };
+                    assert!(ok && g[ch].is_finite(), "sd {sd} {norm:?}: {g:?} vs {w:?}");
+                }
+            }
+        }
+    }
 }
 
 #[test]
