@@ -142,7 +142,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
     if !(p.cusp.is_finite() && (0.0..=180.0).contains(&p.cusp)) {
         return Err(Error::param(
             "--cusp",
-            format!("{} is not an angle in [0, 180] degrees", p.cusp),
+            format!("{:?} is not an angle in [0, 180] degrees", p.cusp),
         ));
     }
     let pts = cloud.points();

@@ -281,7 +281,7 @@ pub fn filter(
         Reach::Radius(r) if !(r.is_finite() && r > 0.0) => {
             return Err(Error::param(
                 "--radius",
-                format!("{r}: must be a finite distance > 0"),
+                format!("{r:?}: must be a finite distance > 0"),
             ))
         }
         _ => {}

@@ -83,7 +83,7 @@ pub fn count_for_density(density: f64, area: f64) -> Result<usize> {
     if !(density.is_finite() && density >= 0.0) {
         return Err(Error::param(
             "--density",
-            format!("{density} is not a finite number >= 0"),
+            format!("{density:?} is not a finite number >= 0"),
         ));
     }
     let n = (density * area).round();

@@ -155,33 +155,33 @@ pub fn validate(p: &Params) -> Result<()> {
         if !(x.is_finite() && x >= 0.0) {
             return Err(Error::param(
                 "--rd",
-                format!("channel {c} is {x}: not a finite number >= 0"),
+                format!("channel {c} is {x:?}: not a finite number >= 0"),
             ));
         }
     }
     if !(p.sd.is_finite() && p.sd >= 0.0) {
         return Err(Error::param(
             "--sd",
-            format!("{} is not a finite number >= 0", p.sd),
+            format!("{:?} is not a finite number >= 0", p.sd),
         ));
     }
     if !(p.bounce.is_finite() && (0.0..=1.0).contains(&p.bounce)) {
         return Err(Error::param(
             "--bounce",
-            format!("{} is not in [0, 1]", p.bounce),
+            format!("{:?} is not in [0, 1]", p.bounce),
         ));
     }
     match p.falloff {
         Falloff::Exp { sigma } if !(sigma.is_finite() && sigma > 0.0 && sigma <= 1e6) => {
             return Err(Error::param(
                 "--sigma",
-                format!("{sigma} is not in (0, 1e6]"),
+                format!("{sigma:?} is not in (0, 1e6]"),
             ));
         }
         Falloff::Burley { kappa } if !(kappa.is_finite() && kappa > 0.0 && kappa <= 1e6) => {
             return Err(Error::param(
                 "--sigma",
-                format!("{kappa} is not in (0, 1e6]"),
+                format!("{kappa:?} is not in (0, 1e6]"),
             ));
         }
         _ => {}
@@ -189,7 +189,7 @@ pub fn validate(p: &Params) -> Result<()> {
     if !(p.tolerance.is_finite() && p.tolerance >= 0.0) {
         return Err(Error::param(
             "--tolerance",
-            format!("{} is not a finite number >= 0", p.tolerance),
+            format!("{:?} is not a finite number >= 0", p.tolerance),
         ));
     }
     Ok(())

@@ -589,11 +589,7 @@ fn sd_beyond_the_whole_object_sums_every_pair() {
     // normalisation divides by ~sd^2 (an f32 0), the local one gives the
     // mean light.
     for sd in [1e20, 1e30, 1e300] {
-        for (norm, tolerance) in [
-            (Norm::Seed, 0.0),
-            (Norm::Local, 0.0),
-            (Norm::Local, 0.3),
-        ] {
+        for (norm, tolerance) in [(Norm::Seed, 0.0), (Norm::Local, 0.0), (Norm::Local, 0.3)] {
             let p = Params {
                 rd: [1.0, 0.5, 0.25],
                 sd,
