@@ -17,6 +17,10 @@
 //!    (computed here by quadrature; the independent value at the
 //!    lit pole is (0.989286, 0.494643, 0.247321)) for random and
 //!    blue-noise scatter at equal point counts.
+//! 3. Every falloff, normalisation and channel mode at 100k points x
+//!    2,000 neighbours, and every falloff with sd 1e20 (every pair) at
+//!    20k points: `ssmulti_variants.txt`. `BENCH_VARIANTS=1` runs only
+//!    this (about a minute).
 //!
 //! `BENCH_QUICK=1` runs only the 100k and 1M clouds. `BENCH_CASE=1000000,200`
 //! times only the exact method on that case (points, neighbours; a third
@@ -211,10 +215,93 @@ fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (xs, ws)
 }
 
+/// Every falloff, normalisation and channel mode at one size, and every
+/// falloff with a reach far beyond the object (weights that once went
+/// subnormal): saved as `ssmulti_variants.txt`. `BENCH_VARIANTS=1` runs
+/// only this.
+fn variants(mesh: &Cloud) {
+    use ssmulti::{Falloff, Norm, BURLEY_KAPPA};
+    let best = |c: &Cloud, p: &Params| -> (f64, ssmulti::Report) {
+        let (_, mut secs, rep) = run(c, p);
+        for _ in 0..2 {
+            secs = secs.min(run(c, p).1);
+        }
+        (secs, rep)
+    };
+    let falloffs = [
+        ("smooth", Falloff::Smooth),
+        ("exp, sigma 4", Falloff::Exp { sigma: 4.0 }),
+        ("exp, sigma 1000", Falloff::Exp { sigma: 1000.0 }),
+        (
+            "burley",
+            Falloff::Burley {
+                kappa: BURLEY_KAPPA,
+            },
+        ),
+    ];
+    let (n, nb) = (100_000, 2000);
+    let cloud = sphere_cloud(mesh, n, 0, PtareaMode::Prim);
+    let ld1 = 2.0 * (nb as f64 / n as f64).sqrt();
+    let mut tab = Table::new(
+        &format!(
+            "ssmulti's falloffs, normalisations and channel modes: {n} points of the unit sphere (half lit), about {nb} neighbours (sd {ld1:.4}), Rd (1, 0.5, 0.25), exact method; then {} points with sd 1e20 (every pair, weights near 1); {}; best of three runs, 2 threads",
+            20_000,
+            machine()
+        ),
+        "| falloff | normalisation | channels | sd | s | M pairs evaluated/s |\n|---|---|---|---|---|---|",
+    );
+    for (name, falloff) in falloffs {
+        for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
+            for rgb in [false, true] {
+                let p = Params {
+                    rd: [1.0, 0.5, 0.25],
+                    sd: ld1,
+                    rgb,
+                    falloff,
+                    norm,
+                    ..Params::default()
+                };
+                let (secs, rep) = best(&cloud, &p);
+                tab.row(format!(
+                    "| {name} | {norm:?} | {} | {ld1:.4} | {secs:.3} | {:.0} |",
+                    if rgb {
+                        "per channel (t_rgb)"
+                    } else {
+                        "one kernel"
+                    },
+                    rep.pairs as f64 / secs / 1e6
+                ));
+            }
+        }
+    }
+    let small = sphere_cloud(mesh, 20_000, 0, PtareaMode::Prim);
+    for (name, falloff) in falloffs {
+        for norm in [Norm::Seed, Norm::Local] {
+            let p = Params {
+                rd: [1.0, 0.5, 0.25],
+                sd: 1e20,
+                falloff,
+                norm,
+                ..Params::default()
+            };
+            let (secs, rep) = best(&small, &p);
+            tab.row(format!(
+                "| {name} | {norm:?} | one kernel | 1e20 | {secs:.3} | {:.0} |",
+                rep.pairs as f64 / secs / 1e6
+            ));
+        }
+    }
+    tab.save("ssmulti_variants.txt");
+}
+
 fn main() {
     let quick = std::env::var_os("BENCH_QUICK").is_some();
     let dir = bench_dir();
     let mesh = uv_sphere(500, 1000, true, |_, _| 1.0);
+    if std::env::var_os("BENCH_VARIANTS").is_some() {
+        variants(&mesh);
+        return;
+    }
     if let Ok(case) = std::env::var("BENCH_CASE") {
         let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
         let (n, nb) = (v[0] as usize, v[1] as usize);
@@ -389,4 +476,5 @@ fn main() {
         }
     }
     acc.save("ssmulti_accuracy.txt");
+    variants(&mesh);
 }
