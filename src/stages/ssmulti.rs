@@ -964,6 +964,8 @@ struct Setup {
     ld: [f32; 3],
     ld1: f32,
     inv_ld1: f32,
+    /// How far a source can add anything: `reach(falloff, ld1)`.
+    reach: f32,
     bounce: f32,
     /// One kernel for all channels (not t_rgb, or equal distances).
     single: bool,
@@ -1561,7 +1563,7 @@ fn leaf_g<
     let grow = 1e-5 * (rl.hi - rl.lo).max_element() + 1e-6 * s.ld1 as f64;
     let blo = (rl.lo - rl.origin - grow).as_vec3().to_array();
     let bhi = (rl.hi - rl.origin + grow).as_vec3().to_array();
-    let reach = s.ld1 * (1.0 + 1e-6);
+    let reach = s.reach * (1.0 + 1e-6);
     gat.clear();
     for nb in near {
         let src_end = nb.col + nb.src;
@@ -2167,6 +2169,7 @@ fn sum_all(
         ld: ld.map(|x| x as f32),
         ld1: ld1 as f32,
         inv_ld1: (1.0 / ld1) as f32,
+        reach: reach(p.falloff, ld1) as f32,
         bounce: p.bounce as f32,
         single,
         grey: inp.grey,
@@ -2224,7 +2227,7 @@ fn sum_all(
                     approx_plan(&walk, &clusters, rl, p, ld, ld1, found, pseudo);
                     Some(&*pseudo)
                 } else {
-                    near_leaves(&walk, rl, ld1, found);
+                    near_leaves(&walk, rl, reach(p.falloff, ld1), found);
                     None
                 };
                 near.clear();
@@ -2285,6 +2288,7 @@ fn approx_plan(
     let dmin = ld.iter().copied().filter(|&d| d > 0.0).fold(ld1, f64::min);
     let dmin = if p.rgb { dmin } else { ld1 };
     let jumps = !matches!(p.falloff, Falloff::Smooth);
+    let far = reach(p.falloff, ld1);
     exact.clear();
     ps.clear();
     // The tree in pre-order: a subtree out of reach or taken as one
@@ -2293,7 +2297,7 @@ fn approx_plan(
     while i < walk.len() {
         let w = &walk[i];
         let gap2 = gap2(w, rl);
-        if gap2 > ld1 * ld1 {
+        if gap2 > far * far {
             i = w.skip as usize;
             continue;
         }
@@ -2406,13 +2410,28 @@ fn walk_order(nodes: &[TNode]) -> Vec<WalkNode> {
     out
 }
 
-/// The leaves with sources whose boxes come within `ld1` of `rl`'s box,
+/// How far from a source its weight can be above 0, at largest distance
+/// `ld1`: `ld1`, or less for a steep exp (sigma above 60: its weights are
+/// 0 beyond `60 ld1 / sigma`, `EXP_CUT`) or a Burley profile with kappa
+/// above 180 (both its exponentials are cut beyond `180 ld1 / kappa`).
+/// Sources farther away are not visited: they would add exact zeros.
+/// (With a margin over the f32 rounding of the weights' exponents.)
+fn reach(f: Falloff, ld1: f64) -> f64 {
+    let cut = -EXP_CUT as f64 * (1.0 + 1e-5);
+    match f {
+        Falloff::Smooth => ld1,
+        Falloff::Exp { sigma } => ld1.min(cut * ld1 / sigma),
+        Falloff::Burley { kappa } => ld1.min(3.0 * cut * ld1 / kappa),
+    }
+}
+
+/// The leaves with sources whose boxes come within `reach` of `rl`'s box,
 /// in order (into `out`): the tree scanned in pre-order, skipping the
 /// subtrees out of reach.
-fn near_leaves(walk: &[WalkNode], rl: &Leaf, ld1: f64, out: &mut Vec<usize>) {
+fn near_leaves(walk: &[WalkNode], rl: &Leaf, reach: f64, out: &mut Vec<usize>) {
     out.clear();
     // (A margin for the f32 rounding of the pair loop's distances.)
-    let reach = ld1 * (1.0 + 1e-6);
+    let reach = reach * (1.0 + 1e-6);
     let mut i = 0;
     while i < walk.len() {
         let w = &walk[i];

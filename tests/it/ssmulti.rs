@@ -638,7 +638,18 @@ fn a_steep_exp_equals_the_double_loop() {
     // times the relative error of the f32 distance, a few 1e-7, and x
     // runs up to 60 here: sigma 60 measured 1.3e-6, and an unlit point
     // lit only from x ~ 27 by sigma 300, 1.04e-5.)
+    // Sources beyond 60 D / sigma add exact zeros and are not visited.
     let c = wavy(700, DVec3::ZERO, 1.0, 5);
+    let pairs = |sigma: f64, norm: Norm| {
+        let p = Params {
+            rd: [1.0, 0.5, 0.25],
+            sd: 0.6,
+            norm,
+            falloff: Falloff::Exp { sigma },
+            ..Params::default()
+        };
+        run_report(&c, &p).1.pairs
+    };
     for sigma in [60.0, 300.0, 1e3, 1e6] {
         for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
             let p = Params {
@@ -648,6 +659,13 @@ fn a_steep_exp_equals_the_double_loop() {
                 falloff: Falloff::Exp { sigma },
                 ..Params::default()
             };
+            if sigma >= 300.0 {
+                let (few, all) = (pairs(sigma, norm), pairs(4.0, norm));
+                assert!(
+                    few * 4 < all,
+                    "sigma {sigma}: {few} pairs, {all} at sigma 4"
+                );
+            }
             let got = run(&c, &p);
             let want = brute(&c, &p);
             // (An unlit point whose every source lies beyond the cut gets
