@@ -25,7 +25,9 @@
 //! `BENCH_QUICK=1` runs only the 100k and 1M clouds. `BENCH_CASE=1000000,200`
 //! times only the exact method on that case (points, neighbours; a third
 //! number is a tolerance), five runs (`BENCH_RUNS` to change), for
-//! profiling (with `PCSSS_TIMES=1`, the phases).
+//! profiling (with `PCSSS_TIMES=1`, the phases); `BENCH_FALLOFF=exp`
+//! (sigma 4) or `burley` for those falloffs. With a tolerance, the error
+//! against the exact method is printed too.
 
 mod common;
 
@@ -324,17 +326,41 @@ fn main() {
         let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
         let (n, nb) = (v[0] as usize, v[1] as usize);
         let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
+        let falloff = match std::env::var("BENCH_FALLOFF").as_deref() {
+            Ok("exp") => ssmulti::Falloff::Exp { sigma: 4.0 },
+            Ok("burley") => ssmulti::Falloff::Burley {
+                kappa: ssmulti::BURLEY_KAPPA,
+            },
+            _ => ssmulti::Falloff::Smooth,
+        };
         let p = Params {
             sd: 2.0 * (nb as f64 / n as f64).sqrt(),
             tolerance: v.get(2).copied().unwrap_or(0.0),
+            falloff,
             ..Params::default()
         };
+        let exact = (p.tolerance > 0.0).then(|| {
+            run(
+                &cloud,
+                &Params {
+                    tolerance: 0.0,
+                    ..p
+                },
+            )
+        });
         let runs = std::env::var("BENCH_RUNS").map_or(5, |r| r.parse().unwrap());
         for _ in 0..runs {
-            let (_, secs, rep) = run(&cloud, &p);
+            let (v, secs, rep) = run(&cloud, &p);
             let useful = rep.sources as f64 * nb as f64;
+            let err = match &exact {
+                Some((e, es, _)) => format!(
+                    ", RMS error {:.1e} against exact ({es:.3} s)",
+                    rms_rel(&v, e)
+                ),
+                None => String::new(),
+            };
             println!(
-                "{n} x {nb}: {secs:.3} s, {:.0} M pairs/s, evaluated {:.2}x the pairs in reach",
+                "{n} x {nb}: {secs:.3} s, {:.0} M pairs/s, evaluated {:.2}x the pairs in reach{err}",
                 useful / secs / 1e6,
                 rep.pairs as f64 / useful
             );
