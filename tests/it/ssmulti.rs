@@ -946,25 +946,44 @@ fn the_approximate_method_does_less_work_and_keeps_its_bits_on_any_thread_count(
 
 #[test]
 fn one_and_two_point_clouds_are_summed_exactly() {
-    for n in [1usize, 2] {
-        let p: Vec<[f64; 3]> = (0..n).map(|k| [k as f64 * 0.1, 0.0, 0.0]).collect();
+    // One point, two apart, three at one position (a cloud of size 0: the
+    // kernels' cap on D must not shorten Burley's, whose self weight
+    // depends on D through r_min).
+    let clouds: [Vec<[f64; 3]>; 3] = [
+        vec![[0.0; 3]],
+        vec![[0.0; 3], [0.1, 0.0, 0.0]],
+        vec![[0.3, -0.2, 0.1]; 3],
+    ];
+    for p in clouds {
+        let n = p.len();
         let c = cloud_of(
             &p,
             &vec![[0.0, 0.0, 1.0]; n],
             &vec![0.5; n],
             &vec![[1.0, 2.0, 4.0]; n],
         );
-        let params = Params {
-            rd: [0.5; 3],
-            sd: 1.0,
-            bounce: 1.0,
-            ..Params::default()
-        };
-        let got = run(&c, &params);
-        let want = brute(&c, &params);
-        for (g, w) in got.iter().zip(&want) {
-            for ch in 0..3 {
-                assert!(rel_err(g[ch], w[ch]) < 1e-6, "{n}: {g:?} vs {w:?}");
+        for falloff in falloffs() {
+            for sd in [1.0, 0.1, 1e20] {
+                for norm in [Norm::Seed, Norm::Local] {
+                    let params = Params {
+                        rd: [0.5; 3],
+                        sd,
+                        bounce: 1.0,
+                        falloff,
+                        norm,
+                        ..Params::default()
+                    };
+                    let got = run(&c, &params);
+                    let want = brute(&c, &params);
+                    for (g, w) in got.iter().zip(&want) {
+                        for ch in 0..3 {
+                            assert!(
+                                rel_err(g[ch], w[ch]) < 2e-6,
+                                "{n} points, {falloff:?}, sd {sd}, {norm:?}: {g:?} vs {w:?}"
+                            );
+                        }
+                    }
+                }
             }
         }
     }
