@@ -26,7 +26,8 @@
 //! times only the exact method on that case (points, neighbours; a third
 //! number is a tolerance), five runs (`BENCH_RUNS` to change), for
 //! profiling (with `PCSSS_TIMES=1`, the phases); `BENCH_FALLOFF=exp`
-//! (sigma 4) or `burley` for those falloffs. With a tolerance, the error
+//! (sigma 4) or `burley` for those falloffs, `BENCH_SIGMA` for their
+//! sigma or kappa. With a tolerance, the error
 //! against the exact method is printed too.
 
 mod common;
@@ -326,10 +327,15 @@ fn main() {
         let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
         let (n, nb) = (v[0] as usize, v[1] as usize);
         let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
+        let sigma: Option<f64> = std::env::var("BENCH_SIGMA")
+            .ok()
+            .map(|v| v.parse().unwrap());
         let falloff = match std::env::var("BENCH_FALLOFF").as_deref() {
-            Ok("exp") => ssmulti::Falloff::Exp { sigma: 4.0 },
+            Ok("exp") => ssmulti::Falloff::Exp {
+                sigma: sigma.unwrap_or(4.0),
+            },
             Ok("burley") => ssmulti::Falloff::Burley {
-                kappa: ssmulti::BURLEY_KAPPA,
+                kappa: sigma.unwrap_or(ssmulti::BURLEY_KAPPA),
             },
             _ => ssmulti::Falloff::Smooth,
         };
