@@ -27,7 +27,8 @@
 //! number is a tolerance), five runs (`BENCH_RUNS` to change), for
 //! profiling (with `PCSSS_TIMES=1`, the phases); `BENCH_FALLOFF=exp`
 //! (sigma 4) or `burley` for those falloffs, `BENCH_SIGMA` for their
-//! sigma or kappa. With a tolerance, the error
+//! sigma or kappa, `BENCH_SCALE` to scale the cloud (and sd) by a
+//! factor. With a tolerance, the error
 //! against the exact method is printed too.
 
 mod common;
@@ -326,7 +327,25 @@ fn main() {
     if let Ok(case) = std::env::var("BENCH_CASE") {
         let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
         let (n, nb) = (v[0] as usize, v[1] as usize);
-        let cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
+        let mut cloud = sphere_cloud(&mesh, n, 0, PtareaMode::Prim);
+        let scale: f64 = std::env::var("BENCH_SCALE").map_or(1.0, |v| v.parse().unwrap());
+        if scale != 1.0 {
+            let pts = cloud.points_mut();
+            let p: Vec<[f64; 3]> = pts
+                .vec3_f64("P")
+                .unwrap()
+                .iter()
+                .map(|q| q.map(|x| x * scale))
+                .collect();
+            let a: Vec<f32> = pts
+                .scalar_f64("ptarea")
+                .unwrap()
+                .iter()
+                .map(|x| (x * scale * scale) as f32)
+                .collect();
+            pts.set_vec3("P", Role::Point, &p).unwrap();
+            pts.set_scalar("ptarea", a).unwrap();
+        }
         let sigma: Option<f64> = std::env::var("BENCH_SIGMA")
             .ok()
             .map(|v| v.parse().unwrap());
@@ -340,7 +359,7 @@ fn main() {
             _ => ssmulti::Falloff::Smooth,
         };
         let p = Params {
-            sd: 2.0 * (nb as f64 / n as f64).sqrt(),
+            sd: 2.0 * (nb as f64 / n as f64).sqrt() * scale,
             tolerance: v.get(2).copied().unwrap_or(0.0),
             falloff,
             ..Params::default()

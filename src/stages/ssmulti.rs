@@ -431,6 +431,15 @@ struct Inputs<'a> {
     hi: DVec3,
     /// Every point's `illum` has three equal channels.
     grey: bool,
+    /// What `ptarea` is multiplied by in the sums: the power of two that
+    /// brings the cloud's total area into [0.5, 1). A cloud scaled by
+    /// 1e-4 then sums the same f32 numbers as the unscaled one: its
+    /// `illum * ptarea` (~1e-13 at 1M points) times a weight near
+    /// `e^-60` was subnormal (30-40% slower for exp sigma 100 and 1000,
+    /// `BENCH_SCALE=1e-4` in benches/ssmulti.rs). Exact (a power of two),
+    /// undone in the normaliser (`Local` divides it out); `r_min` is taken
+    /// from the areas as read.
+    area_scale: f64,
 }
 
 /// Sorts the points along a Morton curve and cuts them into leaves of at
@@ -667,7 +676,7 @@ fn leaf_columns(
         llo = llo.min(p);
         lhi = lhi.max(p);
         if k < src {
-            let w = pt.area as f64;
+            let w = pt.area as f64 * inp.area_scale;
             sum.a += w;
             ax += p * w;
             for c in 0..3 {
@@ -718,7 +727,7 @@ fn leaf_columns(
             }
             let p = q - origin;
             (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);
-            let a = pt.area as f64;
+            let a = pt.area as f64 * inp.area_scale;
             let e = pt.illum;
             for c in 0..3 {
                 h.q[c][l] = (e[c] as f64 * a) as f32;
@@ -730,10 +739,10 @@ fn leaf_columns(
                 cm.nz[k].write(nn[2]);
             }
             if area {
-                cm.a[k].write(pt.area);
+                cm.a[k].write(a as f32);
             }
             if rmin {
-                cm.rmin[k].write(burley::rmin(a) as f32);
+                cm.rmin[k].write(burley::rmin(pt.area as f64) as f32);
             }
             cm.id[k].write(i);
         }
@@ -1956,13 +1965,14 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
         DVec3::splat(f64::INFINITY),
         DVec3::splat(f64::NEG_INFINITY),
         true,
+        0.0f64,
     );
     let boxes = all.spare_capacity_mut()[..n]
         .par_chunks_mut(CHUNK)
         .zip(nrm_chunks)
         .enumerate()
         .map(|(ci, (slots, mut nslots))| {
-            let (mut lo, mut hi, mut grey) = empty;
+            let (mut lo, mut hi, mut grey, mut atot) = empty;
             // The columns a block at a time, checked as `read` does (a
             // bad point gets a default record and is read again below).
             const BLOCK: usize = 256;
@@ -2005,15 +2015,19 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
                     let q = DVec3::from_array(pt.pos);
                     (lo, hi) = (lo.min(q), hi.max(q));
                     grey &= pt.illum[0] == pt.illum[1] && pt.illum[1] == pt.illum[2];
+                    atot += pt.area as f64;
                     slot.write(pt);
                     if let Some(ns) = nslots.as_deref_mut() {
                         ns[bi * BLOCK + j].write(nn);
                     }
                 }
             }
-            (lo, hi, grey)
+            (lo, hi, grey, atot)
         })
-        .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 && b.2));
+        .reduce(
+            || empty,
+            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 && b.2, a.3 + b.3),
+        );
     // SAFETY: every slot of the first `n` was written above (bad points
     // with a default record).
     unsafe {
@@ -2033,7 +2047,24 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
         lo: boxes.0,
         hi: boxes.1,
         grey: boxes.2,
+        area_scale: area_scale(boxes.3),
     })
+}
+
+/// The power of two that brings a total area `atot` into [0.5, 1) (1
+/// for 0), within 2^+-100 (beyond, tiny areas would flush to 0).
+fn area_scale(atot: f64) -> f64 {
+    if !(atot > 0.0 && atot.is_finite()) {
+        return 1.0;
+    }
+    let k = -(atot.log2().floor()) - 1.0;
+    let s = 2f64.powi(k.clamp(-100.0, 100.0) as i32);
+    // (log2 may round across a power of two.)
+    if atot * s >= 1.0 && k > -100.0 {
+        s * 0.5
+    } else {
+        s
+    }
 }
 
 /// Adds `ssM` to `cloud`.
@@ -2106,13 +2137,17 @@ struct Normaliser {
 }
 
 impl Normaliser {
-    fn new(p: &Params, ld: [f64; 3], ld1: f64) -> Normaliser {
+    /// (`area_scale`: what the sums' areas were multiplied by.)
+    fn new(p: &Params, ld: [f64; 3], ld1: f64, area_scale: f64) -> Normaliser {
         let i1 = disk_integral(p.falloff, ld1);
-        let factor = [0, 1, 2].map(|c| match (p.norm, p.rgb) {
-            (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] / i1,
-            (Norm::Seed, true) => 1.0 / i1,
-            (Norm::Channel, true) if ld[c] > 0.0 => p.rd[c] / disk_integral(p.falloff, ld[c]),
-            _ => 0.0,
+        let factor = [0, 1, 2].map(|c| {
+            let f = match (p.norm, p.rgb) {
+                (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] / i1,
+                (Norm::Seed, true) => 1.0 / i1,
+                (Norm::Channel, true) if ld[c] > 0.0 => p.rd[c] / disk_integral(p.falloff, ld[c]),
+                _ => 0.0,
+            };
+            f / area_scale
         });
         Normaliser {
             factor,
@@ -2176,7 +2211,7 @@ fn sum_all(
         local,
     };
     let isa = Isa::detect();
-    let norm = Normaliser::new(p, ld, ld1);
+    let norm = Normaliser::new(p, ld, ld1, inp.area_scale);
     // The cloud's size for the kernels' cap: its diagonal, and for Burley
     // the largest `r_min` either side (one position, several points: a
     // size of 0, where Burley's self weight still depends on D).
@@ -2189,7 +2224,7 @@ fn sum_all(
     progress.start("summing", inp.pts.len() as u64);
     let walk = walk_order(&nodes);
     let clusters = if p.tolerance > 0.0 {
-        walk_clusters(&walk, &nodes)
+        walk_clusters(&walk, &nodes, inp.area_scale)
     } else {
         Vec::new()
     };
@@ -2410,7 +2445,9 @@ struct Cluster {
 
 /// Each walk node's `Cluster`, made once (not at every receiver leaf that
 /// takes it).
-fn walk_clusters(walk: &[WalkNode], nodes: &[TNode]) -> Vec<Cluster> {
+/// (`area_scale`: what the nodes' areas were multiplied by; `r_min` is
+/// taken from the areas as read.)
+fn walk_clusters(walk: &[WalkNode], nodes: &[TNode], area_scale: f64) -> Vec<Cluster> {
     walk.par_iter()
         .map(|w| {
             let node = &nodes[w.node as usize].sum;
@@ -2419,7 +2456,7 @@ fn walk_clusters(walk: &[WalkNode], nodes: &[TNode]) -> Vec<Cluster> {
                 n: node.n.normalize_or_zero().as_vec3().to_array(),
                 q: node.q.map(|v| v as f32),
                 a: node.a as f32,
-                rmin: burley::rmin(node.a) as f32,
+                rmin: burley::rmin(node.a / area_scale) as f32,
             }
         })
         .collect()

@@ -432,6 +432,63 @@ fn translation_and_scale_change_nothing() {
 }
 
 #[test]
+fn a_power_of_two_scale_changes_no_bit() {
+    // Lengths times 2^k, areas 2^2k, sd 2^k: every number in the sums is
+    // scaled exactly, and `ptarea`'s own power-of-two prescale brings the
+    // areas back to the same bits, so `ssM` is bit for bit the same.
+    // Without that prescale this fails at 2^-40 (exp sigma 100, channel):
+    // `illum * ptarea` (~1e-27) times exp's weights down to e^-60 was
+    // subnormal and lost bits (and time). (Not below 2^-40: the f32 areas
+    // would be subnormal as read.)
+    let base = wavy(3000, DVec3::ZERO, 1.0, 5);
+    let mut settings = vec![];
+    for falloff in [
+        Falloff::Smooth,
+        Falloff::Exp { sigma: 4.0 },
+        Falloff::Exp { sigma: 100.0 },
+        Falloff::Burley {
+            kappa: BURLEY_KAPPA,
+        },
+    ] {
+        for (rgb, bounce, norm, tolerance) in [
+            (false, 0.0, Norm::Seed, 0.0),
+            (true, 0.5, Norm::Channel, 0.0),
+            (true, 0.0, Norm::Local, 0.0),
+            (false, 0.3, Norm::Local, 0.3),
+        ] {
+            settings.push(Params {
+                rd: [0.9, 0.6, 0.3],
+                sd: 0.8,
+                bounce,
+                rgb,
+                falloff,
+                norm,
+                tolerance,
+            });
+        }
+    }
+    for p in settings {
+        let want = run(&base, &p);
+        for k in [-24, -40, 40] {
+            let s = 2f64.powi(k);
+            let c = wavy(3000, DVec3::ZERO, s, 5);
+            let got = run(&c, &Params { sd: p.sd * s, ..p });
+            let bits = |v: &[[f64; 3]]| -> Vec<[u32; 3]> {
+                v.iter().map(|x| x.map(|y| (y as f32).to_bits())).collect()
+            };
+            assert!(
+                bits(&got) == bits(&want),
+                "{:?} {:?} rgb {} tolerance {} at 2^{k}",
+                p.falloff,
+                p.norm,
+                p.rgb,
+                p.tolerance
+            );
+        }
+    }
+}
+
+#[test]
 fn local_normalisation_keeps_an_open_edge_lit() {
     // A half-plane: x >= 0. At the edge the seed's normalisation sees half
     // the disk (exactly half the kernel's integral): 0.5 Rd E; the local
