@@ -1058,9 +1058,13 @@ impl Kern for ExpK {
     }
 }
 
+/// `e^(EXP_CUT / 3)`: below it, Burley's `e^(-r/d)`, the cube of its
+/// `e^(-r/3d)`, is under `e^EXP_CUT` and 0.
+const CUBE_CUT: f32 = 2.061_153_6e-9;
+
 #[derive(Clone, Copy)]
 struct BurleyK {
-    a: f32,
+    /// `-1 / 3d`.
     b: f32,
 }
 
@@ -1072,7 +1076,13 @@ impl Kern for BurleyK {
         // A zero-area source (rmin 0) at r 0 carries nothing: a finite
         // huge weight times 0.
         let rr = r.max(rmin).max(1e-30);
-        (exp_weight(self.a * rr) + exp_weight(self.b * rr)) / rr
+        // e^(-r/d) = (e^(-r/3d))^3: one exponential, not two. The cube
+        // of a value clamped to e^-20 (so never subnormal: e^-60), kept
+        // only where e^(-r/d) is above `EXP_CUT` (as `exp_weight` does).
+        let x = exp_weight(self.b * rr);
+        let xc = x.max(CUBE_CUT);
+        let x3 = if x >= CUBE_CUT { xc * xc * xc } else { 0.0 };
+        (x3 + x) / rr
     }
 }
 
@@ -1680,9 +1690,8 @@ impl Kernels {
             Falloff::Exp { sigma } => Kernels::Exp([0, 1, 2].map(|c| ExpK {
                 c: -(sigma as f32) / safe(d(c)),
             })),
-            Falloff::Burley { kappa } => Kernels::Burley([0, 1, 2].map(|c| {
-                let a = -(kappa as f32) / safe(d(c));
-                BurleyK { a, b: a / 3.0 }
+            Falloff::Burley { kappa } => Kernels::Burley([0, 1, 2].map(|c| BurleyK {
+                b: -(kappa as f32) / safe(d(c)) / 3.0,
             })),
         }
     }
