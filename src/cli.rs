@@ -373,7 +373,11 @@ pub struct SsArgs {
     /// Normalisation.
     #[arg(long, value_enum, default_value = "seed")]
     pub norm: NormArg,
-    /// 0: exact; above: the approximate method's tolerance.
+    /// 0: the exact method; above: the approximate one, which sums a
+    /// cluster of sources whole when its radius is at most T times the
+    /// kernel's length scale. Measured RMS error against exact (unit
+    /// sphere, 200 to 20,000 neighbours, smooth): 5e-5 to 1e-3 at 0.1,
+    /// 2e-3 to 8e-3 at 0.3 (README, "Approximate method").
     #[arg(long, default_value_t = 0.0)]
     pub tolerance: f64,
 }
