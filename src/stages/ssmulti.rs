@@ -2062,19 +2062,15 @@ fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
 }
 
 /// The power of two that brings a total area `atot` into [0.5, 1) (1
-/// for 0), within 2^+-100 (beyond, tiny areas would flush to 0).
+/// for 0), within 2^+-100 (beyond, tiny areas would flush to 0). Read
+/// from `atot`'s exponent bits: `atot = m 2^e`, `m` in [0.5, 1) (a sum of
+/// f32 areas is a normal f64).
 fn area_scale(atot: f64) -> f64 {
-    if !(atot > 0.0 && atot.is_finite()) {
+    if !(atot >= f64::MIN_POSITIVE && atot.is_finite()) {
         return 1.0;
     }
-    let k = -(atot.log2().floor()) - 1.0;
-    let s = 2f64.powi(k.clamp(-100.0, 100.0) as i32);
-    // (log2 may round across a power of two.)
-    if atot * s >= 1.0 && k > -100.0 {
-        s * 0.5
-    } else {
-        s
-    }
+    let e = ((atot.to_bits() >> 52) & 0x7ff) as i32 - 1022;
+    2f64.powi((-e).clamp(-100, 100))
 }
 
 /// Adds `ssM` to `cloud`.
@@ -2210,11 +2206,13 @@ fn sum_all(
     ph.mark("build");
     let single = !p.rgb || (ld[0] == ld[1] && ld[1] == ld[2]);
     report.grey = single && inp.grey;
+    // How far a source can add anything (see `reach`).
+    let far = reach(p.falloff, ld1);
     let setup = Setup {
         ld: ld.map(|x| x as f32),
         ld1: ld1 as f32,
         inv_ld1: (1.0 / ld1) as f32,
-        reach: reach(p.falloff, ld1) as f32,
+        reach: far as f32,
         bounce: p.bounce as f32,
         single,
         grey: inp.grey,
@@ -2279,7 +2277,7 @@ fn sum_all(
                     approx_plan(&walk, &clusters, rl, p, ld, ld1, found, pseudo);
                     Some(&*pseudo)
                 } else {
-                    near_leaves(&walk, rl, reach(p.falloff, ld1), found);
+                    near_leaves(&walk, rl, far, found);
                     None
                 };
                 near.clear();
@@ -2317,11 +2315,13 @@ fn sum_all(
 /// [`jump_scale`]. Measured at 1M points x 20,000 neighbours on the unit
 /// sphere (`BENCH_CASE=1000000,20000,T BENCH_FALLOFF=exp BENCH_SIGMA=S`),
 /// RMS relative error against the exact method and time: exp sigma 4 at
-/// tolerance 0.3, 0.88 s at 1.0e-3 (2.5 s at 8.8e-4 with no straddling
-/// cluster; exact 6.7 s); at 0.6, 0.22 s at 3.8e-3 (2.0 s at 3.5e-3).
-/// Sigma 1 is unchanged up to k = 0.1 (1.9 s at 3.7e-3, tolerance 0.3);
-/// at k = 0.15 the straddling ring opens there (0.95 s at 4.6e-3) and at
-/// k = 0.5 it gives 1.4e-2: 0.05 keeps a factor 3 from that edge.
+/// tolerance 0.3, 0.88 s at 1.0e-3 (exact 6.5-6.7 s); at 0.6, 0.20 s at
+/// 3.8e-3. With no straddling cluster taken (commit 04ce04d, or
+/// `JUMP_K = 0`): 2.5 s at 8.8e-4 and 1.84-2.0 s at 3.5e-3. Sigma 1 is
+/// unchanged up to `JUMP_K = 0.1` (1.9 s at 3.7e-3, tolerance 0.3); at
+/// 0.15 its straddling ring opens (0.95 s at 4.6e-3) and at 0.5 it gives
+/// 1.4e-2: 0.05 keeps a factor 3 from that edge. (Rerun by editing this
+/// constant.)
 const JUMP_K: f64 = 0.05;
 
 /// The largest radius, divided by the tolerance, of a cluster that may be
