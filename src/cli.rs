@@ -20,6 +20,7 @@ use anyhow::Context;
 use crate::cloud::Cloud;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
+use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 
 /// Verbosity flags.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -126,7 +127,9 @@ pub fn read_input(path: Option<&Path>, select: &Select) -> anyhow::Result<Cloud>
     let name = display_name(path);
     let result = match path {
         Some(p) if p != Path::new("-") => {
-            formats::read_cloud_file(p, select).map_err(anyhow::Error::from)
+            // `PCSSS_NO_MMAP`: read files as streams, not mapped.
+            formats::read_cloud_file_with(p, select, !env_flag("PCSSS_NO_MMAP"))
+                .map_err(anyhow::Error::from)
         }
         _ => {
             let stdin = io::stdin();
@@ -264,13 +267,15 @@ impl Messages {
         self.level >= 1 && io::stderr().is_terminal()
     }
 
-    /// A progress bar when one may be drawn, else a silent counter.
+    /// A progress bar when one may be drawn, else a silent counter; the
+    /// stages print their phases' times when `PCSSS_TIMES` is set.
     pub fn progress(&self) -> crate::progress::Progress {
-        if self.progress_enabled() {
+        let p = if self.progress_enabled() {
             crate::progress::Progress::bar(self.stage)
         } else {
             crate::progress::Progress::hidden()
-        }
+        };
+        p.with_phase_times(env_flag("PCSSS_TIMES"))
     }
 }
 
@@ -328,26 +333,6 @@ pub fn parse<T: clap::Parser>(stage: &str) -> T {
     }
 }
 
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum FalloffArg {
-    /// 1 - smoothstep(0, D, r) (the seed's).
-    Smooth,
-    /// exp(-sigma r / D) (the seed's alternative).
-    Exp,
-    /// Christensen-Burley diffusion profile, shape D / sigma, truncated at D.
-    Burley,
-}
-
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum NormArg {
-    /// The seed's (Houdini's): by the disk integral at the largest distance.
-    Seed,
-    /// With --rgb, each channel by its own disk integral, times Rd.
-    Channel,
-    /// By the kernel-weighted area present within reach, times Rd.
-    Local,
-}
-
 /// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
 #[derive(clap::Args, Debug, Clone)]
 pub struct SsArgs {
@@ -365,14 +350,14 @@ pub struct SsArgs {
     pub rgb: bool,
     /// Falloff kernel.
     #[arg(long, value_enum, default_value = "smooth")]
-    pub falloff: FalloffArg,
+    pub falloff: FalloffKind,
     /// exp: decay rate (default 4); burley: D / d (default 5.625: the
     /// profile's mean radius equals the smooth falloff's).
     #[arg(long)]
     pub sigma: Option<f64>,
     /// Normalisation.
     #[arg(long, value_enum, default_value = "seed")]
-    pub norm: NormArg,
+    pub norm: Norm,
     /// 0: the exact method; above: the approximate one, which sums a
     /// cluster of sources whole when its radius is at most T times the
     /// kernel's length scale. Measured RMS error against exact (unit
@@ -383,47 +368,47 @@ pub struct SsArgs {
 }
 
 impl SsArgs {
-    /// The parameters, `None` without `--sd`; checked.
-    pub fn params(&self) -> anyhow::Result<Option<crate::stages::ssmulti::Params>> {
-        use crate::stages::ssmulti::{self, Falloff, Norm, Params, BURLEY_KAPPA};
+    /// The parameters, `None` without `--sd`; checked. `PCSSS_NO_AVX2`
+    /// in the environment forces the baseline pair loop.
+    pub fn params(&self) -> anyhow::Result<Option<Params>> {
         let Some(sd) = self.sd else { return Ok(None) };
-        let falloff = match self.falloff {
-            FalloffArg::Smooth => Falloff::Smooth,
-            FalloffArg::Exp => Falloff::Exp {
-                sigma: self.sigma.unwrap_or(4.0),
-            },
-            FalloffArg::Burley => Falloff::Burley {
-                kappa: self.sigma.unwrap_or(BURLEY_KAPPA),
-            },
-        };
         let params = Params {
-            rd: parse_rgb(&self.rd)?,
+            rd: parse_rgb("--rd", &self.rd)?,
             sd,
             bounce: self.bounce,
             rgb: self.rgb,
-            falloff,
-            norm: match self.norm {
-                NormArg::Seed => Norm::Seed,
-                NormArg::Channel => Norm::Channel,
-                NormArg::Local => Norm::Local,
-            },
+            falloff: Falloff::new(self.falloff, self.sigma),
+            norm: self.norm,
             tolerance: self.tolerance,
+            simd: if env_flag("PCSSS_NO_AVX2") {
+                Simd::Baseline
+            } else {
+                Simd::Auto
+            },
         };
         ssmulti::validate(&params)?;
         Ok(Some(params))
     }
 }
 
-/// `R,G,B` or one value for all three.
-pub fn parse_rgb(s: &str) -> anyhow::Result<[f64; 3]> {
+/// True when the environment variable `name` is set (to anything): the
+/// switches the binaries read for the library (`PCSSS_NO_AVX2`,
+/// `PCSSS_TIMES`, `PCSSS_NO_MMAP`).
+pub fn env_flag(name: &str) -> bool {
+    std::env::var_os(name).is_some()
+}
+
+/// `R,G,B` or one value for all three, the value of option `flag`
+/// (named in errors).
+pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| anyhow::anyhow!("parameter --rd: '{s}': {e}"))?;
+        .map_err(|e| anyhow::anyhow!("parameter {flag}: '{s}': {e}"))?;
     match v[..] {
         [x] => Ok([x; 3]),
         [r, g, b] => Ok([r, g, b]),
-        _ => anyhow::bail!("parameter --rd: '{s}' is not R,G,B or one value"),
+        _ => anyhow::bail!("parameter {flag}: '{s}' is not R,G,B or one value"),
     }
 }

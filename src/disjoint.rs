@@ -2,40 +2,43 @@
 //! share: the radix sort's passes and ssmulti's results (a permutation of
 //! the points) go straight to their places without a serial copy.
 
-/// A buffer of `len` values that threads write at disjoint positions.
-/// Whoever makes one promises that no position is written by two threads
-/// and that nothing reads the buffer until the writing threads are
-/// joined.
-pub(crate) struct Disjoint<T> {
+use std::marker::PhantomData;
+
+/// A buffer of `len` values that threads write at disjoint positions. It
+/// borrows the vector it writes for `'a`, so nothing else can read, move
+/// or resize that vector meanwhile; whoever makes one promises that no
+/// position is written by two threads.
+pub(crate) struct Disjoint<'a, T> {
     ptr: *mut T,
     len: usize,
+    _vec: PhantomData<&'a mut Vec<T>>,
 }
 
-impl<T> Clone for Disjoint<T> {
+impl<T> Clone for Disjoint<'_, T> {
     fn clone(&self) -> Self {
         *self
     }
 }
 
-impl<T> Copy for Disjoint<T> {}
+impl<T> Copy for Disjoint<'_, T> {}
 
-// SAFETY: the maker's promise above (disjoint positions, no reads while
-// threads write) is what makes sharing the pointer sound; `T: Send`
-// values move into the buffer from other threads.
-unsafe impl<T: Send> Send for Disjoint<T> {}
-unsafe impl<T: Send> Sync for Disjoint<T> {}
+// SAFETY: the maker's promise (disjoint positions) and the borrow (no
+// reads while threads write) are what make sharing the pointer sound;
+// `T: Send` values move into the buffer from other threads.
+unsafe impl<T: Send> Send for Disjoint<'_, T> {}
+unsafe impl<T: Send> Sync for Disjoint<'_, T> {}
 
-impl<T: Copy> Disjoint<T> {
+impl<'a, T: Copy> Disjoint<'a, T> {
     /// The first `len` slots of `v`'s allocation (`len <= capacity`).
     ///
     /// # Safety
-    /// Until the writers are joined: `v` is neither read, moved nor
-    /// resized, and no position is written by two threads.
-    pub(crate) unsafe fn new(v: &mut Vec<T>, len: usize) -> Disjoint<T> {
+    /// No position is written by two threads.
+    pub(crate) unsafe fn new(v: &'a mut Vec<T>, len: usize) -> Disjoint<'a, T> {
         assert!(len <= v.capacity());
         Disjoint {
             ptr: v.as_mut_ptr(),
             len,
+            _vec: PhantomData,
         }
     }
 

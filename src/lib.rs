@@ -4,7 +4,7 @@
 //! Finding Nemo", as Mario Marengo built it in Houdini): typed point clouds
 //! that travel as PLY or OpenEXR between separate command-line stages.
 //!
-//! - [`column`]: scalar types and (lazily decoded) columns.
+//! - [`column`](mod@column): scalar types and (lazily decoded) columns.
 //! - [`cloud`]: the point cloud: elements, attributes, detail, faces.
 //! - [`formats`]: PLY (all encodings), OBJ input, OpenEXR point clouds and
 //!   shade-point images, format sniffing.

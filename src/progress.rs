@@ -1,7 +1,8 @@
 //! Progress for long loops: a bar on stderr (indicatif) when the binary
 //! asks for one, nothing otherwise. The library takes a `&Progress` and
 //! counts; whether anything is drawn is the binary's choice (`-q`, or
-//! stderr not a terminal, draws nothing).
+//! stderr not a terminal, draws nothing). It also carries whether the
+//! stages print the time of their phases ([`Phases`]).
 
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -9,12 +10,25 @@ use indicatif::{ProgressBar, ProgressStyle};
 #[derive(Debug, Default)]
 pub struct Progress {
     bar: Option<ProgressBar>,
+    times: bool,
 }
 
 impl Progress {
     /// Counts nothing, draws nothing.
     pub fn hidden() -> Progress {
-        Progress { bar: None }
+        Progress::default()
+    }
+
+    /// The same, and the stages print the time of their phases on
+    /// stderr when `on` ([`Phases`]).
+    pub fn with_phase_times(self, on: bool) -> Progress {
+        Progress { times: on, ..self }
+    }
+
+    /// A timer of `what`'s phases: prints when this progress asks for
+    /// phase times, else nothing.
+    pub fn phases(&self, what: &'static str) -> Phases {
+        Phases::new(what, self.times)
     }
 
     /// A bar for `stage` on stderr.
@@ -28,7 +42,10 @@ impl Progress {
             .progress_chars("=> "),
         );
         bar.set_prefix(stage.to_string());
-        Progress { bar: Some(bar) }
+        Progress {
+            bar: Some(bar),
+            times: false,
+        }
     }
 
     /// Starts a phase of `len` steps.
@@ -57,8 +74,8 @@ impl Progress {
 }
 
 /// Wall-clock time of a stage's phases on stderr, one line a phase, when
-/// `PCSSS_TIMES` is set (for finding where the time goes; nothing
-/// otherwise).
+/// asked for (for finding where the time goes; the binaries ask when
+/// `PCSSS_TIMES` is set); nothing otherwise.
 #[derive(Debug)]
 pub struct Phases {
     what: &'static str,
@@ -66,9 +83,8 @@ pub struct Phases {
 }
 
 impl Phases {
-    /// Starts timing `what`'s phases (if `PCSSS_TIMES` is set).
-    pub fn new(what: &'static str) -> Phases {
-        let on = std::env::var_os("PCSSS_TIMES").is_some();
+    /// Starts timing `what`'s phases when `on`.
+    pub fn new(what: &'static str, on: bool) -> Phases {
         Phases {
             what,
             last: on.then(std::time::Instant::now),

@@ -85,7 +85,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     let cam = Camera::parse(&text, &cam_name)?;
     let lazy = args.ss.params()?;
     // The direct term's parameters and lights, checked before any work.
-    let kd = cli::parse_rgb(&args.kd).context("parameter --kd")?;
+    let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
         anyhow::bail!("parameter --kd: {kd:?}: must be finite and >= 0");
     }

@@ -109,17 +109,22 @@ pub fn read_cloud<R: BufRead>(mut r: R, select: &Select) -> Result<Cloud> {
     }
 }
 
-/// Reads a cloud or mesh from a file. Regular files are memory-mapped
-/// (unless `PCSSS_NO_MMAP` is set): properties a stage does not decode are
-/// never copied. The toolkit replaces files by renaming, never by rewriting
-/// them in place, so a mapping it reads cannot shrink under it.
+/// Reads a cloud or mesh from a file, memory-mapped when it is a regular
+/// file: properties a stage does not decode are never copied.
 pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
+    read_cloud_file_with(path, select, true)
+}
+
+/// [`read_cloud_file`], memory-mapped only when `mmap` (else streamed).
+/// The toolkit replaces files by renaming, never by rewriting them in
+/// place, so a mapping it reads cannot shrink under it.
+pub fn read_cloud_file_with(path: &Path, select: &Select, mmap: bool) -> Result<Cloud> {
     let file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
     if meta.is_dir() {
         return Err(Error::invalid("is a directory"));
     }
-    let use_map = meta.is_file() && meta.len() > 0 && std::env::var_os("PCSSS_NO_MMAP").is_none();
+    let use_map = mmap && meta.is_file() && meta.len() > 0;
     // SAFETY: the mapping is read-only; see the note above on files
     // changing underneath it.
     let map = match use_map {

@@ -171,6 +171,7 @@ fn exact_method_equals_the_f64_double_loop_for_every_setting() {
                         falloff,
                         norm,
                         tolerance: 0.0,
+                        ..Params::default()
                     };
                     let got = run(c, &p);
                     let want = brute(c, &p);
@@ -404,6 +405,7 @@ fn translation_and_scale_change_nothing() {
             falloff,
             norm: Norm::Channel,
             tolerance: 0.0,
+            ..Params::default()
         };
         let want = run(&base, &p);
         for (offset, scale) in [
@@ -464,6 +466,7 @@ fn a_power_of_two_scale_changes_no_bit() {
                 falloff,
                 norm,
                 tolerance,
+                ..Params::default()
             });
         }
     }
@@ -922,6 +925,7 @@ fn the_approximate_method_converges_to_the_exact_one() {
                 falloff,
                 norm,
                 tolerance: 0.0,
+                ..Params::default()
             };
             let exact = run(&c, &p);
             let rms = |v: &[[f64; 3]]| {

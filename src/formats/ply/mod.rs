@@ -1,5 +1,5 @@
 //! PLY: header parsing and the naming convention ([`header`]), a streaming
-//! reader ([`read`]) and a writer ([`write`]). The conventions are written
+//! reader ([`read`]) and a writer ([`write`](mod@write)). The conventions are written
 //! down in `formats/PLY.md`.
 
 pub mod header;

@@ -1,0 +1,194 @@
+//! The approximate method (`tolerance > 0`): a cluster of the tree far
+//! enough from a receiver leaf, and small beside the kernel's length
+//! scale there, is summed as one pseudo-source at its centroid
+//! (`docs/DESIGN.md#approximate-method`).
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::columns::Leaf;
+use super::gather::{Gathered, PseudoSource};
+use super::inputs::Inputs;
+use super::kernel::{burley, disk_integral, falloff, reach};
+use super::tree::{gap2, TreeNode, WalkNode};
+use super::{Distances, Falloff, Params};
+
+/// The share of the mean weight a straddling cluster may misplace, see
+/// [`jump_scale`]. Measured at 1M points x 20,000 neighbours on the unit
+/// sphere (`BENCH_CASE=1000000,20000,T BENCH_FALLOFF=exp BENCH_SIGMA=S`),
+/// RMS relative error against the exact method and time: exp sigma 4 at
+/// tolerance 0.3, 0.88 s at 1.0e-3 (exact 6.5-6.7 s); at 0.6, 0.20 s at
+/// 3.8e-3. With no straddling cluster taken (commit 04ce04d, or
+/// `JUMP_K = 0`): 2.5 s at 8.8e-4 and 1.84-2.0 s at 3.5e-3. Sigma 1 is
+/// unchanged up to `JUMP_K = 0.1` (1.9 s at 3.7e-3, tolerance 0.3); at
+/// 0.15 its straddling ring opens (0.95 s at 4.6e-3) and at 0.5 it gives
+/// 1.4e-2: 0.05 keeps a factor 3 from that edge. (Rerun by editing this
+/// constant.)
+const JUMP_K: f64 = 0.05;
+
+/// The largest radius, divided by the tolerance, of a cluster that may be
+/// summed at its centroid although it straddles the reach `d` of a
+/// falloff that jumps to zero there (exp, Burley): `JUMP_K d mean / W(d)`,
+/// `mean = I(d) / (pi d^2)` the falloff's mean over the disk.
+///
+/// Why: such a cluster of radius `s` misplaces (counts on the wrong side
+/// of `r = d`) at most its area within `s` of that circle, each unit of it
+/// weighing the jump `W(d)`. The clusters straddling the circle cover a
+/// ring of area about `2 pi d * 2 s`, so they misplace at most `4 pi d s
+/// W(d)` of weight (with signs that mostly cancel), against the whole
+/// disk's `I(d) = pi d^2 mean`: relative `4 s W(d) / (d mean)`. A cluster
+/// radius of at most `T JUMP_K d mean / W(d)` bounds it by `4 JUMP_K T`
+/// (6% at `T = 0.3`, the worst case; measured, the cancellation leaves
+/// about 1e-4, see [`JUMP_K`]). The ratio depends only on the falloff's
+/// shape (sigma, kappa), not on `d`. Where the falloff is 0 at `d` (a
+/// steep exp) there is no jump: infinity.
+fn jump_scale(f: Falloff, d: f64) -> f64 {
+    let mean = disk_integral(f, d) / (PI * d * d);
+    let edge = falloff(f, d, d, 0.0);
+    if edge > 0.0 && d > 0.0 {
+        JUMP_K * d * mean / edge
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The approximate method's choices for a run: which clusters of the
+/// tree stand in for their sources at each receiver leaf.
+pub(super) struct Planner<'a> {
+    walk: &'a [WalkNode],
+    /// Each walk node as a pseudo-source, made once (not at every
+    /// receiver leaf that takes it).
+    clusters: Vec<Cluster>,
+    p: Params,
+    dist: Distances,
+    /// The smallest channel distance in use (`ld1` without t_rgb).
+    dmin: f64,
+    /// How far a source can add anything ([`reach`]).
+    far: f64,
+    /// The largest radius of a cluster that straddles a jump to zero of
+    /// the falloff ([`jump_scale`] times the tolerance).
+    jump_ok: f64,
+}
+
+impl<'a> Planner<'a> {
+    /// The plan for `p` over the tree's `walk` (`nodes` hold the sums).
+    pub(super) fn new(
+        walk: &'a [WalkNode],
+        nodes: &[TreeNode],
+        inp: &Inputs<'_>,
+        p: &Params,
+    ) -> Planner<'a> {
+        let dist = Distances::of(p);
+        let Distances { ld, ld1 } = dist;
+        let dmin = if p.rgb {
+            ld.iter().copied().filter(|&d| d > 0.0).fold(ld1, f64::min)
+        } else {
+            ld1
+        };
+        Planner {
+            walk,
+            clusters: walk_clusters(walk, nodes, inp.area_scale),
+            p: *p,
+            dist,
+            dmin,
+            far: reach(p.falloff, ld1),
+            jump_ok: p.tolerance * jump_scale(p.falloff, dmin),
+        }
+    }
+
+    /// For receiver leaf `rl`: the source leaves to sum exactly (`exact`),
+    /// and the clusters (tree nodes) that stand in for the rest as
+    /// pseudo-sources in `rl`'s frame (`ps`). A cluster is used when its
+    /// radius `s` (from its area-weighted centroid to its farthest
+    /// source) is at most `tolerance` times the kernel's length scale
+    /// where it lies: `D` for smooth, `D / max(sigma, 1)` for exp, `min(d,
+    /// gap)` for Burley (`D` the smallest channel distance in use, `gap`
+    /// the distance from `rl`'s box to the cluster's); and, for the
+    /// falloffs that jump to zero at `D` (exp, Burley), when it does not
+    /// straddle a channel's reach or is small enough beside the jump there
+    /// ([`jump_scale`]). A cluster is summed as one source at its centroid
+    /// with the sums of `illum * ptarea` and `ptarea`, and its mean normal
+    /// (for `bounce`). Relative error against the exact method, measured
+    /// in `benches/ssmulti.rs`, grows like `tolerance^2`
+    /// (`docs/DESIGN.md#approximate-method`).
+    pub(super) fn plan(&self, rl: &Leaf, exact: &mut Vec<usize>, ps: &mut Gathered) {
+        let (p, walk, dmin) = (&self.p, self.walk, self.dmin);
+        let Distances { ld, ld1 } = self.dist;
+        let jumps = !matches!(p.falloff, Falloff::Smooth);
+        exact.clear();
+        ps.clear();
+        // The tree in pre-order: a subtree out of reach or taken as one
+        // cluster is skipped whole (the exact leaves come out in order).
+        let mut i = 0;
+        while i < walk.len() {
+            let w = &walk[i];
+            let gap2 = gap2(w, rl);
+            if gap2 > self.far * self.far {
+                i = w.skip as usize;
+                continue;
+            }
+            let scale = match p.falloff {
+                Falloff::Smooth => dmin,
+                Falloff::Exp { sigma } => dmin / sigma.max(1.0),
+                Falloff::Burley { kappa } => (dmin / kappa).min(gap2.sqrt()),
+            };
+            let straddles = jumps && {
+                let gap = gap2.sqrt();
+                let far = (w.hi - rl.lo).abs().max((rl.hi - w.lo).abs()).length();
+                (0..3).any(|c| {
+                    let d = if p.rgb { ld[c] } else { ld1 };
+                    d > 0.0 && gap <= d && far > d
+                })
+            };
+            let small = scale > 0.0 && w.radius <= p.tolerance * scale;
+            if small && (!straddles || w.radius <= self.jump_ok) {
+                let c = &self.clusters[i];
+                ps.point(PseudoSource {
+                    pos: (c.centre - rl.origin).as_vec3().to_array(),
+                    n: c.n,
+                    q: c.q,
+                    a: c.a,
+                    rmin: c.rmin,
+                });
+                i = w.skip as usize;
+            } else {
+                if w.leaf != u32::MAX {
+                    exact.push(w.leaf as usize);
+                }
+                i += 1;
+            }
+        }
+    }
+}
+
+/// A node as a pseudo-source (beside the walk, in its order): its sources'
+/// area-weighted centroid and mean normal, `sum illum * ptarea`, `sum
+/// ptarea`, and Burley's `r_min` for that whole area (a single-source
+/// cluster gets exactly its source's).
+struct Cluster {
+    centre: DVec3,
+    n: [f32; 3],
+    q: [f32; 3],
+    a: f32,
+    rmin: f32,
+}
+
+/// Each walk node's `Cluster` (`area_scale`: what the nodes' areas were
+/// multiplied by; `r_min` is taken from the areas as read).
+fn walk_clusters(walk: &[WalkNode], nodes: &[TreeNode], area_scale: f64) -> Vec<Cluster> {
+    walk.par_iter()
+        .map(|w| {
+            let node = &nodes[w.node as usize].sum;
+            Cluster {
+                centre: node.centre,
+                n: node.n.normalize_or_zero().as_vec3().to_array(),
+                q: node.q.map(|v| v as f32),
+                a: node.a as f32,
+                rmin: burley::rmin(node.a / area_scale) as f32,
+            }
+        })
+        .collect()
+}
+

@@ -1,0 +1,303 @@
+//! `ssmulti`'s inputs: `P`, `N`, `ptarea` and `illum` read and checked
+//! in parallel into one record a point.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::cloud::Cloud;
+use crate::column::Column;
+use crate::error::{Error, Result};
+
+/// A point as the pair loop's columns are built from it (40 bytes: its
+/// normal is kept apart, and only when `bounce` reads it).
+#[derive(Clone, Copy, Default)]
+pub(super) struct PointRecord {
+    pub pos: [f64; 3],
+    pub area: f32,
+    pub illum: [f32; 3],
+}
+
+impl PointRecord {
+    #[inline(always)]
+    pub(super) fn pos_v(&self) -> DVec3 {
+        DVec3::from_array(self.pos)
+    }
+}
+
+pub(super) struct Inputs<'a> {
+    pub pts: Vec<PointRecord>,
+    /// Unit normals, or nothing (no `bounce`).
+    pub nrm: Vec<[f32; 3]>,
+    /// The positions as read (the Morton codes come from these).
+    pub p: [ReadColumn<'a>; 3],
+    /// The positions' box.
+    pub lo: DVec3,
+    pub hi: DVec3,
+    /// Every point's `illum` has three equal channels.
+    pub grey: bool,
+    /// What `ptarea` is multiplied by in the sums: the power of two that
+    /// brings the cloud's total area into [0.5, 1). A cloud scaled by
+    /// 1e-4 then sums numbers of the same size as the unscaled one
+    /// (by a power of two: the same bits). Before, its
+    /// `illum * ptarea` (~1e-13 at 1M points) times a weight near
+    /// `e^-60` was subnormal (30-40% slower for exp sigma 100 and 1000,
+    /// `BENCH_SCALE=1e-4` in benches/ssmulti.rs). Exact (a power of two),
+    /// undone in the normaliser (`Local` divides it out); `r_min` is taken
+    /// from the areas as read.
+    pub area_scale: f64,
+}
+
+/// A column read as f64, with the common types read directly.
+#[derive(Clone, Copy)]
+pub(super) enum ReadColumn<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+    Other(&'a Column),
+}
+
+impl<'a> ReadColumn<'a> {
+    fn of(c: &'a Column) -> ReadColumn<'a> {
+        if let Some(v) = c.as_slice::<f32>() {
+            ReadColumn::F32(v)
+        } else if let Some(v) = c.as_slice::<f64>() {
+            ReadColumn::F64(v)
+        } else {
+            ReadColumn::Other(c)
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn get(self, i: usize) -> f64 {
+        match self {
+            ReadColumn::F32(v) => v[i] as f64,
+            ReadColumn::F64(v) => v[i],
+            ReadColumn::Other(c) => c.get_f64(i),
+        }
+    }
+
+    /// Values `start..start + out.len()` as f64 (one type dispatch a
+    /// block, not a value).
+    fn f64s(self, start: usize, out: &mut [f64]) {
+        let end = start + out.len();
+        match self {
+            ReadColumn::F32(v) => {
+                for (o, &x) in out.iter_mut().zip(&v[start..end]) {
+                    *o = x as f64;
+                }
+            }
+            ReadColumn::F64(v) => out.copy_from_slice(&v[start..end]),
+            ReadColumn::Other(c) => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = c.get_f64(start + k);
+                }
+            }
+        }
+    }
+
+    /// `f64s` as f32 (a value beyond f32's range becomes infinite).
+    fn f32s(self, start: usize, out: &mut [f32]) {
+        let end = start + out.len();
+        match self {
+            ReadColumn::F32(v) => out.copy_from_slice(&v[start..end]),
+            ReadColumn::F64(v) => {
+                for (o, &x) in out.iter_mut().zip(&v[start..end]) {
+                    *o = x as f32;
+                }
+            }
+            ReadColumn::Other(c) => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = c.get_f64(start + k) as f32;
+                }
+            }
+        }
+    }
+}
+
+/// Reads and checks the inputs, in parallel, into one record a point
+/// (the Morton ordering gathers them at random: one cache line a point).
+/// The first bad point (lowest index) is reported.
+/// The normals are checked always, kept only when `normals`.
+pub(super) fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
+    let pts = cloud.points();
+    for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
+        if !pts.has(name) {
+            return Err(Error::missing("point", name, Some(stage)));
+        }
+    }
+    let v3 = |name: &str| -> Result<[ReadColumn; 3]> {
+        let c = pts.vec3_columns(name)?;
+        Ok([0, 1, 2].map(|k| ReadColumn::of(c[k].column())))
+    };
+    let (p, nm, e) = (v3("P")?, v3("N")?, v3("illum")?);
+    let area = ReadColumn::of(pts.scalar_column("ptarea")?.column());
+    // Positions in f64 (leaf origins keep their precision); the rest as
+    // the f32 the pair loop uses (an f64 value beyond f32's range is
+    // reported as not finite).
+    let read = |i: usize| -> Result<(PointRecord, [f32; 3])> {
+        let pos = [p[0].get(i), p[1].get(i), p[2].get(i)];
+        if !pos.iter().all(|x| x.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {i}: P is {pos:?}, not finite"
+            )));
+        }
+        let illum = [e[0].get(i), e[1].get(i), e[2].get(i)].map(|x| x as f32);
+        if !illum.iter().all(|x| x.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {i}: illum is {illum:?}, not finite"
+            )));
+        }
+        let a = area.get(i) as f32;
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(Error::invalid(format!(
+                "point {i}: ptarea is {a}, not a finite number >= 0"
+            )));
+        }
+        let n32 = [nm[0].get(i), nm[1].get(i), nm[2].get(i)].map(|x| x as f32);
+        let v = DVec3::new(n32[0] as f64, n32[1] as f64, n32[2] as f64);
+        // (Squares of f32 values do not overflow or underflow in f64: a
+        // finite, non-zero N has a direction. Normalised only when kept.)
+        let u = if !(v.is_finite() && v.length_squared() > 0.0) {
+            DVec3::ZERO
+        } else if normals {
+            v.normalize()
+        } else {
+            v
+        };
+        if u == DVec3::ZERO {
+            return Err(Error::invalid(format!(
+                "point {i}: N is {n32:?}, which has no direction"
+            )));
+        }
+        Ok((
+            PointRecord {
+                pos,
+                area: a,
+                illum,
+            },
+            u.as_vec3().to_array(),
+        ))
+    };
+    // Filled in place in parallel, chunk by chunk, with the positions'
+    // box; the first bad point (lowest index) is then read again for its
+    // message.
+    let n = pts.len();
+    let first_bad = std::sync::atomic::AtomicUsize::new(usize::MAX);
+    let (mut all, mut nrm) = (Vec::<PointRecord>::with_capacity(n), Vec::<[f32; 3]>::new());
+    if normals {
+        nrm.reserve_exact(n);
+    }
+    const CHUNK: usize = 4096;
+    // The normals' chunks beside the records' (none without normals).
+    let nrm_chunks: Vec<Option<&mut [std::mem::MaybeUninit<[f32; 3]>]>> = if normals {
+        nrm.spare_capacity_mut()[..n]
+            .chunks_mut(CHUNK)
+            .map(Some)
+            .collect()
+    } else {
+        (0..n.div_ceil(CHUNK)).map(|_| None).collect()
+    };
+    // (The zip below must not cut the records' chunks short: every slot
+    // is then written, as `set_len` needs.)
+    assert_eq!(nrm_chunks.len(), n.div_ceil(CHUNK));
+    let empty = (
+        DVec3::splat(f64::INFINITY),
+        DVec3::splat(f64::NEG_INFINITY),
+        true,
+        0.0f64,
+    );
+    let boxes = all.spare_capacity_mut()[..n]
+        .par_chunks_mut(CHUNK)
+        .zip(nrm_chunks)
+        .enumerate()
+        .map(|(ci, (slots, mut nslots))| {
+            let (mut lo, mut hi, mut grey, mut atot) = empty;
+            // The columns a block at a time, checked as `read` does (a
+            // bad point gets a default record and is read again below).
+            const BLOCK: usize = 256;
+            let (mut pb, mut nb, mut eb) =
+                ([[0f64; BLOCK]; 3], [[0f32; BLOCK]; 3], [[0f32; BLOCK]; 3]);
+            let mut ab = [0f32; BLOCK];
+            for (bi, bslots) in slots.chunks_mut(BLOCK).enumerate() {
+                let (start, m) = (ci * CHUNK + bi * BLOCK, bslots.len());
+                for k in 0..3 {
+                    p[k].f64s(start, &mut pb[k][..m]);
+                    nm[k].f32s(start, &mut nb[k][..m]);
+                    e[k].f32s(start, &mut eb[k][..m]);
+                }
+                area.f32s(start, &mut ab[..m]);
+                for (j, slot) in bslots.iter_mut().enumerate() {
+                    let pos = [pb[0][j], pb[1][j], pb[2][j]];
+                    let illum = [eb[0][j], eb[1][j], eb[2][j]];
+                    let a = ab[j];
+                    let v = DVec3::new(nb[0][j] as f64, nb[1][j] as f64, nb[2][j] as f64);
+                    let ok = pos.iter().all(|x| x.is_finite())
+                        && illum.iter().all(|x| x.is_finite())
+                        && a.is_finite()
+                        && a >= 0.0
+                        && v.is_finite()
+                        && v.length_squared() > 0.0;
+                    let (pt, nn) = if ok {
+                        let u = if normals { v.normalize() } else { v };
+                        (
+                            PointRecord {
+                                pos,
+                                area: a,
+                                illum,
+                            },
+                            u.as_vec3().to_array(),
+                        )
+                    } else {
+                        first_bad.fetch_min(start + j, std::sync::atomic::Ordering::Relaxed);
+                        Default::default()
+                    };
+                    let q = DVec3::from_array(pt.pos);
+                    (lo, hi) = (lo.min(q), hi.max(q));
+                    grey &= pt.illum[0] == pt.illum[1] && pt.illum[1] == pt.illum[2];
+                    atot += pt.area as f64;
+                    slot.write(pt);
+                    if let Some(ns) = nslots.as_deref_mut() {
+                        ns[bi * BLOCK + j].write(nn);
+                    }
+                }
+            }
+            (lo, hi, grey, atot)
+        })
+        .reduce(
+            || empty,
+            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 && b.2, a.3 + b.3),
+        );
+    // SAFETY: every slot of the first `n` was written above (bad points
+    // with a default record).
+    unsafe {
+        all.set_len(n);
+        if normals {
+            nrm.set_len(n);
+        }
+    }
+    let bad = first_bad.into_inner();
+    if bad != usize::MAX {
+        read(bad)?;
+    }
+    Ok(Inputs {
+        pts: all,
+        nrm,
+        p,
+        lo: boxes.0,
+        hi: boxes.1,
+        grey: boxes.2,
+        area_scale: area_scale(boxes.3),
+    })
+}
+
+/// The power of two that brings a total area `atot` into [0.5, 1) (1
+/// for 0), within 2^+-100 (beyond, tiny areas would flush to 0). Read
+/// from `atot`'s exponent bits: `atot = m 2^e`, `m` in [0.5, 1) (a sum of
+/// f32 areas is a normal f64).
+fn area_scale(atot: f64) -> f64 {
+    if !(atot >= f64::MIN_POSITIVE && atot.is_finite()) {
+        return 1.0;
+    }
+    let e = ((atot.to_bits() >> 52) & 0x7ff) as i32 - 1022;
+    2f64.powi((-e).clamp(-100, 100))
+}
+

@@ -1,0 +1,132 @@
+//! The falloffs in f64: the reference the tests and the approximate
+//! method use, their disk integrals (`docs/DESIGN.md#falloffs`), and how
+//! far a source can add anything.
+
+use std::f64::consts::PI;
+
+use super::lanes::EXP_CUT;
+use super::Falloff;
+
+/// `(1 - e^-s (1 + s)) / s^2`, stable for every `s > 0`.
+pub fn exp_disk_factor(s: f64) -> f64 {
+    if s < 0.5 {
+        // sum_{k >= 2} (-1)^k (k - 1) / k! s^(k - 2)
+        let mut term: f64 = 0.5; // k = 2: 1 / 2!
+        let mut sum: f64 = 0.0;
+        let mut k: f64 = 2.0;
+        while term.abs() > 1e-18 * sum.abs().max(1e-300) || k < 4.0 {
+            sum += term;
+            // term_{k+1} / term_k = -s k / ((k + 1) (k - 1))
+            term *= -s * k / ((k + 1.0) * (k - 1.0));
+            k += 1.0;
+            if k > 60.0 {
+                break;
+            }
+        }
+        sum
+    } else {
+        (-(-s).exp_m1() - s * (-s).exp()) / (s * s)
+    }
+}
+
+/// The disk integral `I(D) = int_0^D W(r, D) 2 pi r dr` of a falloff.
+pub fn disk_integral(f: Falloff, d: f64) -> f64 {
+    match f {
+        Falloff::Smooth => 3.0 * PI * d * d / 10.0,
+        Falloff::Exp { sigma } => 2.0 * PI * d * d * exp_disk_factor(sigma),
+        Falloff::Burley { kappa } => burley::disk_integral(kappa, d),
+    }
+}
+
+/// The falloff at distance `r` in f64 (the reference the tests and the
+/// approximate method use); `rmin` is the Burley regularisation radius of
+/// the source point (see [`burley`]).
+pub fn falloff(f: Falloff, r: f64, d: f64, rmin: f64) -> f64 {
+    if r > d || d <= 0.0 {
+        return 0.0;
+    }
+    match f {
+        Falloff::Smooth => {
+            let t = r / d;
+            (1.0 - t) * (1.0 - t) * (1.0 + 2.0 * t)
+        }
+        Falloff::Exp { sigma } => (-sigma * r / d).exp(),
+        Falloff::Burley { kappa } => burley::profile(kappa, r, d, rmin),
+    }
+}
+
+/// The Christensen-Burley falloff.
+///
+/// Christensen and Burley ("Approximate Reflectance Profiles for Efficient
+/// Subsurface Scattering", 2015) fit the diffuse reflectance profile of
+/// a semi-infinite medium with
+///
+/// ```text
+/// R(r) = (e^(-r/d) + e^(-r/(3d))) / (8 pi d r)
+/// ```
+///
+/// normalised over the plane: `int_0^inf R 2 pi r dr = (d + 3d) / (4d) =
+/// 1`. Here its reach is Houdini's scattering distance `D`: with shape
+/// `d = D / kappa` we keep `r <= D` and renormalise over that disk. The
+/// unnormalised kernel is `W(r) = e^(-r/d) + e^(-r/(3d))) / r` (constant
+/// factors cancel in `ssm / I`), and
+///
+/// ```text
+/// I(D) = int_0^D W(r) 2 pi r dr = 2 pi int_0^D (e^(-r/d) + e^(-r/(3d))) dr
+///      = 2 pi d ((1 - e^-kappa) + 3 (1 - e^(-kappa/3)))
+///      = -2 pi (D / kappa) (expm1(-kappa) + 3 expm1(-kappa/3))
+/// ```
+///
+/// so the truncated, renormalised profile integrates to exactly 1 over the
+/// disk. The fraction of the untruncated energy kept is
+/// `1 - e^-kappa / 4 - 3 e^(-kappa/3) / 4`: 88% at the default
+/// `kappa = 5.625` (see [`BURLEY_KAPPA`](super::BURLEY_KAPPA)).
+///
+/// Point sums and the `1/r` singularity: `int R dA` is finite, but a
+/// point at distance `r` contributes `ptarea R(r)`, unbounded as `r -> 0`
+/// (the receiver itself is at `r = 0`). A source point stands for a disk
+/// of area `a = ptarea`, radius `rho = sqrt(a / pi)`; for small `rho`,
+/// `int_disk W dA = 2 pi (rho + rho) = 4 pi rho` to first order, and
+/// `a W(r_min) = 2 pi rho^2 / r_min` equals it at `r_min = rho / 2`. So the
+/// kernel is evaluated at `max(r, r_min)`, `r_min = sqrt(ptarea / pi) / 2`:
+/// the self term is right to first order and near neighbours stay
+/// bounded; beyond `r_min` it is the exact profile.
+pub mod burley {
+    use std::f64::consts::PI;
+
+    /// `I(D)` for shape `d = D / kappa`.
+    pub fn disk_integral(kappa: f64, d: f64) -> f64 {
+        -2.0 * PI * (d / kappa) * ((-kappa).exp_m1() + 3.0 * (-kappa / 3.0).exp_m1())
+    }
+
+    /// `W(max(r, rmin))` for `r <= D`.
+    pub fn profile(kappa: f64, r: f64, d: f64, rmin: f64) -> f64 {
+        let s = d / kappa;
+        let r = r.max(rmin);
+        if r <= 0.0 {
+            return 0.0;
+        }
+        ((-r / s).exp() + (-r / (3.0 * s)).exp()) / r
+    }
+
+    /// The regularisation radius of a source of area `ptarea`.
+    pub fn rmin(ptarea: f64) -> f64 {
+        0.5 * (ptarea.max(0.0) / PI).sqrt()
+    }
+}
+
+/// How far from a source its weight can be above 0, at largest distance
+/// `ld1`: `ld1`, or less for a steep exp (sigma above 60: its weights are
+/// 0 beyond `60 ld1 / sigma`, `EXP_CUT`) or a Burley profile with kappa
+/// above 180 (both its exponentials are cut beyond `180 ld1 / kappa`).
+/// Sources farther away are not visited: they would add exact zeros.
+/// (With a margin over the f32 rounding of the weights' exponents.)
+pub fn reach(f: Falloff, ld1: f64) -> f64 {
+    let cut = -EXP_CUT as f64 * (1.0 + 1e-5);
+    match f {
+        Falloff::Smooth => ld1,
+        Falloff::Exp { sigma } => ld1.min(cut * ld1 / sigma),
+        Falloff::Burley { kappa } => ld1.min(3.0 * cut * ld1 / kappa),
+    }
+}
+

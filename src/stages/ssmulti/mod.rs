@@ -1,0 +1,431 @@
+//! `ssmulti` (Marengo's `ssIntegMulti`): multiple scattering at every
+//! cloud point, `ssM` (colour), as `docs/DESIGN.md#ssmulti` writes it:
+//!
+//! ```text
+//! ld = Rd * sd (per channel), ld1 = max(ld)
+//! for every point i with r = |Xo - Xi| <= ld1 (o itself included):
+//!     Li = (Xo - Xi) / ld1
+//!     kb = lerp(1, 1 - (1 - No.Ni) (1 - No.Li) / 2, bounce)
+//!     if kb > 0:
+//!         t_rgb: ssm[c] += kb illum_i[c] ptarea_i W(r, ld[c])
+//!         else:  ssm    += kb illum_i    ptarea_i W(r, ld1)
+//! not t_rgb: ssm *= Rd
+//! ssM = ssm / I(ld1), I(D) = the disk integral of W(., D)
+//! ```
+//!
+//! Normalisations ([`Norm`], `docs/DESIGN.md#normalisations`): `Seed` is
+//! the above (Houdini's: in t_rgb mode every channel by the largest
+//! distance's integral, no `Rd`); `Channel`: in t_rgb mode channel c by its
+//! own `I(ld[c])`, times `Rd[c]`; `Local`: by the kernel-weighted area
+//! present within reach, `A[c] = sum_i ptarea_i W(r, ld[c])` (no `kb`),
+//! times `Rd[c]`: an open edge or a thin part no longer goes dark.
+//! Falloffs ([`Falloff`], all zero beyond `D`) and their disk integrals
+//! are in [`kernel`].
+//!
+//! The method, a file a concern:
+//! - `inputs`: the columns read, checked, into one record
+//!   a point.
+//! - `tree`: the points sorted along a Morton curve and cut into leaves of
+//!   at most [`LEAF`] points, a binary tree over them.
+//! - `columns`: each leaf's points as f32 columns relative to the leaf's
+//!   own f64 origin, sources first, in groups of eight.
+//! - `gather`, `pairs`: a receiver leaf gathers the source groups within
+//!   its reach once; each group of eight receivers (one a vector lane)
+//!   sums the sources within reach of its bounding sphere.
+//! - `lanes`: the falloffs in f32 for the lanes; `simd`: the instruction
+//!   set, chosen at run time, and every `unsafe` of the pair loop.
+//! - `approx`: the approximate method (`tolerance > 0`), clusters of the
+//!   tree summed as one pseudo-source.
+//! - `normalise`: a receiver's sums into `ssM`.
+//!
+//! A receiver's sums run in a fixed order, so the output bits do not
+//! depend on the thread count.
+
+// Numeric kernels index lanes and channels side by side.
+#![allow(clippy::needless_range_loop)]
+
+mod approx;
+mod columns;
+mod gather;
+mod inputs;
+pub mod kernel;
+mod lanes;
+mod normalise;
+mod pairs;
+mod simd;
+mod tree;
+
+use rayon::prelude::*;
+
+use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::column::Scalar;
+use crate::disjoint::Disjoint;
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+
+use self::columns::build;
+use self::gather::Gathered;
+use self::inputs::{inputs, Inputs};
+use self::lanes::Kernels;
+use self::normalise::Normaliser;
+use self::pairs::{LeafTask, Near, Run, Setup};
+use self::tree::{near_leaves, walk_order};
+
+pub use self::kernel::{burley, disk_integral, exp_disk_factor, falloff, reach};
+pub use self::lanes::{exp_approx, exp_weight, EXP_CUT};
+pub use self::simd::Simd;
+
+/// The falloff kernel (`docs/DESIGN.md#falloffs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Falloff {
+    /// `1 - smooth(0, D, r)` (Houdini's).
+    Smooth,
+    /// `exp(-sigma r / D)` (the slides' alternative).
+    Exp { sigma: f64 },
+    /// Christensen-Burley, shape `d = D / kappa`, truncated at `D`.
+    Burley { kappa: f64 },
+}
+
+/// A falloff's name, as the command line takes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FalloffKind {
+    /// 1 - smoothstep(0, D, r) (Houdini's).
+    Smooth,
+    /// exp(-sigma r / D).
+    Exp,
+    /// Christensen-Burley diffusion profile, shape D / sigma, truncated at D.
+    Burley,
+}
+
+/// The default `sigma` of the exp falloff.
+pub const EXP_SIGMA: f64 = 4.0;
+
+/// The default `kappa` of the Burley falloff, `d = D / kappa`: the
+/// profile's mean radius `2.5 d` equals the smooth falloff's `4 D / 9`
+/// (`kappa = 2.5 * 9 / 4`), so switching falloffs keeps the look's scale;
+/// 88% of the untruncated profile's energy lies within `D`. Larger values
+/// keep more of the tail but need denser clouds: the profile's core is
+/// `d` wide and wants many points across it.
+pub const BURLEY_KAPPA: f64 = 5.625;
+
+impl Falloff {
+    /// The falloff `kind` with shape `sigma` (exp's decay rate, Burley's
+    /// `kappa`; their defaults when `None`; smooth has none).
+    pub fn new(kind: FalloffKind, sigma: Option<f64>) -> Falloff {
+        match kind {
+            FalloffKind::Smooth => Falloff::Smooth,
+            FalloffKind::Exp => Falloff::Exp {
+                sigma: sigma.unwrap_or(EXP_SIGMA),
+            },
+            FalloffKind::Burley => Falloff::Burley {
+                kappa: sigma.unwrap_or(BURLEY_KAPPA),
+            },
+        }
+    }
+}
+
+/// How the sum is normalised (`docs/DESIGN.md#normalisations`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Norm {
+    /// Houdini's: by the disk integral at the largest distance (with
+    /// --rgb, no Rd).
+    Seed,
+    /// With --rgb, each channel by its own disk integral, times Rd.
+    Channel,
+    /// By the kernel-weighted area present within reach, times Rd.
+    Local,
+}
+
+/// Parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// Diffuse reflectance per channel.
+    pub rd: [f64; 3],
+    /// Scattering distance.
+    pub sd: f64,
+    /// Bounce attenuation, 0 (off) to 1.
+    pub bounce: f64,
+    /// Per-channel distances (`t_rgb`).
+    pub rgb: bool,
+    pub falloff: Falloff,
+    pub norm: Norm,
+    /// 0: exact. Above: the approximate method's tolerance.
+    pub tolerance: f64,
+    /// The pair loop's instruction set (the fused one rounds differently).
+    pub simd: Simd,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            rd: [1.0; 3],
+            sd: 1.0,
+            bounce: 0.0,
+            rgb: false,
+            falloff: Falloff::Smooth,
+            norm: Norm::Seed,
+            tolerance: 0.0,
+            simd: Simd::Auto,
+        }
+    }
+}
+
+/// What `ssmulti` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub points: usize,
+    /// Points that were sources.
+    pub sources: usize,
+    /// Point pairs evaluated (including those beyond reach in a block).
+    pub pairs: u64,
+    /// Points whose `ssM` was computed (all of them, or with a subset the
+    /// leaves of 64 that hold a wanted point).
+    pub computed: usize,
+    /// Every `illum` had three equal channels (white light) and one kernel
+    /// served all channels: one channel was summed, the others copied.
+    pub grey: bool,
+}
+
+/// Points per leaf (a multiple of the lane count).
+pub const LEAF: usize = 64;
+
+/// Checks the parameters; errors name the option.
+pub fn validate(p: &Params) -> Result<()> {
+    for (c, &x) in p.rd.iter().enumerate() {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(Error::param(
+                "--rd",
+                format!("channel {c} is {x:?}: not a finite number >= 0"),
+            ));
+        }
+    }
+    if !(p.sd.is_finite() && p.sd >= 0.0) {
+        return Err(Error::param(
+            "--sd",
+            format!("{:?} is not a finite number >= 0", p.sd),
+        ));
+    }
+    if !(p.bounce.is_finite() && (0.0..=1.0).contains(&p.bounce)) {
+        return Err(Error::param(
+            "--bounce",
+            format!("{:?} is not in [0, 1]", p.bounce),
+        ));
+    }
+    match p.falloff {
+        Falloff::Exp { sigma: k } | Falloff::Burley { kappa: k }
+            if !(k.is_finite() && k > 0.0 && k <= 1e6) =>
+        {
+            return Err(Error::param("--sigma", format!("{k:?} is not in (0, 1e6]")));
+        }
+        _ => {}
+    }
+    if !(p.tolerance.is_finite() && p.tolerance >= 0.0) {
+        return Err(Error::param(
+            "--tolerance",
+            format!("{:?} is not a finite number >= 0", p.tolerance),
+        ));
+    }
+    Ok(())
+}
+
+/// Adds `ssM` to `cloud`.
+pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
+    let (out, report) = ssmulti_columns(cloud, p, None, progress)?;
+    let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
+    cloud.points_mut().set(ssm)?;
+    cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
+    cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
+    Ok(report)
+}
+
+/// `ssM` of `cloud`'s points, without changing the cloud: of every point,
+/// or (`want`, one flag a point) of at least the wanted ones. The work is
+/// skipped leaf by leaf (64 points in a Morton run): a point outside the
+/// computed leaves gets 0, a computed point the same bits as in a full
+/// run. `Report::computed` counts the computed points.
+pub fn ssmulti_values(
+    cloud: &Cloud,
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<(Vec<[f32; 3]>, Report)> {
+    let ([x, y, z], report) = ssmulti_columns(cloud, p, want, progress)?;
+    let rows = (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect();
+    Ok((rows, report))
+}
+
+/// `ssmulti_values` as the three columns of `ssM`.
+fn ssmulti_columns(
+    cloud: &Cloud,
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<([Vec<f32>; 3], Report)> {
+    validate(p)?;
+    let mut ph = progress.phases("ssmulti");
+    let inp = inputs(cloud, p.bounce > 0.0)?;
+    ph.mark("inputs");
+    let n = inp.pts.len();
+    if let Some(w) = want {
+        if w.len() != n {
+            return Err(Error::invalid(format!("{} flags for {n} points", w.len())));
+        }
+    }
+    let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    let mut report = Report {
+        points: n,
+        ..Report::default()
+    };
+    if n > 0 && Distances::of(p).ld1 > 0.0 {
+        sum_all(&inp, p, want, progress, &mut report, &mut out);
+    } else {
+        report.computed = n;
+    }
+    Ok((out, report))
+}
+
+/// The channels' distances `ld = Rd * sd` and the largest, `ld1`.
+#[derive(Clone, Copy, Debug)]
+struct Distances {
+    ld: [f64; 3],
+    ld1: f64,
+}
+
+impl Distances {
+    fn of(p: &Params) -> Distances {
+        let ld = p.rd.map(|r| r * p.sd);
+        Distances {
+            ld,
+            ld1: ld.iter().copied().fold(0.0, f64::max),
+        }
+    }
+
+    /// One kernel serves every channel: not t_rgb, or equal distances.
+    fn single(&self, rgb: bool) -> bool {
+        !rgb || (self.ld[0] == self.ld[1] && self.ld[1] == self.ld[2])
+    }
+}
+
+/// The exact method (`tolerance == 0`) or the approximate one, for the
+/// leaves holding a wanted point (all without `want`).
+fn sum_all(
+    inp: &Inputs<'_>,
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+    report: &mut Report,
+    out: &mut [Vec<f32>; 3],
+) {
+    let mut ph = progress.phases("ssmulti");
+    let dist = Distances::of(p);
+    let local = p.norm == Norm::Local;
+    let columns = [
+        p.bounce > 0.0,
+        local,
+        matches!(p.falloff, Falloff::Burley { .. }),
+    ];
+    let (leaves, cols, nodes) = build(inp, local, columns, progress);
+    report.sources = leaves.iter().map(|l| l.src).sum();
+    ph.mark("build");
+    let single = dist.single(p.rgb);
+    report.grey = single && inp.grey;
+    // How far a source can add anything (see `reach`).
+    let far = reach(p.falloff, dist.ld1);
+    let setup = Setup {
+        ld: dist.ld.map(|x| x as f32),
+        ld1: dist.ld1 as f32,
+        inv_ld1: (1.0 / dist.ld1) as f32,
+        reach: far as f32,
+        bounce: p.bounce as f32,
+        single,
+        grey: inp.grey,
+        local,
+    };
+    // The cloud's size for the kernels' cap: its diagonal, and for Burley
+    // the largest `r_min` either side (one position, several points: a
+    // size of 0, where Burley's self weight still depends on D).
+    let mut size = (inp.hi - inp.lo).length();
+    if let Falloff::Burley { .. } = p.falloff {
+        let amax = inp.pts.par_iter().map(|q| q.area).reduce(|| 0.0, f32::max);
+        size += 2.0 * burley::rmin(amax as f64);
+    }
+    let run = Run {
+        setup,
+        kernels: Kernels::new(p.falloff, dist.ld, dist.ld1, single, size),
+        cols: &cols,
+        norm: Normaliser::new(p, dist, inp.area_scale),
+        isa: simd::detect(p.simd),
+    };
+    progress.start("summing", inp.pts.len() as u64);
+    let walk = walk_order(&nodes);
+    let plan = (p.tolerance > 0.0).then(|| approx::Planner::new(&walk, &nodes, inp, p));
+    // Each leaf writes its points' results in place: the ids are a
+    // permutation of the points, so no two leaves write one position.
+    let n = inp.pts.len();
+    let [x, y, z] = out;
+    // SAFETY: each position is written by the one leaf holding that point.
+    let put = unsafe {
+        [
+            Disjoint::new(x, n),
+            Disjoint::new(y, n),
+            Disjoint::new(z, n),
+        ]
+    };
+    let per_leaf: Vec<(u64, usize)> = leaves
+        .par_iter()
+        .map_init(
+            || {
+                (
+                    Gathered::default(),
+                    Gathered::default(),
+                    Vec::new(),
+                    Vec::new(),
+                )
+            },
+            |(scratch, pseudo, found, near), rl| {
+                let ids = &cols.id[rl.col..rl.col + rl.len];
+                if want.is_some_and(|w| !ids.iter().any(|&i| w[i as usize])) {
+                    progress.inc(rl.len as u64);
+                    return (0, 0);
+                }
+                // The source leaves in reach of this leaf, each with the
+                // offset between the two origins; with a tolerance, far
+                // enough clusters of them become single pseudo-sources.
+                let pseudo = match &plan {
+                    Some(plan) => {
+                        plan.plan(rl, found, pseudo);
+                        Some(&*pseudo)
+                    }
+                    None => {
+                        near_leaves(&walk, rl, far, found);
+                        None
+                    }
+                };
+                near.clear();
+                near.extend(found.iter().map(|&sl| Near::of(&leaves[sl], rl)));
+                let mut res = [[0f32; 3]; LEAF];
+                let pairs = run.isa.sum_leaf(LeafTask {
+                    run: &run,
+                    leaf: rl,
+                    near,
+                    pseudo,
+                    scratch,
+                    out: &mut res,
+                });
+                for (&i, v) in ids.iter().zip(&res) {
+                    for c in 0..3 {
+                        put[c].write(i as usize, v[c]);
+                    }
+                }
+                progress.inc(rl.len as u64);
+                (pairs, rl.len)
+            },
+        )
+        .collect();
+    progress.finish();
+    ph.mark("sums");
+    for (pairs, computed) in per_leaf {
+        report.pairs += pairs;
+        report.computed += computed;
+    }
+}
