@@ -10,7 +10,7 @@
 //! Detail attributes ([`Detail`]) hold for the whole cloud.
 
 use crate::column::{Column, Scalar, ScalarType, Values};
-use crate::error::{stage_making, Error, Result};
+use crate::error::{Error, Result};
 
 /// What a 3-vector means (Houdini's attribute type info).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -283,7 +283,7 @@ impl Element {
 
     fn require(&self, name: &str) -> Result<&Attribute> {
         self.attr(name)
-            .ok_or_else(|| Error::missing(self.class(), name, stage_making(name)))
+            .ok_or_else(|| Error::missing(self.class(), name))
     }
 
     /// Decodes the named attributes now (when they are lazily held).
@@ -532,7 +532,7 @@ impl Cloud {
     /// A numeric detail attribute, or an error naming the stage that makes it.
     pub fn detail_f64(&self, name: &str) -> Result<f64> {
         match self.detail(name) {
-            None => Err(Error::missing("detail", name, stage_making(name))),
+            None => Err(Error::missing("detail", name)),
             Some(v) => v.as_f64().ok_or_else(|| {
                 Error::invalid(format!("detail attribute '{name}' is not a number"))
             }),

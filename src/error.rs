@@ -36,6 +36,11 @@ pub enum Error {
     /// An operating-system I/O error.
     #[error("{0}")]
     Io(#[from] std::io::Error),
+    /// An error about a named input (a file, `<stdin>`): for library
+    /// functions that read several inputs, so the message names the one
+    /// at fault.
+    #[error("{name}: {source}")]
+    In { name: String, source: Box<Error> },
 }
 
 /// A missing attribute, with the stage that makes it.
@@ -83,32 +88,31 @@ impl Error {
         }
     }
 
-    /// A missing attribute of class `class`, made by `made_by`.
-    pub fn missing(class: &'static str, name: &str, made_by: Option<&'static str>) -> Self {
+    /// A missing attribute of class `class`; the message names the stage
+    /// that makes it (the table [`crate::stages::MAKERS`]).
+    pub fn missing(class: &'static str, name: &str) -> Self {
         Error::Missing(MissingAttr {
             class,
             name: name.to_string(),
-            made_by,
+            made_by: crate::stages::made_by(name),
         })
+    }
+
+    /// This error, about the input called `name`.
+    pub fn about(self, name: &str) -> Self {
+        Error::In {
+            name: name.to_string(),
+            source: Box::new(self),
+        }
     }
 
     /// True when the error is a broken pipe (the reader went away: `| head`).
     pub fn is_broken_pipe(&self) -> bool {
-        matches!(self, Error::Io(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
-    }
-}
-
-/// The stage that makes a well-known attribute (DESIGN.md's stage table).
-pub fn stage_making(name: &str) -> Option<&'static str> {
-    match name {
-        "area" | "perimeter" => Some("measure"),
-        "Tarea" | "Tptarea" => Some("promote"),
-        "ptarea" | "sourceprim" | "sourceuv" => Some("scatter"),
-        "N" => Some("facet"),
-        "illum" => Some("illum"),
-        "ssM" => Some("ssmulti"),
-        "P" => Some("scatter"),
-        _ => None,
+        match self {
+            Error::Io(e) => e.kind() == std::io::ErrorKind::BrokenPipe,
+            Error::In { source, .. } => source.is_broken_pipe(),
+            _ => false,
+        }
     }
 }
 

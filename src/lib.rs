@@ -6,11 +6,13 @@
 //!
 //! - [`column`](mod@column): scalar types and (lazily decoded) columns.
 //! - [`cloud`]: the point cloud: elements, attributes, detail, faces.
+//! - [`image`]: image clouds, shade points that remember their pixels.
 //! - [`formats`]: PLY (all encodings), OBJ input, OpenEXR point clouds and
 //!   shade-point images, format sniffing.
-//! - [`geom`]: triangle and polygon measures, sampling, closest points.
-//! - [`mesh`]: faces as polygons, triangulation, closest-point queries.
-//! - [`bvh`]: shadow rays (any hit) and camera rays (nearest hit).
+//! - [`geom`]: triangle and polygon measures, sampling, closest points;
+//!   meshes ([`geom::mesh`]), rays against them ([`geom::bvh`]), neighbour
+//!   search over points ([`geom::kdtree`]).
+//! - [`maths`]: smoothstep and uniform numbers from seeded streams.
 //! - [`lights`]: the lights file, light masks, light arriving at a point.
 //! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti, filter,
 //!   render.
@@ -20,7 +22,6 @@
 //! What each stage computes is in the repository's `DESIGN.md`; the on-disk
 //! conventions in `formats/`.
 
-pub mod bvh;
 pub mod cli;
 pub mod cloud;
 pub mod column;
@@ -28,8 +29,9 @@ pub(crate) mod disjoint;
 pub mod error;
 pub mod formats;
 pub mod geom;
+pub mod image;
 pub mod lights;
-pub mod mesh;
+pub mod maths;
 pub mod progress;
 pub mod radix;
 pub mod stages;

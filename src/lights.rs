@@ -16,6 +16,7 @@ use globset::{Glob, GlobMatcher};
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::maths::smoothstep;
 
 /// Distance falloff of point, spot and area lights.
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -557,7 +558,7 @@ impl Light {
             } => {
                 let from = (p - *position).normalize_or_zero();
                 let c = from.dot(*axis);
-                let edge = smooth(*cos_outside, *cos_inside, c);
+                let edge = smoothstep(*cos_outside, *cos_inside, c);
                 if edge > 0.0 {
                     let w = edge
                         * if *beam > 0.0 {
@@ -637,14 +638,4 @@ fn emitter_cos(normal: DVec3, to_receiver: DVec3, two_sided: bool) -> f64 {
     } else {
         c.max(0.0)
     }
-}
-
-/// Hermite smoothstep (`DESIGN.md`): 0 below `a`, 1 above `b`.
-#[inline]
-pub fn smooth(a: f64, b: f64, x: f64) -> f64 {
-    if b <= a {
-        return if x >= b { 1.0 } else { 0.0 };
-    }
-    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, ValueEnum};
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
-use pcsss::mesh::TriMesh;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Params, Weight};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]

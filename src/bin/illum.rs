@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::bvh::Occluder;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
+use pcsss::geom::bvh::Occluder;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::lights;
-use pcsss::mesh::TriMesh;
 use pcsss::stages::illum;
 
 /// Light arriving at every point (the seed's pcIllum): illum = sum over

@@ -6,13 +6,11 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use pcsss::bvh::Occluder;
 use pcsss::cli::{self, MsgArgs, SsArgs};
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
 use pcsss::lights;
-use pcsss::mesh::TriMesh;
-use pcsss::stages::filter::{self, Params, Source};
+use pcsss::stages::filter::{Params, Source};
 use pcsss::stages::render::{self, Camera};
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
@@ -104,47 +102,36 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     let mesh_name = args.mesh.display().to_string();
     let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
-    let mesh_tris = match lights_used {
-        Some(_) => Some(TriMesh::from_cloud(&mesh).map_err(cli::at(&mesh_name))?),
-        None => None,
-    };
     let cloud_name = args.cloud.display().to_string();
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let (mut shade, rep) = render::render(&mesh, &cam).map_err(cli::at(&mesh_name))?;
-    msg.info(format!(
-        "{} of {} pixels see the mesh",
-        rep.covered, rep.pixels
-    ));
     let source = Source::choose(&cloud, lazy.as_ref()).map_err(cli::at(&cloud_name))?;
     let reach = source
         .reach(&cloud, args.nfp, args.radius)
         .map_err(cli::at(&cloud_name))?;
-    let progress = msg.progress();
-    let frep = filter::filter(
-        &cloud,
-        &mut shade,
-        &Params {
+    let scene = render::Scene {
+        mesh: &mesh,
+        mesh_name: &mesh_name,
+        camera: &cam,
+        cloud: &cloud,
+        cloud_name: &cloud_name,
+        filter: Params {
             reach,
             facing: args.facing,
         },
         source,
-        &progress,
-    )
-    .map_err(cli::at(&cloud_name))?;
+        direct: lights_used.as_deref().map(|l| (l, kd)),
+    };
+    let progress = msg.progress();
+    let (shade, rep, frep) = render::render_scene(&scene, &progress)?;
+    msg.info(format!(
+        "{} of {} pixels see the mesh",
+        rep.covered, rep.pixels
+    ));
     let (info, warn) = frep.messages();
     info.iter().skip(1).for_each(|m| msg.info(m));
     if let Some(w) = warn {
         msg.warn(w);
     }
-    let direct = match (lights_used, &mesh_tris) {
-        (Some(used), Some(tris)) => Some((used, Occluder::new(tris))),
-        _ => None,
-    };
-    render::beauty(
-        &mut shade,
-        direct.as_ref().map(|(l, o)| (l.as_slice(), o, kd)),
-        &progress,
-    )?;
     let opt = ExrOptions {
         compression: args.compression,
         half: vec![],
@@ -155,17 +142,15 @@ fn run(args: Args) -> anyhow::Result<()> {
     })
     .with_context(|| out_name)?;
     if let Some(png_path) = &args.png {
-        let (w, h, rgb) = render::picture(&shade, "beauty", args.exposure, [0.03; 3])?;
         let name = png_path.display().to_string();
         cli::write_atomic(png_path, |out| {
-            let mut enc = png::Encoder::new(out, w, h);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-            let mut wr = enc.write_header()?;
-            wr.write_image_data(&rgb)?;
-            wr.finish()?;
-            Ok(())
+            Ok(render::write_png(
+                out,
+                &shade,
+                "beauty",
+                args.exposure,
+                [0.03; 3],
+            )?)
         })
         .with_context(|| name)?;
     }

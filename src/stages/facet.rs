@@ -21,8 +21,8 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, Role};
 use crate::error::{Error, Result};
+use crate::geom::mesh::{ClosestPoint, TriMesh};
 use crate::geom::{self, unit_or_zero};
-use crate::mesh::{ClosestPoint, TriMesh};
 
 /// Flat or smooth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -169,7 +169,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         let uv = match (p.mode, pts.has("sourceuv")) {
             (Mode::Smooth, true) => Some(pts.vec3_f64("sourceuv")?),
             (Mode::Smooth, false) => {
-                return Err(Error::missing("point", "sourceuv", Some("scatter")));
+                return Err(Error::missing("point", "sourceuv"));
             }
             (Mode::Flat, _) => None,
         };

@@ -25,15 +25,13 @@
 //! some shade point reads (leaf by leaf: 64 points in a Morton run), each
 //! once; the values are bit for bit those of a full `ssmulti` run.
 
-use std::num::NonZero;
-
 use glam::DVec3;
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
-use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
 use crate::cloud::{Cloud, Role};
 use crate::error::{Error, Result};
+use crate::geom::kdtree::PointTree;
+use crate::maths::smoothstep;
 use crate::progress::Progress;
 use crate::stages::ssmulti;
 
@@ -72,9 +70,7 @@ pub struct Report {
 /// The cloud's positions in a k-d tree (relative to its bounding box's
 /// centre, so that a cloud far from the origin keeps its precision).
 pub struct CloudIndex {
-    tree: ImmutableKdTree<f64, u32, 3, 32>,
-    centre: DVec3,
-    len: usize,
+    tree: PointTree,
     nrm: Option<Vec<DVec3>>,
 }
 
@@ -98,10 +94,6 @@ impl CloudIndex {
         } else {
             (lo + hi) * 0.5
         };
-        let rel: Vec<[f64; 3]> = p
-            .iter()
-            .map(|q| (DVec3::from_array(*q) - centre).to_array())
-            .collect();
         let nrm = if with_normals {
             let n = cloud.points().vec3_f64("N")?;
             Some(
@@ -113,9 +105,7 @@ impl CloudIndex {
             None
         };
         Ok(CloudIndex {
-            tree: ImmutableKdTree::new_from_slice(&rel),
-            centre,
-            len: p.len(),
+            tree: PointTree::new(p.iter().map(|q| DVec3::from_array(*q)), centre),
             nrm,
         })
     }
@@ -123,11 +113,10 @@ impl CloudIndex {
     /// The cloud points a shade point at `s` with normal `n` reads, as
     /// (index, distance), by index.
     pub fn neighbours(&self, s: DVec3, n: Option<DVec3>, reach: Reach) -> Vec<(u32, f64)> {
-        let total = self.len;
+        let total = self.tree.len();
         if total == 0 {
             return Vec::new();
         }
-        let q = s - self.centre;
         let faces = |i: u32| match (&self.nrm, n) {
             (Some(nrm), Some(n)) => nrm[i as usize].dot(n) > 0.0,
             _ => true,
@@ -135,7 +124,7 @@ impl CloudIndex {
         let mut out: Vec<(u32, f64)> = match reach {
             Reach::Radius(r) => self
                 .tree
-                .within_unsorted::<SquaredEuclidean>(&q.to_array(), r * r)
+                .within(s, r)
                 .into_iter()
                 .filter(|nb| faces(nb.item))
                 .map(|nb| (nb.item, nb.distance.sqrt()))
@@ -144,10 +133,7 @@ impl CloudIndex {
                 // Nearest facing ones: ask for more until there are k.
                 let mut ask = k.min(total);
                 loop {
-                    let near = self.tree.nearest_n::<SquaredEuclidean>(
-                        &q.to_array(),
-                        NonZero::new(ask).expect("k > 0"),
-                    );
+                    let near = self.tree.nearest(s, ask);
                     let f: Vec<(u32, f64)> = near
                         .iter()
                         .filter(|nb| faces(nb.item))
@@ -172,8 +158,7 @@ pub fn pcfilter_weight(d: f64, maxd: f64) -> f64 {
     if e <= 0.0 {
         return 1.0;
     }
-    let t = (d / e).clamp(0.0, 1.0);
-    1.0 - t * t * (3.0 - 2.0 * t)
+    1.0 - smoothstep(0.0, e, d)
 }
 
 /// Weighted average of `values` over the neighbours, with the weights'
@@ -193,6 +178,7 @@ pub fn average(nb: &[(u32, f64)], values: &[[f32; 3]]) -> Option<[f64; 3]> {
 }
 
 /// How the cloud's `ssM` is had: already there, or computed lazily.
+#[derive(Clone, Copy)]
 pub enum Source<'a> {
     /// The cloud has `ssM`.
     Eager,
@@ -295,10 +281,10 @@ pub fn filter(
     }
     let sn: Option<Vec<DVec3>> = if p.facing {
         if !shade.points().has("N") {
-            return Err(Error::missing("shade point", "N", Some("facet")));
+            return Err(Error::missing("shade point", "N"));
         }
         if !cloud.points().has("N") {
-            return Err(Error::missing("cloud point", "N", Some("facet")));
+            return Err(Error::missing("cloud point", "N"));
         }
         Some(
             shade
@@ -332,7 +318,7 @@ pub fn filter(
     let values: Vec<[f32; 3]> = match source {
         Source::Eager => {
             if !cloud.points().has("ssM") {
-                return Err(Error::missing("cloud point", "ssM", Some("ssmulti")));
+                return Err(Error::missing("cloud point", "ssM"));
             }
             cloud.points().vec3_f32("ssM")?
         }

@@ -23,14 +23,14 @@
 //! Positions may be f64: light directions and distances are computed in
 //! f64, rays in the mesh's unit frame (see `crate::bvh`).
 
+use crate::maths::uniform24;
 use glam::DVec3;
-use rand_core::RngCore;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
-use crate::bvh::Occluder;
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
+use crate::geom::bvh::Occluder;
 use crate::lights::{Arrival, Light};
 use crate::progress::Progress;
 
@@ -60,7 +60,7 @@ pub fn illum(
 ) -> Result<Report> {
     let pts = cloud.points();
     if !pts.has("N") {
-        return Err(Error::missing("point", "N", Some("facet")));
+        return Err(Error::missing("point", "N"));
     }
     let pos = pts.vec3_f64("P")?;
     let nrm = pts.vec3_f64("N")?;
@@ -102,7 +102,7 @@ pub fn illum(
                         // lights the mask keeps changes nothing.
                         let key = (light.id as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
                         let mut rng = Pcg32::new(seed ^ key, i as u64);
-                        (unit(&mut rng), unit(&mut rng))
+                        (uniform24(&mut rng), uniform24(&mut rng))
                     } else {
                         (0.5, 0.5)
                     };
@@ -146,10 +146,4 @@ pub fn illum(
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
     cloud.set_detail("illum_lights", DetailValue::Str(names.join(",")));
     Ok(report)
-}
-
-/// A uniform number in [0, 1).
-#[inline]
-fn unit(r: &mut Pcg32) -> f64 {
-    (r.next_u32() >> 8) as f64 * (1.0 / (1u32 << 24) as f64)
 }

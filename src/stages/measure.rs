@@ -9,8 +9,8 @@
 
 use crate::cloud::Cloud;
 use crate::error::{Error, Result};
+use crate::geom::mesh::TriMesh;
 use crate::geom::{self, Sum};
-use crate::mesh::TriMesh;
 
 /// What `measure` found.
 #[derive(Clone, Debug, PartialEq)]

@@ -66,7 +66,6 @@ pub fn promote(
                 "face"
             },
             attr,
-            crate::error::stage_making(attr),
         )
     })?;
     let what = format!("{el_name} attribute '{attr}'");

@@ -1,21 +1,26 @@
 //! `render`: a pinhole camera over a mesh. Camera rays are cast through
 //! pixel centres against the mesh's BVH; every pixel that hits becomes a
-//! shade point (P, smooth N, coverage) of an image cloud (formats/EXR.md),
-//! which `filter` then gives `ssM`. The camera file is specified in
+//! shade point (P, smooth N, coverage) of an image cloud ([`crate::image`]),
+//! which `filter` then gives `ssM`; the beauty adds an optional direct
+//! diffuse term ([`render_scene`] does all three), and [`write_png`] makes
+//! a tone-mapped preview. The camera file is specified in
 //! formats/CAMERA.md.
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Deserialize;
 
-use crate::bvh::Occluder;
-use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::cloud::{Attribute, Cloud, Role};
 use crate::column::Column;
 use crate::error::{Error, Result};
-use crate::formats::exr::{DATA_WINDOW, DISPLAY_WINDOW, PIXEL_X, PIXEL_Y};
 use crate::geom;
-use crate::mesh::TriMesh;
+use crate::geom::bvh::Occluder;
+use crate::geom::mesh::TriMesh;
+use crate::image::{self, Window, PIXEL_X, PIXEL_Y};
+use crate::lights::Light;
+use crate::progress::Progress;
 use crate::stages::facet::{self, Weight};
+use crate::stages::filter;
 
 /// A camera file.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -110,6 +115,51 @@ pub struct Report {
     pub covered: usize,
 }
 
+/// A whole picture: the mesh seen by the camera, the cloud filtered at
+/// the covered pixels, and a direct term.
+pub struct Scene<'a> {
+    pub mesh: &'a Cloud,
+    /// The mesh's name in messages.
+    pub mesh_name: &'a str,
+    pub camera: &'a Camera,
+    /// The cloud with `ssM` (or what lazy evaluation needs).
+    pub cloud: &'a Cloud,
+    pub cloud_name: &'a str,
+    pub filter: filter::Params,
+    pub source: filter::Source<'a>,
+    /// A direct diffuse term: the lights and the diffuse reflectance
+    /// `kd` (`beauty = ssM + kd * illum`, shadows from the mesh).
+    pub direct: Option<(&'a [Light], [f64; 3])>,
+}
+
+/// Renders `scene`: the image cloud with `P`, `N`, `ssM`, `beauty` (and
+/// `illum` with a direct term), what the camera saw and what the filter
+/// did. An error names the input at fault.
+pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report, filter::Report)> {
+    let at_mesh = |e: Error| e.about(scene.mesh_name);
+    let (mut shade, rep) = render(scene.mesh, scene.camera).map_err(at_mesh)?;
+    let frep = filter::filter(
+        scene.cloud,
+        &mut shade,
+        &scene.filter,
+        scene.source,
+        progress,
+    )
+    .map_err(|e| e.about(scene.cloud_name))?;
+    let occluder = match scene.direct {
+        Some(_) => Some(Occluder::new(
+            &TriMesh::from_cloud(scene.mesh).map_err(at_mesh)?,
+        )),
+        None => None,
+    };
+    let direct = scene
+        .direct
+        .zip(occluder.as_ref())
+        .map(|((lights, kd), occ)| (lights, occ, kd));
+    beauty(&mut shade, direct, progress)?;
+    Ok((shade, rep, frep))
+}
+
 /// Ray-casts `mesh` (a cloud with faces) from `cam`: the covered pixels as
 /// shade points with `P`, `N` (the vertices' smooth normals interpolated),
 /// `pixel_x`, `pixel_y` and the image windows.
@@ -183,9 +233,8 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
         PIXEL_Y,
         Column::I32(hits.iter().map(|h| h.1 as i32).collect()),
     ))?;
-    let win = format!("0 0 {} {}", w - 1, h - 1);
-    shade.set_detail(DATA_WINDOW, DetailValue::Str(win.clone()));
-    shade.set_detail(DISPLAY_WINDOW, DetailValue::Str(win));
+    let win = Window::of_size(w, h);
+    image::set_windows(&mut shade, win, win);
     let report = Report {
         pixels: w as usize * h as usize,
         covered: hits.len(),
@@ -199,8 +248,8 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
 /// `illum`); without lights, `beauty = ssM`.
 pub fn beauty(
     shade: &mut Cloud,
-    direct: Option<(&[crate::lights::Light], &Occluder, [f64; 3])>,
-    progress: &crate::progress::Progress,
+    direct: Option<(&[Light], &Occluder, [f64; 3])>,
+    progress: &Progress,
 ) -> Result<()> {
     let ssm = shade.points().vec3_f64("ssM")?;
     let out: Vec<[f32; 3]> = match direct {
@@ -228,12 +277,11 @@ pub fn picture(
     exposure: f64,
     background: [f64; 3],
 ) -> Result<(u32, u32, Vec<u8>)> {
-    let win = match shade.detail(DATA_WINDOW) {
-        Some(DetailValue::Str(s)) => crate::formats::exr::parse_window(DATA_WINDOW, s)?,
-        _ => return Err(Error::missing("detail", DATA_WINDOW, Some("render"))),
+    let Some(win) = image::data_window(shade)? else {
+        return Err(Error::missing("detail", image::DATA_WINDOW));
     };
-    let (x0, y0) = (win.position.x() as i64, win.position.y() as i64);
-    let (w, h) = (win.size.width() as u32, win.size.height() as u32);
+    let (x0, y0) = (win.x0 as i64, win.y0 as i64);
+    let (w, h) = (win.width() as u32, win.height() as u32);
     let enc = |x: f64| (crate::stages::filter::srgb(x) * 255.0 + 0.5) as u8;
     let mut img: Vec<u8> = (0..w as usize * h as usize)
         .flat_map(|_| background.map(enc))
@@ -253,4 +301,26 @@ pub fn picture(
         }
     }
     Ok((w, h, img))
+}
+
+/// Writes [`picture`] of `attr` as an 8-bit sRGB PNG.
+pub fn write_png(
+    w: &mut dyn std::io::Write,
+    shade: &Cloud,
+    attr: &str,
+    exposure: f64,
+    background: [f64; 3],
+) -> Result<()> {
+    let (width, height, rgb) = picture(shade, attr, exposure, background)?;
+    let png_error = |e: png::EncodingError| match e {
+        png::EncodingError::IoError(e) => Error::Io(e),
+        e => Error::invalid(format!("PNG: {e}")),
+    };
+    let mut enc = png::Encoder::new(w, width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut wr = enc.write_header().map_err(png_error)?;
+    wr.write_image_data(&rgb).map_err(png_error)?;
+    wr.finish().map_err(png_error)
 }

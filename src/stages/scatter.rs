@@ -32,20 +32,18 @@
 //!   with `prim`, 0.0035 with `voronoi`, 0.0006 with `voronoi` after 10
 //!   relax iterations (`relax_with_voronoi_weights_cuts_the_kernel_error`).
 
+use crate::maths::uniform53;
 use glam::DVec3;
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
-use kiddo::SquaredEuclidean;
-use rand_core::RngCore;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
 use crate::cloud::{Cloud, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
+use crate::geom::kdtree::PointTree;
+use crate::geom::mesh::{ClosestPoint, TriMesh};
 use crate::geom::{self, Sum};
-use crate::mesh::{ClosestPoint, TriMesh};
 use crate::progress::Progress;
-use std::num::NonZero;
 
 /// How `ptarea` is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -96,14 +94,6 @@ pub fn count_for_density(density: f64, area: f64) -> Result<usize> {
     Ok(n as usize)
 }
 
-/// A uniform number in [0, 1) with 53 random bits.
-#[inline]
-fn uniform(r: &mut Pcg32) -> f64 {
-    let hi = (r.next_u32() >> 5) as u64;
-    let lo = (r.next_u32() >> 6) as u64;
-    ((hi << 26) | lo) as f64 * (1.0 / (1u64 << 53) as f64)
-}
-
 /// Scatters points on `mesh` (a cloud with faces).
 pub fn scatter(mesh: &Cloud, p: &Params) -> Result<Cloud> {
     scatter_with(mesh, p, &Progress::hidden())
@@ -131,7 +121,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         acc.add(a);
         cdf.push(acc.value() / total);
     }
-    let u0 = uniform(&mut Pcg32::new(p.seed, u64::MAX));
+    let u0 = uniform53(&mut Pcg32::new(p.seed, u64::MAX));
     let n = match p.amount {
         Amount::Count(n) if n > MAX_POINTS => {
             return Err(Error::param(
@@ -159,7 +149,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         .into_par_iter()
         .map(|k| {
             let mut r = Pcg32::new(p.seed, k as u64);
-            let w = geom::sample_triangle(uniform(&mut r), uniform(&mut r));
+            let w = geom::sample_triangle(uniform53(&mut r), uniform53(&mut r));
             let t = tri_of[k];
             let [a, b, c] = m.tri(t as usize);
             Sample {
@@ -228,13 +218,10 @@ fn knn_area(pos: &[DVec3], total: f64) -> Vec<f32> {
     }
     // Relative to the first point: the tree's f64 arithmetic keeps its
     // precision far from the origin.
-    let o = pos[0];
-    let rel: Vec<[f64; 3]> = pos.iter().map(|p| (*p - o).to_array()).collect();
-    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
-    let nk = std::num::NonZero::new(k + 1).expect("k + 1 > 0");
-    rel.par_iter()
-        .map(|q| {
-            let near = tree.nearest_n::<SquaredEuclidean>(q, nk);
+    let tree = PointTree::new(pos.iter().copied(), pos[0]);
+    pos.par_iter()
+        .map(|&q| {
+            let near = tree.nearest(q, k + 1);
             let r2 = near.last().map_or(0.0, |nb| nb.distance);
             (std::f64::consts::PI * r2 / k as f64) as f32
         })
@@ -265,15 +252,12 @@ fn prim_area(m: &TriMesh, areas: &[f64], samples: &[Sample]) -> Vec<f32> {
         .filter(|&t| per[t] == 0 && areas[t] > 0.0)
         .collect();
     if !empty.is_empty() && !samples.is_empty() {
-        let o = samples[0].p;
-        let rel: Vec<[f64; 3]> = samples.iter().map(|s| (s.p - o).to_array()).collect();
-        let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+        let tree = PointTree::new(samples.iter().map(|s| s.p), samples[0].p);
         let owner: Vec<u32> = empty
             .par_iter()
             .map(|&t| {
                 let [a, b, c] = m.tri(t);
-                let q = ((a + b + c) / 3.0 - o).to_array();
-                tree.nearest_one::<SquaredEuclidean>(&q).item
+                tree.nearest_one((a + b + c) / 3.0).item
             })
             .collect();
         for (&t, &i) in empty.iter().zip(&owner) {
@@ -318,18 +302,18 @@ fn relax(
     let reach = 1.5 * d;
     let gain = 0.5;
     let max_step = 0.5 * d;
-    let k = NonZero::new(13.min(n)).expect("n > 1");
+    let k = 13.min(n);
     let o = samples[0].p;
     for it in 0..iters {
         let rel: Vec<[f64; 3]> = samples.iter().map(|s| (s.p - o).to_array()).collect();
-        let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+        let tree = PointTree::from_relative(&rel);
         let next: Vec<Sample> = (0..n)
             .into_par_iter()
             .map(|i| {
                 let s = samples[i];
                 let q = DVec3::from_array(rel[i]);
                 let mut f = DVec3::ZERO;
-                for nb in tree.nearest_n::<SquaredEuclidean>(&rel[i], k) {
+                for nb in tree.nearest(q, k) {
                     let j = nb.item as usize;
                     if j == i {
                         continue;
@@ -344,7 +328,7 @@ fn relax(
                         // Coincident points (pushed onto the same edge or
                         // corner): apart along a direction of their own.
                         let mut g = Pcg32::new(seed ^ (it as u64) << 32, i as u64);
-                        DVec3::new(uniform(&mut g), uniform(&mut g), uniform(&mut g)) - 0.5
+                        DVec3::new(uniform53(&mut g), uniform53(&mut g), uniform53(&mut g)) - 0.5
                     };
                     let x = 1.0 - r / reach;
                     f += dir * (x * x);
@@ -399,7 +383,7 @@ pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], lone: f64) -> Vec<f
     }
     let o = positions[0];
     let rel: Vec<[f64; 3]> = positions.iter().map(|p| (*p - o).to_array()).collect();
-    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&rel);
+    let tree = PointTree::from_relative(&rel);
     (0..n)
         .into_par_iter()
         .map(|i| {
@@ -411,8 +395,7 @@ pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], lone: f64) -> Vec<f
             let mut cell = Vec::with_capacity(32);
             let mut tmp = Vec::with_capacity(32);
             loop {
-                let nk = NonZero::new(kk + 1).expect("k + 1 > 0");
-                let near = tree.nearest_n::<SquaredEuclidean>(&rel[i], nk);
+                let near = tree.nearest(q, kk + 1);
                 let far = near.last().map_or(0.0, |nb| nb.distance.sqrt());
                 if h == 0.0 {
                     // The cell never reaches past the first ring's

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use crate::cloud::{AttrData, Cloud, DetailValue};
 use crate::column::{Column, Scalar};
-use crate::mesh::Polygons;
+use crate::geom::mesh::Polygons;
 use crate::with_column as pcsss_with_column;
 
 /// Minimum, maximum, mean and NaN count of a column (NaNs excluded).

@@ -2,8 +2,8 @@
 
 use glam::{DVec3, Vec3A};
 use obvhs::ray::Ray;
-use pcsss::bvh::Occluder;
-use pcsss::mesh::TriMesh;
+use pcsss::geom::bvh::Occluder;
+use pcsss::geom::mesh::TriMesh;
 use rand_core::RngCore;
 use rand_pcg::Pcg32;
 

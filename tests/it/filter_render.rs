@@ -635,7 +635,8 @@ fn the_direct_term_adds_kd_times_the_light() {
         "l.json",
     )
     .unwrap();
-    let occ = pcsss::bvh::Occluder::new(&pcsss::mesh::TriMesh::from_cloud(&mesh).unwrap());
+    let occ =
+        pcsss::geom::bvh::Occluder::new(&pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap());
     let kd = [0.1, 0.2, 0.4];
     render::beauty(&mut shade, Some((&lights, &occ, kd)), &Progress::hidden()).unwrap();
     let b = shade.points().vec3_f64("beauty").unwrap();

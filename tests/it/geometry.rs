@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use crate::util::*;
-use pcsss::mesh::TriMesh;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Weight};
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 use pcsss::stages::{measure, promote};

@@ -5,10 +5,10 @@
 use glam::DVec3;
 
 use crate::util::*;
-use pcsss::bvh::Occluder;
 use pcsss::cloud::Role;
+use pcsss::geom::bvh::Occluder;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::lights::{self, Light};
-use pcsss::mesh::TriMesh;
 use pcsss::progress::Progress;
 use pcsss::stages::facet::{self, Mode, Weight};
 use pcsss::stages::illum;
@@ -44,8 +44,8 @@ fn plane(k: usize, s: f64, c: DVec3) -> Cloud {
 fn join(a: &Cloud, b: &Cloud) -> Cloud {
     let pa = a.points().vec3_f64("P").unwrap();
     let pb = b.points().vec3_f64("P").unwrap();
-    let fa = pcsss::mesh::Polygons::of(a).unwrap();
-    let fb = pcsss::mesh::Polygons::of(b).unwrap();
+    let fa = pcsss::geom::mesh::Polygons::of(a).unwrap();
+    let fb = pcsss::geom::mesh::Polygons::of(b).unwrap();
     let mut faces: Vec<Vec<i32>> = (0..fa.len())
         .map(|f| fa.polygon(f).iter().map(|&v| v as i32).collect())
         .collect();

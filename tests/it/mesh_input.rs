@@ -2,7 +2,7 @@
 
 use crate::util::*;
 use pcsss::formats::{self, Select};
-use pcsss::mesh::Polygons;
+use pcsss::geom::mesh::Polygons;
 
 fn read(path: &str) -> pcsss::Cloud {
     let b = std::fs::read(fixtures().join(path)).unwrap();
@@ -17,7 +17,7 @@ fn obj_cube_has_eight_points_six_quads_twelve_triangles() {
     assert_eq!(p.len(), 6);
     assert!((0..6).all(|f| p.polygon(f).len() == 4));
     assert_eq!(p.triangle_count(), 12);
-    let m = pcsss::mesh::TriMesh::from_cloud(&c).unwrap();
+    let m = pcsss::geom::mesh::TriMesh::from_cloud(&c).unwrap();
     assert_eq!(m.tri_faces(), vec![0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]);
     assert!(m.tri_areas().iter().all(|&a| (a - 0.5).abs() < 1e-15));
     // tobj numbers vertices in order of first use: check by position.

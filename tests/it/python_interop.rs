@@ -167,7 +167,7 @@ fn we_read_what_plyfile_and_trimesh_write() {
                 .is_some_and(|a| a.role() == Some(pcsss::Role::Color)));
             assert!(cloud.points().vec3_f64("P").unwrap()[0][0] == 1e6 + 0.1);
         } else {
-            let polys = pcsss::mesh::Polygons::of(&cloud).unwrap();
+            let polys = pcsss::geom::mesh::Polygons::of(&cloud).unwrap();
             assert_eq!(
                 (cloud.len(), polys.len()),
                 (162, 320),

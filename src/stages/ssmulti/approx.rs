@@ -191,4 +191,3 @@ fn walk_clusters(walk: &[WalkNode], nodes: &[TreeNode], area_scale: f64) -> Vec<
         })
         .collect()
 }
-

@@ -362,4 +362,3 @@ fn leaf_columns(
         sum,
     }
 }
-

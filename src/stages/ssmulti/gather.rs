@@ -203,7 +203,13 @@ impl Gathered {
     /// Adds a pseudo-source, every column filled, summed by every
     /// receiver (no spheres: `select` is not used on these).
     pub(super) fn point(&mut self, ps: PseudoSource) {
-        let PseudoSource { pos: p, n, q, a, rmin } = ps;
+        let PseudoSource {
+            pos: p,
+            n,
+            q,
+            a,
+            rmin,
+        } = ps;
         self.room(1);
         let i = self.n;
         (self.x[i], self.y[i], self.z[i]) = (p[0], p[1], p[2]);
@@ -235,7 +241,6 @@ const SET_BIT_POSITIONS: [[u8; LANES]; 256] = {
     }
     t
 };
-
 
 #[cfg(test)]
 mod tests {

@@ -119,9 +119,9 @@ impl<'a> ReadColumn<'a> {
 /// The normals are checked always, kept only when `normals`.
 pub(super) fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
     let pts = cloud.points();
-    for (name, stage) in [("N", "facet"), ("ptarea", "scatter"), ("illum", "illum")] {
+    for name in ["N", "ptarea", "illum"] {
         if !pts.has(name) {
-            return Err(Error::missing("point", name, Some(stage)));
+            return Err(Error::missing("point", name));
         }
     }
     let v3 = |name: &str| -> Result<[ReadColumn; 3]> {
@@ -300,4 +300,3 @@ fn area_scale(atot: f64) -> f64 {
     let e = ((atot.to_bits() >> 52) & 0x7ff) as i32 - 1022;
     2f64.powi((-e).clamp(-100, 100))
 }
-

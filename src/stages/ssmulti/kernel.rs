@@ -6,6 +6,7 @@ use std::f64::consts::PI;
 
 use super::lanes::EXP_CUT;
 use super::Falloff;
+use crate::maths::smoothstep;
 
 /// `(1 - e^-s (1 + s)) / s^2`, stable for every `s > 0`.
 pub fn exp_disk_factor(s: f64) -> f64 {
@@ -46,10 +47,7 @@ pub fn falloff(f: Falloff, r: f64, d: f64, rmin: f64) -> f64 {
         return 0.0;
     }
     match f {
-        Falloff::Smooth => {
-            let t = r / d;
-            (1.0 - t) * (1.0 - t) * (1.0 + 2.0 * t)
-        }
+        Falloff::Smooth => 1.0 - smoothstep(0.0, d, r),
         Falloff::Exp { sigma } => (-sigma * r / d).exp(),
         Falloff::Burley { kappa } => burley::profile(kappa, r, d, rmin),
     }
@@ -129,4 +127,3 @@ pub fn reach(f: Falloff, ld1: f64) -> f64 {
         Falloff::Burley { kappa } => ld1.min(3.0 * cut * ld1 / kappa),
     }
 }
-

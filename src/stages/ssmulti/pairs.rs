@@ -358,4 +358,3 @@ pub(super) struct LeafTask<'a> {
     pub scratch: &'a mut Gathered,
     pub out: &'a mut [[f32; 3]],
 }
-

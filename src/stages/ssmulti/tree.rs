@@ -139,7 +139,14 @@ impl Splitter<'_> {
     /// detailed part in a large scene) is coded again within its own box
     /// (`depth` times so far), so that its leaves stay small in space;
     /// points at one position are cut in runs of `LEAF`.
-    fn split(&mut self, order: &mut [u64], start: usize, end: usize, bit: i32, depth: u32) -> usize {
+    fn split(
+        &mut self,
+        order: &mut [u64],
+        start: usize,
+        end: usize,
+        bit: i32,
+        depth: u32,
+    ) -> usize {
         let first = self.ranges.len();
         let mut kids = smallvec::SmallVec::new();
         if end - start <= LEAF {
@@ -369,7 +376,6 @@ pub(super) fn near_leaves(walk: &[WalkNode], rl: &Leaf, reach: f64, out: &mut Ve
         i += 1;
     }
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -25,7 +25,7 @@ use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
-use crate::mesh::TriMesh;
+use crate::geom::mesh::TriMesh;
 
 /// Children per node.
 const W: usize = 4;

@@ -1,8 +1,14 @@
 //! Geometry as pure free functions: triangle and polygon measures,
-//! polygon triangulation, triangle sampling, closest points.
+//! polygon triangulation, triangle sampling, closest points; and the
+//! structures built over geometry: meshes ([`mesh`]), a BVH for rays
+//! ([`bvh`]), a k-d tree over points ([`kdtree`]).
 //!
 //! Everything is f64 and takes positions relative to a triangle's first
 //! vertex before crossing, so results hold at large coordinates.
+
+pub mod bvh;
+pub mod kdtree;
+pub mod mesh;
 
 use glam::DVec3;
 

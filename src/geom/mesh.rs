@@ -1,15 +1,11 @@
 //! Meshes: a cloud's `face` element as polygons, their triangulation, and
 //! closest-point queries.
 
-use std::num::NonZero;
-
 use glam::DVec3;
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
-use kiddo::SquaredEuclidean;
 
 use crate::cloud::{Cloud, ListColumn};
 use crate::error::{Error, Result};
-use crate::geom;
+use crate::geom::{self, kdtree::PointTree};
 
 /// A cloud's faces as polygons over its points.
 #[derive(Clone, Debug, PartialEq)]
@@ -200,7 +196,7 @@ impl TriMesh {
 /// (a triangle lies within its bounding radius of its centroid).
 pub struct ClosestPoint<'a> {
     mesh: &'a TriMesh,
-    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    tree: PointTree,
     radius: f64,
 }
 
@@ -222,7 +218,7 @@ impl<'a> ClosestPoint<'a> {
             return None;
         }
         let mut radius: f64 = 0.0;
-        let centroids: Vec<[f64; 3]> = (0..mesh.tris.len())
+        let centroids: Vec<DVec3> = (0..mesh.tris.len())
             .map(|t| {
                 let [a, b, c] = mesh.tri(t);
                 let m = (a + b + c) / 3.0;
@@ -230,12 +226,12 @@ impl<'a> ClosestPoint<'a> {
                     .max((a - m).length())
                     .max((b - m).length())
                     .max((c - m).length());
-                m.to_array()
+                m
             })
             .collect();
         Some(ClosestPoint {
             mesh,
-            tree: ImmutableKdTree::new_from_slice(&centroids),
+            tree: PointTree::new(centroids, DVec3::ZERO),
             radius,
         })
     }
@@ -245,9 +241,7 @@ impl<'a> ClosestPoint<'a> {
         let n = self.mesh.tris.len();
         let mut k = 8.min(n);
         loop {
-            let near = self
-                .tree
-                .nearest_n::<SquaredEuclidean>(&p.to_array(), NonZero::new(k).expect("k > 0"));
+            let near = self.tree.nearest(p, k);
             let mut best = Hit {
                 tri: 0,
                 bary: [1.0, 0.0, 0.0],
