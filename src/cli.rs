@@ -289,8 +289,17 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
+/// True when an error chain holds a bad parameter ([`crate::Error::Param`]).
+pub fn is_param_error(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<crate::Error>()
+            .is_some_and(|e| matches!(e, crate::Error::Param { .. }))
+    })
+}
+
 /// Runs a stage's body: on error prints `stage: context: error` on one line
-/// and returns exit status 1 (a broken pipe is success).
+/// and returns exit status 2 for a bad parameter (as for a usage error),
+/// 1 for anything else (a broken pipe is success).
 pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     match body() {
         Ok(()) => ExitCode::SUCCESS,
@@ -298,7 +307,7 @@ pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCo
         Err(e) => {
             let line = format!("{e:#}").replace('\n', " ");
             eprintln!("{stage}: {line}");
-            ExitCode::FAILURE
+            ExitCode::from(if is_param_error(&e) { 2 } else { 1 })
         }
     }
 }
@@ -309,11 +318,19 @@ pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
     move |e| anyhow::anyhow!("{name}: {e}")
 }
 
-/// Parses the command line like `clap::Parser::parse`, but a usage error
-/// is one line on stderr, `stage: error: ... (see --help)`, exit status 2;
-/// `--help` and `--version` print as usual.
-pub fn parse<T: clap::Parser>(stage: &str) -> T {
-    match T::try_parse() {
+/// Parses the command line like `clap::Parser::parse`, with one help
+/// layout for every binary (each option's text on the line below it) and
+/// `--version` naming the binary; a usage error is one line on stderr,
+/// `stage: error: ... (see --help)`, exit status 2.
+pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
+    let cmd = T::command()
+        .name(stage)
+        .bin_name(stage)
+        .next_line_help(true);
+    let parsed = cmd
+        .try_get_matches()
+        .and_then(|mut m| T::from_arg_matches_mut(&mut m));
+    match parsed {
         Ok(t) => t,
         Err(e) => {
             use clap::error::ErrorKind;
@@ -345,7 +362,7 @@ pub struct SsArgs {
     /// Bounce attenuation, 0 (off) to 1.
     #[arg(long, default_value_t = 0.0)]
     pub bounce: f64,
-    /// Per-channel distances (the seed's t_rgb).
+    /// Per-channel distances (Houdini's t_rgb): each channel reaches its Rd times sd.
     #[arg(long)]
     pub rgb: bool,
     /// Falloff kernel.
@@ -405,10 +422,10 @@ pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| anyhow::anyhow!("parameter {flag}: '{s}': {e}"))?;
+        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?;
     match v[..] {
         [x] => Ok([x; 3]),
         [r, g, b] => Ok([r, g, b]),
-        _ => anyhow::bail!("parameter {flag}: '{s}' is not R,G,B or one value"),
+        _ => Err(crate::Error::param(flag, format!("'{s}' is not R,G,B or one value")).into()),
     }
 }

@@ -434,7 +434,7 @@ fn validate(s: Spec) -> Check<Light> {
     })
 }
 
-/// The light mask (the seed's `lmask`): names and glob patterns separated
+/// The light mask (Houdini's `lmask`): names and glob patterns separated
 /// by commas or spaces; a pattern starting with `^` excludes. A light is
 /// used when it matches some including pattern (all lights when there is
 /// none) and no excluding one. Returns the indices of the lights used.

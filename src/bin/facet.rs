@@ -4,23 +4,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Params, Weight};
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum ModeArg {
-    Flat,
-    Smooth,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum WeightArg {
-    Angle,
-    Area,
-}
 
 /// Add normals N (Houdini's Facet SOP). With --mesh, the input is a point
 /// cloud and each point takes the mesh's normal where it lies (its
@@ -36,26 +24,19 @@ struct Args {
     mesh: Option<PathBuf>,
     /// Face normals, or vertex normals interpolated.
     #[arg(long, value_enum, default_value = "smooth")]
-    mode: ModeArg,
+    mode: Mode,
     /// Faces meeting at more than this angle (degrees) keep a sharp edge.
     #[arg(long, default_value_t = 60.0)]
     cusp: f64,
     /// Weighting of faces around a vertex.
     #[arg(long, value_enum, default_value = "angle")]
-    weight: WeightArg,
+    weight: Weight,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("facet");
     let name = args.io.input_name();
-    let weight = match args.weight {
-        WeightArg::Angle => Weight::Angle,
-        WeightArg::Area => Weight::Area,
-    };
-    let mode = match args.mode {
-        ModeArg::Flat => Mode::Flat,
-        ModeArg::Smooth => Mode::Smooth,
-    };
+    let (mode, weight) = (args.mode, args.weight);
     let mut cloud = args
         .io
         .read(&Select::only(&["P", "sourceprim", "sourceuv"]))?;

@@ -1,4 +1,4 @@
-//! `filter`: `ssM` at shade points from a cloud (the seed's `SsMulti` with
+//! `filter`: `ssM` at shade points from a cloud (Houdini's `SsMulti` with
 //! `pcfilter`).
 
 use std::path::PathBuf;
@@ -9,6 +9,7 @@ use pcsss::cli::{self, IoArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
 use pcsss::stages::filter::{self, Params, Source};
+use pcsss::Error;
 
 /// Reconstructs ssM at shade points (the input: a PLY/EXR cloud, a mesh's
 /// own vertices, or an OpenEXR image of P/N passes) from the cloud's
@@ -44,7 +45,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     let lazy_params = args.ss.params()?;
     let r = args.radius;
     if !(r.is_finite() && r > 0.0) {
-        anyhow::bail!("parameter --radius: {r}: must be a finite fraction > 0");
+        return Err(Error::param("--radius", format!("{r}: must be a finite fraction > 0")).into());
     }
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     let source = Source::choose(&cloud, lazy_params.as_ref()).map_err(cli::at(&cloud_name))?;

@@ -12,7 +12,7 @@ use pcsss::geom::mesh::TriMesh;
 use pcsss::lights;
 use pcsss::stages::illum;
 
-/// Light arriving at every point (the seed's pcIllum): illum = sum over
+/// Light arriving at every point (Houdini's pcIllum): illum = sum over
 /// the lights in the mask of Cl * max(0, N.L) * visibility, visibility from
 /// shadow rays against --mesh.
 #[derive(Parser, Debug)]
@@ -31,7 +31,7 @@ struct Args {
     #[arg(long)]
     no_shadows: bool,
     /// Lights to use: names and glob patterns, separated by commas or
-    /// spaces; ^PATTERN excludes [default: all].
+    /// spaces; ^PATTERN excludes ('*': all).
     #[arg(long, value_name = "PATTERNS", default_value = "*")]
     lmask: String,
     /// Seed of the area lights' sample offsets.

@@ -25,7 +25,7 @@ struct Args {
     /// Relative tolerance.
     #[arg(long, default_value_t = 0.0, value_name = "REL")]
     rel: f64,
-    /// Per-attribute tolerance NAME=ABS[,REL] (repeatable).
+    /// Per-attribute tolerance: NAME=ABS or NAME=ABS,REL (repeatable).
     #[arg(long = "tol", value_name = "NAME=ABS[,REL]", value_parser = parse_tol)]
     tols: Vec<(String, Tol)>,
     /// Attributes not to compare (comma-separated, repeatable).

@@ -13,7 +13,7 @@ use pcsss::formats::Select;
 #[derive(Parser, Debug)]
 #[command(version)]
 struct Args {
-    /// Input files (PLY or OBJ); standard input when none or '-'.
+    /// Input files (PLY, OBJ or OpenEXR); standard input when none or '-'.
     #[arg(value_name = "IN")]
     inputs: Vec<PathBuf>,
     #[command(flatten)]

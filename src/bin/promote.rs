@@ -3,24 +3,10 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 use pcsss::stages::promote::{self, Class, Method};
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum ClassArg {
-    Point,
-    Face,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum MethodArg {
-    Sum,
-    Mean,
-    Min,
-    Max,
-}
 
 /// Promote a point or face attribute to a detail attribute (Houdini's
 /// Attribute Promote SOP): `--attr area --class face --as Tarea`. With
@@ -33,14 +19,14 @@ struct Args {
     io: IoArgs,
     /// Element to read the attribute from.
     #[arg(long, value_enum, default_value = "point")]
-    class: ClassArg,
+    class: Class,
     /// Attribute to promote.
     #[arg(long, required_unless_present = "normalize")]
     attr: Option<String>,
     /// Reduction.
     #[arg(long, value_enum, default_value = "sum")]
-    method: MethodArg,
-    /// Detail attribute name [default: T<attr>, e.g. Tarea].
+    method: Method,
+    /// Detail attribute name [default: T and the attribute's name, e.g. Tarea].
     #[arg(long = "as", value_name = "DETAIL")]
     as_name: Option<String>,
     /// Normalise ptarea: ptarea *= Tarea / Tptarea.
@@ -62,18 +48,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     let attr = args.attr.expect("clap requires --attr");
     let mut cloud = args.io.read(&Select::only(&[&attr]))?;
-    let class = match args.class {
-        ClassArg::Point => Class::Point,
-        ClassArg::Face => Class::Face,
-    };
-    let method = match args.method {
-        MethodArg::Sum => Method::Sum,
-        MethodArg::Mean => Method::Mean,
-        MethodArg::Min => Method::Min,
-        MethodArg::Max => Method::Max,
-    };
     let as_name = args.as_name.unwrap_or_else(|| format!("T{attr}"));
-    let v = promote::promote(&mut cloud, class, &attr, method, &as_name).map_err(ctx)?;
+    let v = promote::promote(&mut cloud, args.class, &attr, args.method, &as_name).map_err(ctx)?;
     msg.info(format!(
         "{as_name} = {}",
         pcsss::tools::info::detail_text(&v)

@@ -12,6 +12,7 @@ use pcsss::formats::{self, Format, Select};
 use pcsss::lights;
 use pcsss::stages::filter::{Params, Source};
 use pcsss::stages::render::{self, Camera};
+use pcsss::Error;
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
 /// coverage passes by ray casting, then the beauty = ssM filtered from
@@ -70,13 +71,12 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.msg.messages("render");
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
-        anyhow::bail!("parameter --exposure: {}: must be > 0", args.exposure);
+        let what = format!("{}: must be > 0", args.exposure);
+        return Err(Error::param("--exposure", what).into());
     }
     if !(args.radius.is_finite() && args.radius > 0.0) {
-        anyhow::bail!(
-            "parameter --radius: {}: must be a finite fraction > 0",
-            args.radius
-        );
+        let what = format!("{}: must be a finite fraction > 0", args.radius);
+        return Err(Error::param("--radius", what).into());
     }
     let cam_name = args.camera.display().to_string();
     let text = std::fs::read_to_string(&args.camera).with_context(|| cam_name.clone())?;
@@ -85,7 +85,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
-        anyhow::bail!("parameter --kd: {kd:?}: must be finite and >= 0");
+        return Err(Error::param("--kd", format!("{kd:?}: must be finite and >= 0")).into());
     }
     let lights_used = match &args.direct {
         None => None,

@@ -7,10 +7,11 @@ use pcsss::cli::{self, IoArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::ssmulti;
 
-/// Multiple scattering at every point (the seed's ssIntegMulti): reads P,
+/// Multiple scattering at every point (Marengo's ssIntegMulti): reads P,
 /// N, ptarea, illum; adds ssM.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
+#[command(mut_arg("sd", |a| a.required(true)))]
 struct Args {
     #[command(flatten)]
     io: IoArgs,
@@ -21,9 +22,7 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("ssmulti");
     let name = args.io.input_name();
-    let Some(params) = args.ss.params()? else {
-        anyhow::bail!("parameter --sd: required (the scattering distance)");
-    };
+    let params = args.ss.params()?.expect("clap requires --sd");
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
     let mut cloud = args

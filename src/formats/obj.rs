@@ -3,7 +3,7 @@
 //! All objects and groups are merged into one mesh: positions become `P`,
 //! per-vertex normals `N`, texture coordinates the scalars `u` and `v`,
 //! vertex colours the colour `Cd`. Polygons are kept as polygons (PLY's
-//! `face` element with `vertex_indices`); [`crate::mesh`] triangulates on
+//! `face` element with `vertex_indices`); [`crate::geom::mesh`] triangulates on
 //! demand. Materials are ignored.
 
 use std::io::BufRead;

@@ -25,16 +25,21 @@ use crate::geom::mesh::{ClosestPoint, TriMesh};
 use crate::geom::{self, unit_or_zero};
 
 /// Flat or smooth.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Mode {
+    /// The face's normal.
     Flat,
+    /// The corner normals interpolated (not across edges sharper than
+    /// the cusp angle).
     Smooth,
 }
 
 /// How faces around a vertex are weighted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Weight {
+    /// By the face's angle at the vertex.
     Angle,
+    /// By the face's area.
     Area,
 }
 

@@ -1,8 +1,8 @@
 //! `filter`: `ssM` at shade points, reconstructed from the cloud (the
-//! seed's `SsMulti` with `pcfilter`).
+//! Houdini shader's `SsMulti` with `pcfilter`).
 //!
 //! At a shade point S the cloud points used are the `nfp` nearest, or all
-//! within a radius (the seed's "better parameterisation": a fraction of
+//! within a radius (the slides' "better parameterisation": a fraction of
 //! the scattering distance D, so it needs no retuning when the density
 //! changes); with `facing`, only cloud points whose normal is on S's side
 //! (`dot(N_i, N_S) > 0`, as Houdini's `pcopen` does when given N). They
@@ -20,7 +20,7 @@
 //! (inside an even cloud), largest at open edges. A shade point with no
 //! cloud point in reach gets `ssM = 0` and is counted.
 //!
-//! Lazy mode (the seed's `pcunshaded`): when the cloud has `illum` but no
+//! Lazy mode (Houdini's `pcunshaded`): when the cloud has `illum` but no
 //! `ssM`, `ssM` is computed with `ssmulti`'s code only for the cloud points
 //! some shade point reads (leaf by leaf: 64 points in a Morton run), each
 //! once; the values are bit for bit those of a full `ssmulti` run.

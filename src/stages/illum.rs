@@ -1,4 +1,4 @@
-//! `illum` (the seed's `pcIllum`, an `illuminance()` loop): the light
+//! `illum` (Houdini's `pcIllum`, an `illuminance()` loop): the light
 //! arriving at every point,
 //! `illum = sum over lights in the mask of Cl * max(0, dot(N, L)) * visibility`,
 //! as the colour attribute `illum` (f32).

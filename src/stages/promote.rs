@@ -11,14 +11,14 @@ use crate::error::{Error, Result};
 use crate::geom::Sum;
 
 /// Which element to read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Class {
     Point,
     Face,
 }
 
 /// How to reduce.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {
     Sum,
     Mean,

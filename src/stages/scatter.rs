@@ -46,10 +46,14 @@ use crate::geom::{self, Sum};
 use crate::progress::Progress;
 
 /// How `ptarea` is estimated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum PtareaMode {
+    /// A triangle's area shared by its points (sums to the mesh's area).
     Prim,
+    /// pi r^2 / k from the 8 nearest neighbours (follows local density).
     Knn,
+    /// The Voronoi cell in the tangent plane (most accurate; pair with
+    /// --relax and promote --normalize).
     Voronoi,
 }
 
