@@ -22,10 +22,11 @@ exrtools:
 	  apt-get install -y -q openexr || { apt-get update -q && apt-get install -y -q openexr; }; }
 
 ## Every test; interop tests (Python, exrheader) must run, not skip. Ends
-## with a total.
+## with a total. Under the release profile, so the tests and `make demo`
+## share one optimised build of the library and the stages.
 test: pyenv exrtools
 	mkdir -p target
-	PCSSS_REQUIRE_PYTHON=1 cargo test 2>&1 | tee target/test.log
+	PCSSS_REQUIRE_PYTHON=1 cargo test --release 2>&1 | tee target/test.log
 	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log
 
 ## Benchmarks (figures in the README's performance section), with the
