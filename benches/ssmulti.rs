@@ -75,7 +75,10 @@ fn sphere_cloud(mesh: &Cloud, n: usize, relax: u32, ptarea: PtareaMode) -> Cloud
 fn run(c: &Cloud, p: &Params) -> (Vec<[f64; 3]>, f64, ssmulti::Report) {
     let mut c = c.clone();
     let t = Instant::now();
-    let rep = ssmulti::ssmulti(&mut c, p, &Progress::hidden()).unwrap();
+    // `PCSSS_TIMES=1`: the phases' times, as the binaries print them.
+    let times = std::env::var_os("PCSSS_TIMES").is_some();
+    let progress = Progress::hidden().with_phase_times(times);
+    let rep = ssmulti::ssmulti(&mut c, p, &progress).unwrap();
     let secs = t.elapsed().as_secs_f64();
     (c.points().vec3_f64("ssM").unwrap(), secs, rep)
 }

@@ -19,7 +19,7 @@
 //! - [`cli`]: what every binary shares (I/O, messages, errors).
 //! - [`tools`]: `pcinfo` and `pcdiff`.
 //!
-//! What each stage computes is in the repository's `DESIGN.md`; the on-disk
+//! What each stage computes is in the repository's `docs/DESIGN.md`; the on-disk
 //! conventions in `formats/`.
 
 pub mod cli;

@@ -1,5 +1,5 @@
 """The exact ssmulti sum in plain numpy + scipy cKDTree, for
-benches/ssmulti.rs: the same formula (DESIGN.md; smooth falloff, seed
+benches/ssmulti.rs: the same formula (docs/DESIGN.md#ssmulti; smooth falloff, seed
 normalisation, bounce 0, not t_rgb) on a random subset of receivers.
 
 Usage: ssmulti_ckdtree.py DIR SD RD_R RD_G RD_B SUBSET SEED OUT.npz

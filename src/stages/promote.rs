@@ -1,6 +1,6 @@
 //! `promote` (Houdini's Attribute Promote SOP): a point or face attribute
 //! reduced to a detail attribute, and the `ptarea` normalisation of
-//! DESIGN.md: `ptarea *= Tarea / Tptarea`.
+//! `docs/DESIGN.md#promote`: `ptarea *= Tarea / Tptarea`.
 //!
 //! Sums are compensated (Neumaier) in f64; detail values are f64 (`v3d`
 //! for 3-vectors). The sum over no rows is 0; mean, min and max over no

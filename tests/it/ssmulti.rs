@@ -38,7 +38,7 @@ fn run(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
     c.points().vec3_f64("ssM").unwrap()
 }
 
-/// DESIGN.md's loop, in f64, every pair, written from the text.
+/// docs/DESIGN.md's loop, in f64, every pair, written from the text.
 fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
     let pos = c.points().vec3_f64("P").unwrap();
     let nrm = c.points().vec3_f64("N").unwrap();
@@ -439,8 +439,8 @@ fn a_power_of_two_scale_changes_no_bit() {
     // scaled exactly, and `ptarea`'s own power-of-two prescale brings the
     // areas back to the same bits, so `ssM` is bit for bit the same.
     // Without that prescale this fails at 2^-40 (exp sigma 100, channel):
-    // `illum * ptarea` (~1e-27) times exp's weights down to e^-60 was
-    // subnormal and lost bits (and time). (Not below 2^-40: the f32 areas
+    // `illum * ptarea` (~1e-27) times exp's weights down to e^-60 is
+    // subnormal and loses bits (and time). (Not below 2^-40: the f32 areas
     // would be subnormal as read.)
     let base = wavy(3000, DVec3::ZERO, 1.0, 5);
     let mut settings = vec![];
@@ -649,8 +649,8 @@ fn sd_beyond_the_whole_object_sums_every_pair() {
     // normalisation divides by ~sd^2 (an f32 0), the local one gives the
     // mean light.
     // Every falloff: the kernels are taken no longer than 1e5-1e8 times
-    // the object's size (exp and Burley at sd 1e300 gave 0 before: sigma
-    // / D was an f32 0).
+    // the object's size (uncapped, exp and Burley at sd 1e300 give 0:
+    // sigma / D is an f32 0).
     for falloff in falloffs() {
         for sd in [1e20, 1e30, 1e300] {
             for (norm, tolerance) in [(Norm::Seed, 0.0), (Norm::Local, 0.0), (Norm::Local, 0.3)] {

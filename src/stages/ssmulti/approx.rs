@@ -17,33 +17,21 @@ use super::{Distances, Falloff, Params};
 
 /// The share of the mean weight a straddling cluster may misplace, see
 /// [`jump_scale`]. Measured at 1M points x 20,000 neighbours on the unit
-/// sphere (`BENCH_CASE=1000000,20000,T BENCH_FALLOFF=exp BENCH_SIGMA=S`),
-/// RMS relative error against the exact method and time: exp sigma 4 at
-/// tolerance 0.3, 0.88 s at 1.0e-3 (exact 6.5-6.7 s); at 0.6, 0.20 s at
-/// 3.8e-3. With no straddling cluster taken (commit 04ce04d, or
-/// `JUMP_K = 0`): 2.5 s at 8.8e-4 and 1.84-2.0 s at 3.5e-3. Sigma 1 is
-/// unchanged up to `JUMP_K = 0.1` (1.9 s at 3.7e-3, tolerance 0.3); at
-/// 0.15 its straddling ring opens (0.95 s at 4.6e-3) and at 0.5 it gives
-/// 1.4e-2: 0.05 keeps a factor 3 from that edge. (Rerun by editing this
-/// constant.)
+/// sphere (`BENCH_CASE=1000000,20000,T BENCH_FALLOFF=exp BENCH_SIGMA=S
+/// cargo bench --bench ssmulti`): with exp sigma 1 the RMS error at
+/// tolerance 0.3 stays the same up to 0.1, rises by a quarter at 0.15 (its
+/// straddling ring opens) and fourfold at 0.5; 0.05 keeps a factor 3 from
+/// that edge, while it still takes most straddling clusters of steeper
+/// kernels whole (at sigma 4, a third of the time of taking none).
 const JUMP_K: f64 = 0.05;
 
 /// The largest radius, divided by the tolerance, of a cluster that may be
 /// summed at its centroid although it straddles the reach `d` of a
 /// falloff that jumps to zero there (exp, Burley): `JUMP_K d mean / W(d)`,
-/// `mean = I(d) / (pi d^2)` the falloff's mean over the disk.
-///
-/// Why: such a cluster of radius `s` misplaces (counts on the wrong side
-/// of `r = d`) at most its area within `s` of that circle, each unit of it
-/// weighing the jump `W(d)`. The clusters straddling the circle cover a
-/// ring of area about `2 pi d * 2 s`, so they misplace at most `4 pi d s
-/// W(d)` of weight (with signs that mostly cancel), against the whole
-/// disk's `I(d) = pi d^2 mean`: relative `4 s W(d) / (d mean)`. A cluster
-/// radius of at most `T JUMP_K d mean / W(d)` bounds it by `4 JUMP_K T`
-/// (6% at `T = 0.3`, the worst case; measured, the cancellation leaves
-/// about 1e-4, see [`JUMP_K`]). The ratio depends only on the falloff's
-/// shape (sigma, kappa), not on `d`. Where the falloff is 0 at `d` (a
-/// steep exp) there is no jump: infinity.
+/// `mean = I(d) / (pi d^2)` the falloff's mean over the disk. It bounds
+/// the relative weight such clusters misplace by `4 JUMP_K T`
+/// (`docs/DESIGN.md#approximate-method`). Where the falloff is 0 at `d`
+/// (a steep exp) there is no jump: infinity.
 fn jump_scale(f: Falloff, d: f64) -> f64 {
     let mean = disk_integral(f, d) / (PI * d * d);
     let edge = falloff(f, d, d, 0.0);

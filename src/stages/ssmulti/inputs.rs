@@ -38,12 +38,11 @@ pub(super) struct Inputs<'a> {
     /// What `ptarea` is multiplied by in the sums: the power of two that
     /// brings the cloud's total area into [0.5, 1). A cloud scaled by
     /// 1e-4 then sums numbers of the same size as the unscaled one
-    /// (by a power of two: the same bits). Before, its
-    /// `illum * ptarea` (~1e-13 at 1M points) times a weight near
-    /// `e^-60` was subnormal (30-40% slower for exp sigma 100 and 1000,
-    /// `BENCH_SCALE=1e-4` in benches/ssmulti.rs). Exact (a power of two),
-    /// undone in the normaliser (`Local` divides it out); `r_min` is taken
-    /// from the areas as read.
+    /// (by a power of two: the same bits); unscaled, its `illum * ptarea`
+    /// (~1e-13 at 1M points) times a weight near `e^-60` would be
+    /// subnormal and slow (`BENCH_SCALE=1e-4` in benches/ssmulti.rs).
+    /// Exact (a power of two), undone in the normaliser (`Local` divides
+    /// it out); `r_min` is taken from the areas as read.
     pub area_scale: f64,
 }
 

@@ -8,7 +8,8 @@ use super::lanes::EXP_CUT;
 use super::Falloff;
 use crate::maths::smoothstep;
 
-/// `(1 - e^-s (1 + s)) / s^2`, stable for every `s > 0`.
+/// `(1 - e^-s (1 + s)) / s^2`, stable for every `s > 0`: its series below
+/// 0.5, `expm1` above (`docs/DESIGN.md#exp`).
 pub fn exp_disk_factor(s: f64) -> f64 {
     if s < 0.5 {
         // sum_{k >= 2} (-1)^k (k - 1) / k! s^(k - 2)
@@ -53,42 +54,9 @@ pub fn falloff(f: Falloff, r: f64, d: f64, rmin: f64) -> f64 {
     }
 }
 
-/// The Christensen-Burley falloff.
-///
-/// Christensen and Burley ("Approximate Reflectance Profiles for Efficient
-/// Subsurface Scattering", 2015) fit the diffuse reflectance profile of
-/// a semi-infinite medium with
-///
-/// ```text
-/// R(r) = (e^(-r/d) + e^(-r/(3d))) / (8 pi d r)
-/// ```
-///
-/// normalised over the plane: `int_0^inf R 2 pi r dr = (d + 3d) / (4d) =
-/// 1`. Here its reach is Houdini's scattering distance `D`: with shape
-/// `d = D / kappa` we keep `r <= D` and renormalise over that disk. The
-/// unnormalised kernel is `W(r) = e^(-r/d) + e^(-r/(3d))) / r` (constant
-/// factors cancel in `ssm / I`), and
-///
-/// ```text
-/// I(D) = int_0^D W(r) 2 pi r dr = 2 pi int_0^D (e^(-r/d) + e^(-r/(3d))) dr
-///      = 2 pi d ((1 - e^-kappa) + 3 (1 - e^(-kappa/3)))
-///      = -2 pi (D / kappa) (expm1(-kappa) + 3 expm1(-kappa/3))
-/// ```
-///
-/// so the truncated, renormalised profile integrates to exactly 1 over the
-/// disk. The fraction of the untruncated energy kept is
-/// `1 - e^-kappa / 4 - 3 e^(-kappa/3) / 4`: 88% at the default
-/// `kappa = 5.625` (see [`BURLEY_KAPPA`](super::BURLEY_KAPPA)).
-///
-/// Point sums and the `1/r` singularity: `int R dA` is finite, but a
-/// point at distance `r` contributes `ptarea R(r)`, unbounded as `r -> 0`
-/// (the receiver itself is at `r = 0`). A source point stands for a disk
-/// of area `a = ptarea`, radius `rho = sqrt(a / pi)`; for small `rho`,
-/// `int_disk W dA = 2 pi (rho + rho) = 4 pi rho` to first order, and
-/// `a W(r_min) = 2 pi rho^2 / r_min` equals it at `r_min = rho / 2`. So the
-/// kernel is evaluated at `max(r, r_min)`, `r_min = sqrt(ptarea / pi) / 2`:
-/// the self term is right to first order and near neighbours stay
-/// bounded; beyond `r_min` it is the exact profile.
+/// The Christensen-Burley falloff, truncated at `D` and renormalised over
+/// the disk, evaluated at `max(r, r_min)` (`docs/DESIGN.md#burley`: the
+/// disk integral and why `r_min = sqrt(ptarea / pi) / 2`).
 pub mod burley {
     use std::f64::consts::PI;
 

@@ -143,9 +143,9 @@ pub fn exp_approx(x: f32) -> f32 {
 
 /// Below this exponent a kernel's `e^x` is 0: weights under `e^-60`
 /// (8.8e-27) of a point's own weight are nothing beside it, and their
-/// products with `illum * ptarea` would be subnormal (~100 cycles each:
-/// in the variants benchmark, sigma 1000 took 0.53 s against 0.19 for
-/// sigma 4 before this cut, 0.085 s for both after).
+/// products with `illum * ptarea` would be subnormal (~100 cycles each;
+/// with this cut sigma 1000 costs what sigma 4 does in the variants
+/// benchmark).
 pub const EXP_CUT: f32 = -60.0;
 
 /// A kernel's `e^x`: `exp_approx`, 0 below `EXP_CUT`.
@@ -182,9 +182,8 @@ pub(super) fn maxf(a: f32, b: f32) -> f32 {
 /// `1 - 3t^2 + 2t^3` rounds to 1 in f32 below `t = 1e-5`, and
 /// `exp_approx` is 1 above -1e-8 (for Burley, the size counts the
 /// largest `r_min` too: its weight reads `max(r, r_min)`). Without it,
-/// `1 / D^2` is subnormal in f32 past `D = 1.8e19` (in the variants
-/// benchmark, sd 1e20 ran at 141 M pairs/s against 4,000 at sd 0.28) and
-/// `sigma / D` is 0 past f32's range.
+/// `1 / D^2` is subnormal in f32 past `D = 1.8e19` (every pair then
+/// costs about 30 times as much) and `sigma / D` is 0 past f32's range.
 const CAP_SMOOTH: f64 = 1e5;
 /// [`CAP_SMOOTH`] for exp and Burley, times their sigma or kappa.
 const CAP_EXP: f64 = 1e8;

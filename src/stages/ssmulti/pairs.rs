@@ -157,9 +157,9 @@ fn sum_sources<
                 }
             }
             // The area sums in a loop of their own: in the one above
-            // they kept the compiler from vectorising it with exp and
-            // Burley (variants benchmark, exp sigma 4, local: 1.15 s
-            // before, 0.17 after).
+            // they keep the compiler from vectorising it with exp and
+            // Burley (variants benchmark, exp sigma 4, local: about 7
+            // times slower).
             if LOCAL {
                 for k in 0..LANES {
                     if SINGLE {
