@@ -4,14 +4,18 @@
 mod util;
 
 mod bvh;
+mod chain;
 mod cli;
 mod exr_format;
+mod facet;
 mod filter_render;
-mod geometry;
 mod illum;
+mod measure;
 mod mesh_input;
 mod pcdiff;
 mod ply_bad_input;
 mod ply_roundtrip;
+mod promote;
 mod python_interop;
+mod scatter;
 mod ssmulti;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 use pcsss::formats::{self, Encoding, Format, Select};
+use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 use pcsss::{
     AttrData, Attribute, Cloud, Column, DetailValue, Element, ListColumn, Role, ScalarType,
 };
@@ -335,4 +336,33 @@ pub fn python_with(modules: &[&str]) -> Option<String> {
     } else {
         interop_missing(&format!("{py} lacks {}", modules.join("/")))
     }
+}
+
+// The geometry tests' meshes and clouds.
+
+pub fn cube() -> Cloud {
+    let b = std::fs::read(fixtures().join("mesh/cube.obj")).unwrap();
+    from_bytes(&b)
+}
+
+pub fn scatter_n(mesh: &Cloud, n: usize, seed: u64, mode: PtareaMode) -> Cloud {
+    scatter_relaxed(mesh, n, seed, mode, 0)
+}
+
+pub fn scatter_relaxed(mesh: &Cloud, n: usize, seed: u64, mode: PtareaMode, relax: u32) -> Cloud {
+    scatter::scatter(
+        mesh,
+        &Params {
+            amount: Amount::Count(n),
+            seed,
+            ptarea: mode,
+            relax,
+        },
+    )
+    .unwrap()
+}
+
+pub fn icosphere(level: u32) -> Cloud {
+    let b = std::fs::read(fixtures().join(format!("mesh/icosphere{level}.obj"))).unwrap();
+    from_bytes(&b)
 }

@@ -1,0 +1,260 @@
+//! scatter: counts by area (chi-square), seeds and thread counts, relax,
+//! the ptarea estimates against the kernel sum's truth.
+
+use std::f64::consts::PI;
+
+use crate::util::*;
+use pcsss::geom::mesh::TriMesh;
+use pcsss::stages::scatter::{self, PtareaMode};
+use pcsss::Cloud;
+
+/// Faces with areas 1, 2, ..., 8 (right triangles of legs 1 and 2k).
+fn strip() -> Cloud {
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..8 {
+        let x = 20.0 * k as f64;
+        let b = p.len() as i32;
+        p.extend([
+            [x, 0.0, 0.0],
+            [x + 1.0, 0.0, 0.0],
+            [x, 2.0 * (k + 1) as f64, 0.0],
+        ]);
+        faces.push(vec![b, b + 1, b + 2]);
+    }
+    mesh_from(&p, &faces)
+}
+
+#[test]
+fn scatter_counts_follow_area_chi_square_over_many_seeds() {
+    let mesh = strip();
+    let areas: Vec<f64> = (1..=8).map(|k| k as f64).collect();
+    let total: f64 = areas.iter().sum();
+    let (n, seeds) = (97usize, 300u64);
+    let mut counts = [0f64; 8];
+    for seed in 0..seeds {
+        let c = scatter_n(&mesh, n, seed, PtareaMode::Prim);
+        let prim = c.points().scalar_f64("sourceprim").unwrap();
+        let mut per = [0f64; 8];
+        prim.iter().for_each(|&f| per[f as usize] += 1.0);
+        for f in 0..8 {
+            // Stratified: each face gets floor or ceil of its share.
+            let e = n as f64 * areas[f] / total;
+            assert!(
+                per[f] == e.floor() || per[f] == e.ceil(),
+                "seed {seed} face {f}: {} vs {e}",
+                per[f]
+            );
+            counts[f] += per[f];
+        }
+    }
+    let chi2: f64 = (0..8)
+        .map(|f| {
+            let e = (n as u64 * seeds) as f64 * areas[f] / total;
+            (counts[f] - e).powi(2) / e
+        })
+        .sum();
+    // 7 degrees of freedom: P(chi2 > 24.32) = 0.001.
+    assert!(chi2 < 24.32, "chi-square {chi2}");
+    // Points lie on their face.
+    let c = scatter_n(&mesh, 200, 9, PtareaMode::Prim);
+    let p = c.points().vec3_f64("P").unwrap();
+    let prim = c.points().scalar_f64("sourceprim").unwrap();
+    for (q, f) in p.iter().zip(&prim) {
+        let x0 = 20.0 * *f;
+        assert!(q[0] >= x0 - 1e-9 && q[0] <= x0 + 1.0 + 1e-9 && q[2] == 0.0);
+    }
+}
+
+#[test]
+fn equal_seeds_give_equal_clouds_on_any_thread_count() {
+    let d = tempdir();
+    std::fs::write(
+        d.path().join("s.ply"),
+        to_bytes(&uv_sphere(16, 32, 1.0, [0.0; 3]), LE),
+    )
+    .unwrap();
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = std::process::Command::new(bin("scatter"))
+            .args(["s.ply", "-n", "20000", "--seed", "42", "--ptarea", "knn"])
+            .args(["--relax", "3"])
+            .env("RAYON_NUM_THREADS", threads)
+            .current_dir(d.path())
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        outs.push(out.stdout);
+    }
+    assert_eq!(outs[0], outs[1]);
+    let other = run_in(
+        Some(d.path()),
+        "scatter",
+        &["s.ply", "-n", "20000", "--seed", "43"],
+        b"",
+    );
+    assert_ne!(other.stdout, outs[0]);
+}
+
+/// The RMS relative error of the kernel sum `sum_i W(|x - x_i|, D) ptarea_i`
+/// at every cloud point of a unit sphere, against its exact value: on a
+/// sphere the area at chord distance in [r, r + dr] is `2 pi r dr`, as on
+/// a plane, so the sum's truth is the disk integral `3 pi D^2 / 10`.
+fn sphere_kernel_error(cloud: &Cloud, d: f64) -> f64 {
+    let p = cloud.points().vec3_f64("P").unwrap();
+    let a = cloud.points().scalar_f64("ptarea").unwrap();
+    let total: f64 = a.iter().sum();
+    let scale = 4.0 * PI / total;
+    let truth = 3.0 * PI * d * d / 10.0;
+    let w = |r: f64| {
+        let t = (r / d).clamp(0.0, 1.0);
+        1.0 - t * t * (3.0 - 2.0 * t)
+    };
+    let mut se = 0.0;
+    for x in &p {
+        let mut s = 0.0;
+        for (y, ai) in p.iter().zip(&a) {
+            let r = ((x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2) + (x[2] - y[2]).powi(2)).sqrt();
+            if r < d {
+                s += w(r) * ai * scale;
+            }
+        }
+        se += (s / truth - 1.0).powi(2);
+    }
+    (se / p.len() as f64).sqrt()
+}
+
+/// Nearest-neighbour distances over the hexagonal lattice spacing of the
+/// same count on the unit sphere: (mean, coefficient of variation, min).
+fn nn_stats(cloud: &Cloud) -> (f64, f64, f64) {
+    let p = cloud.points().vec3_f64("P").unwrap();
+    let n = p.len();
+    let mut nn = vec![f64::INFINITY; n];
+    for i in 0..n {
+        for j in 0..n {
+            if i != j {
+                let r = ((p[i][0] - p[j][0]).powi(2)
+                    + (p[i][1] - p[j][1]).powi(2)
+                    + (p[i][2] - p[j][2]).powi(2))
+                .sqrt();
+                nn[i] = nn[i].min(r);
+            }
+        }
+    }
+    let hex = (2.0 * 4.0 * PI / (3f64.sqrt() * n as f64)).sqrt();
+    let mean = nn.iter().sum::<f64>() / n as f64;
+    let sd = (nn.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
+    let min = nn.iter().cloned().fold(f64::INFINITY, f64::min);
+    (mean / hex, sd / mean, min / hex)
+}
+
+#[test]
+fn relax_spreads_points_evenly_on_the_surface() {
+    let sphere = uv_sphere(60, 120, 1.0, [0.0; 3]);
+    let random = nn_stats(&scatter_n(&sphere, 4000, 3, PtareaMode::Prim));
+    let relaxed_cloud = scatter_relaxed(&sphere, 4000, 3, PtareaMode::Prim, 10);
+    let relaxed = nn_stats(&relaxed_cloud);
+    // Random points: the nearest neighbour is at 0.59 of the lattice
+    // spacing on average, spread 29% around it, some almost on top of each
+    // other. Relaxed: close to the lattice.
+    assert!(random.1 > 0.25 && random.2 < 0.1, "{random:?}");
+    assert!(
+        relaxed.0 > 0.85 && relaxed.1 < 0.07 && relaxed.2 > 0.6,
+        "{relaxed:?}"
+    );
+    // Every relaxed point is still on the mesh, on the face it names.
+    let m = TriMesh::from_cloud(&sphere).unwrap();
+    let p = relaxed_cloud.points().vec3_f64("P").unwrap();
+    let prim = relaxed_cloud.points().scalar_f64("sourceprim").unwrap();
+    let uv = relaxed_cloud.points().vec3_f64("sourceuv").unwrap();
+    for i in 0..p.len() {
+        let f = prim[i] as usize;
+        let t0 = m.face_tris[f] as usize;
+        let on = (t0..m.face_tris[f + 1] as usize).any(|t| {
+            let [a, b, c] = m.tri(t);
+            let q = a + (b - a) * uv[i][0] + (c - a) * uv[i][1];
+            // sourceuv is f32.
+            (q - glam::DVec3::from_array(p[i])).length() < 1e-6
+        });
+        assert!(on, "point {i} is not at sourceuv of face {f}");
+        assert!(uv[i][0] >= -1e-9 && uv[i][1] >= -1e-9 && uv[i][0] + uv[i][1] <= 1.0 + 1e-6);
+    }
+}
+
+#[test]
+fn relax_with_voronoi_weights_cuts_the_kernel_error() {
+    let sphere = uv_sphere(120, 240, 1.0, [0.0; 3]);
+    let n = 8000;
+    // About 60 neighbours within D, as in a real ssmulti run.
+    let d = 2.0 * (60.0 / n as f64).sqrt();
+    let err = |mode, relax| sphere_kernel_error(&scatter_relaxed(&sphere, n, 1, mode, relax), d);
+    let prim = err(PtareaMode::Prim, 0);
+    let voronoi = err(PtareaMode::Voronoi, 0);
+    let relaxed = err(PtareaMode::Voronoi, 10);
+    eprintln!("kernel-sum RMS error: prim {prim:.2e}, voronoi {voronoi:.2e}, voronoi + relax 10 {relaxed:.2e}");
+    // Measured: 0.0087, 0.0035, 0.00063.
+    assert!(prim < 0.012, "{prim}");
+    assert!(voronoi < prim / 2.0, "{voronoi} vs {prim}");
+    assert!(
+        relaxed < prim / 8.0 && relaxed < 0.001,
+        "{relaxed} vs {prim}"
+    );
+}
+
+#[test]
+fn voronoi_cells_of_lattices_are_exact() {
+    use glam::DVec3;
+    // A square grid of spacing h on a tilted plane: interior cells h^2.
+    let h = 0.37;
+    let nrm = DVec3::new(1.0, 2.0, 3.0).normalize();
+    let (t1, t2) = pcsss::geom::tangent_basis(nrm);
+    let o = DVec3::new(1e6, -1e6, 1e6);
+    let mut pos = Vec::new();
+    for i in 0..20 {
+        for j in 0..20 {
+            pos.push(o + t1 * (i as f64 * h) + t2 * (j as f64 * h));
+        }
+    }
+    let a = scatter::voronoi_areas(&pos, &vec![nrm; pos.len()], 0.0);
+    for i in 3..17 {
+        for j in 3..17 {
+            let v = a[i * 20 + j] as f64;
+            assert!((v / (h * h) - 1.0).abs() < 1e-5, "{i},{j}: {v}");
+        }
+    }
+    // A hexagonal lattice of spacing s: cells sqrt(3)/2 s^2.
+    let s = 1e-4;
+    let mut pos = Vec::new();
+    for i in 0..20 {
+        for j in 0..20 {
+            let x = (j as f64 + 0.5 * (i % 2) as f64) * s;
+            pos.push(DVec3::new(x, i as f64 * s * 3f64.sqrt() / 2.0, 0.0));
+        }
+    }
+    let a = scatter::voronoi_areas(&pos, &vec![DVec3::ZERO; pos.len()], 0.0);
+    let cell = 3f64.sqrt() / 2.0 * s * s;
+    for i in 3..17 {
+        for j in 3..17 {
+            let v = a[i * 20 + j] as f64;
+            assert!((v / cell - 1.0).abs() < 1e-5, "{i},{j}: {v}");
+        }
+    }
+    // A lone point stands for what it is given.
+    assert_eq!(scatter::voronoi_areas(&pos[..1], &[nrm], 2.5), vec![2.5]);
+}
+
+#[test]
+fn prim_ptarea_covers_triangles_without_points() {
+    // 28,800 triangles, 1,000 points: most triangles get no point; their
+    // area goes to the nearest point, so the sum is still the area and no
+    // point is left with a sliver's area.
+    let sphere = uv_sphere(120, 240, 1.0, [0.0; 3]);
+    let m = TriMesh::from_cloud(&sphere).unwrap();
+    let total: f64 = m.tri_areas().iter().sum();
+    let c = scatter_n(&sphere, 1000, 5, PtareaMode::Prim);
+    let a = c.points().scalar_f64("ptarea").unwrap();
+    let sum: f64 = a.iter().sum();
+    assert!((sum / total - 1.0).abs() < 1e-6, "{sum} vs {total}");
+    let mean = total / 1000.0;
+    assert!(a.iter().all(|&x| x > 0.1 * mean && x < 10.0 * mean));
+}
