@@ -233,6 +233,32 @@ pub fn read_bytes(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
     Ok(v)
 }
 
+/// Reads a lights file (`formats/LIGHTS.md`) and keeps the lights the
+/// mask selects (an error names the file, or the mask that selects none).
+pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<Vec<crate::lights::Light>> {
+    let name = path.display().to_string();
+    let text = std::fs::read(path).with_context(|| name.clone())?;
+    let text = String::from_utf8(text).map_err(|_| anyhow::anyhow!("{name}: not UTF-8 text"))?;
+    let all = crate::lights::parse(&text, &name)?;
+    Ok(crate::lights::mask(&all, mask)?
+        .into_iter()
+        .map(|i| all[i].clone())
+        .collect())
+}
+
+/// Reads a camera file (`formats/CAMERA.md`).
+pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| name.clone())?;
+    Ok(crate::stages::render::Camera::parse(&text, &name)?)
+}
+
+/// Reads a mesh (a file with faces) as triangles; errors name the file.
+pub fn read_mesh(path: &Path) -> anyhow::Result<crate::geom::mesh::TriMesh> {
+    let cloud = read_input(Some(path), &Select::only(&["P"]))?;
+    crate::geom::mesh::TriMesh::from_cloud(&cloud).map_err(at(&path.display().to_string()))
+}
+
 /// Messages to stderr, prefixed with the stage name.
 #[derive(Clone, Copy, Debug)]
 pub struct Messages {
@@ -413,6 +439,19 @@ impl SsArgs {
 /// `PCSSS_TIMES`, `PCSSS_NO_MMAP`).
 pub fn env_flag(name: &str) -> bool {
     std::env::var_os(name).is_some()
+}
+
+/// `X,Y,Z`, the value of option `flag` (named in errors).
+pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?;
+    match v[..] {
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(crate::Error::param(flag, format!("'{s}' is not X,Y,Z")).into()),
+    }
 }
 
 /// `R,G,B` or one value for all three, the value of option `flag`

@@ -8,8 +8,6 @@ use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 use pcsss::geom::bvh::Occluder;
-use pcsss::geom::mesh::TriMesh;
-use pcsss::lights;
 use pcsss::stages::illum;
 
 /// Light arriving at every point (Houdini's pcIllum): illum = sum over
@@ -42,23 +40,10 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("illum");
     let name = args.io.input_name();
-    let lights_name = args.lights.display().to_string();
-    let text = std::fs::read(&args.lights).map_err(|e| anyhow::anyhow!("{lights_name}: {e}"))?;
-    let text =
-        String::from_utf8(text).map_err(|_| anyhow::anyhow!("{lights_name}: not UTF-8 text"))?;
-    let all = lights::parse(&text, &lights_name)?;
-    let used: Vec<lights::Light> = lights::mask(&all, &args.lmask)?
-        .into_iter()
-        .map(|i| all[i].clone())
-        .collect();
+    let used = cli::read_lights(&args.lights, &args.lmask)?;
     // The mesh first: a missing or broken mesh fails before the cloud is read.
     let occluder = match &args.mesh {
-        Some(path) => {
-            let mesh_cloud = cli::read_input(Some(path), &Select::only(&["P"]))?;
-            let mesh =
-                TriMesh::from_cloud(&mesh_cloud).map_err(cli::at(&path.display().to_string()))?;
-            Some(Occluder::new(&mesh))
-        }
+        Some(path) => Some(Occluder::new(&cli::read_mesh(path)?)),
         None => None,
     };
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;

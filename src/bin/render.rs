@@ -9,9 +9,8 @@ use clap::Parser;
 use pcsss::cli::{self, MsgArgs, SsArgs};
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
-use pcsss::lights;
 use pcsss::stages::filter::{Params, Source};
-use pcsss::stages::render::{self, Camera};
+use pcsss::stages::render;
 use pcsss::Error;
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
@@ -78,9 +77,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         let what = format!("{}: must be a finite fraction > 0", args.radius);
         return Err(Error::param("--radius", what).into());
     }
-    let cam_name = args.camera.display().to_string();
-    let text = std::fs::read_to_string(&args.camera).with_context(|| cam_name.clone())?;
-    let cam = Camera::parse(&text, &cam_name)?;
+    let cam = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params()?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
@@ -88,17 +85,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         return Err(Error::param("--kd", format!("{kd:?}: must be finite and >= 0")).into());
     }
     let lights_used = match &args.direct {
+        Some(path) => Some(cli::read_lights(path, &args.lmask)?),
         None => None,
-        Some(path) => {
-            let name = path.display().to_string();
-            let text = std::fs::read_to_string(path).with_context(|| name.clone())?;
-            let all = lights::parse(&text, &name)?;
-            let used: Vec<lights::Light> = lights::mask(&all, &args.lmask)?
-                .into_iter()
-                .map(|i| all[i].clone())
-                .collect();
-            Some(used)
-        }
     };
     let mesh_name = args.mesh.display().to_string();
     let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
