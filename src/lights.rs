@@ -535,20 +535,65 @@ impl Light {
     /// `r1, r2` shift the area light's sample lattice.
     pub fn arrivals(&self, p: DVec3, n: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
         out.clear();
-        match &self.shape {
-            Shape::Distant { to_light } => {
-                let cos = n.dot(*to_light);
+        let share = 1.0 / self.samples as f64;
+        self.points(p, r1, r2, |at| match at {
+            LightPoint::Towards(to_light) => {
+                let cos = n.dot(to_light);
                 if cos > 0.0 {
                     out.push(Arrival {
-                        dir: *to_light,
+                        dir: to_light,
                         dist: f64::INFINITY,
                         e: self.cl * cos,
                     });
                 }
             }
-            Shape::Point { position } => {
-                out.extend(self.arrival_from(p, n, *position, 1.0, 1.0));
+            LightPoint::At { q, w, area } => {
+                let share = if area { share } else { 1.0 };
+                out.extend(self.arrival_from(p, n, q, w, share));
             }
+        });
+    }
+
+    /// The light each sample of this light sends to a point `p` inside a
+    /// medium (no receiver cosine, no shadow test; `sssingle`): an area
+    /// light's samples each with the whole `Cl` (their mean is the light),
+    /// none that sends nothing (outside a spot's cone, a one-sided emitter
+    /// facing away). `r1, r2` shift the area light's lattice.
+    pub fn emissions(&self, p: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
+        out.clear();
+        self.points(p, r1, r2, |at| match at {
+            LightPoint::Towards(to_light) => out.push(Arrival {
+                dir: to_light,
+                dist: f64::INFINITY,
+                e: self.cl,
+            }),
+            LightPoint::At { q, w, .. } => {
+                let to = q - p;
+                let d2 = to.length_squared();
+                if w > 0.0 && d2 > 0.0 && d2.is_finite() {
+                    let dist = d2.sqrt();
+                    out.push(Arrival {
+                        dir: to / dist,
+                        dist,
+                        e: self.cl * (w * self.falloff_at(d2)),
+                    });
+                }
+            }
+        });
+    }
+
+    /// The points of this light as seen from `p`, in order: a distant
+    /// light's direction, a point or spot light's position, an area
+    /// light's lattice of `samples` points (shifted by `r1, r2`), each with
+    /// its emitter weight towards `p`.
+    fn points(&self, p: DVec3, r1: f64, r2: f64, mut f: impl FnMut(LightPoint)) {
+        match &self.shape {
+            Shape::Distant { to_light } => f(LightPoint::Towards(*to_light)),
+            Shape::Point { position } => f(LightPoint::At {
+                q: *position,
+                w: 1.0,
+                area: false,
+            }),
             Shape::Spot {
                 position,
                 axis,
@@ -566,7 +611,11 @@ impl Light {
                         } else {
                             1.0
                         };
-                    out.extend(self.arrival_from(p, n, *position, w, 1.0));
+                    f(LightPoint::At {
+                        q: *position,
+                        w,
+                        area: false,
+                    });
                 }
             }
             Shape::Rect {
@@ -576,12 +625,11 @@ impl Light {
                 normal,
                 two_sided,
             } => {
-                let share = 1.0 / self.samples as f64;
                 for k in 0..self.samples {
                     let (a, b) = lattice(k, self.samples, r1, r2);
                     let q = *centre + *u * (a - 0.5) + *v * (b - 0.5);
                     let w = emitter_cos(*normal, p - q, *two_sided);
-                    out.extend(self.arrival_from(p, n, q, w, share));
+                    f(LightPoint::At { q, w, area: true });
                 }
             }
             Shape::Disk {
@@ -590,14 +638,13 @@ impl Light {
                 radius,
                 two_sided,
             } => {
-                let share = 1.0 / self.samples as f64;
                 let (t1, t2) = crate::geom::tangent_basis(*normal);
                 for k in 0..self.samples {
                     let (a, b) = lattice(k, self.samples, r1, r2);
                     let (rho, phi) = (*radius * a.sqrt(), 2.0 * PI * b);
                     let q = *centre + t1 * (rho * phi.cos()) + t2 * (rho * phi.sin());
                     let w = emitter_cos(*normal, p - q, *two_sided);
-                    out.extend(self.arrival_from(p, n, q, w, share));
+                    f(LightPoint::At { q, w, area: true });
                 }
             }
             Shape::Sphere { centre, radius } => {
@@ -607,7 +654,6 @@ impl Light {
                 }
                 let axis = axis.normalize();
                 let (t1, t2) = crate::geom::tangent_basis(axis);
-                let share = 1.0 / self.samples as f64;
                 for k in 0..self.samples {
                     // Cosine-weighted on the hemisphere facing the
                     // receiver (uniform on its projected disk): the
@@ -622,11 +668,19 @@ impl Light {
                     let m = axis * z + t1 * (rho * phi.cos()) + t2 * (rho * phi.sin());
                     let q = *centre + m * *radius;
                     let w = emitter_cos(m, p - q, false) / z;
-                    out.extend(self.arrival_from(p, n, q, w, share));
+                    f(LightPoint::At { q, w, area: true });
                 }
             }
         }
     }
+}
+
+/// A point of a light as a receiver sees it: the direction to a distant
+/// light, or a point `q` of the light with its emitter weight `w` (`area`:
+/// one of an area light's samples).
+enum LightPoint {
+    Towards(DVec3),
+    At { q: DVec3, w: f64, area: bool },
 }
 
 /// The emitter's cosine towards `to_receiver` (0 behind a one-sided one).

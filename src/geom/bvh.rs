@@ -274,27 +274,89 @@ impl Occluder {
     /// The nearest hit of the ray from `origin` along the unit `dir` (a
     /// camera ray: no offset): the mesh triangle and the distance.
     pub fn closest(&self, origin: DVec3, dir: DVec3) -> Option<(usize, f64)> {
+        self.nearest(origin, dir, 0.0, f64::INFINITY, Facing::Any)
+    }
+
+    /// The nearest hit of the ray from `origin` along the unit `dir` at a
+    /// distance in `[tmin, tmax]` (`tmin` may be negative: a ray that
+    /// starts on a surface can still find it): the mesh triangle and the
+    /// distance, as precise as the f32 unit frame (about 1e-7 of the
+    /// mesh's size; `sssingle` refines it in f64). Equal distances: the
+    /// lowest triangle index. `facing` keeps only the triangles the ray
+    /// enters or leaves the mesh through (by their winding: outward
+    /// normals counter-clockwise).
+    pub fn nearest(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        tmin: f64,
+        tmax: f64,
+        facing: Facing,
+    ) -> Option<(usize, f64)> {
         if self.nodes.is_empty() {
             return None;
         }
         let o = ((origin - self.centre) * self.inv_scale).as_vec3();
-        let mut ray = Ray::new(o.into(), Vec3A::from(dir.as_vec3()), 0.0, f32::INFINITY);
-        let (o, id) = ray_slabs(&ray);
+        let t0 = (tmin * self.inv_scale) as f32;
+        let t1 = (tmax * self.inv_scale) as f32;
+        let mut ray = Ray::new(o.into(), Vec3A::from(dir.as_vec3()), t0, t1);
+        self.nearest_ray(&mut ray, facing).map(|j| {
+            (
+                self.ids[j as usize] as usize,
+                ray.tmax as f64 / self.inv_scale,
+            )
+        })
+    }
+
+    /// The nearest hit of `ray` (in the unit frame): its place in leaf
+    /// order, with `ray.tmax` set to its distance. Children are visited
+    /// nearest first, and a child beyond the nearest hit so far is
+    /// skipped.
+    pub fn nearest_ray(&self, ray: &mut Ray, facing: Facing) -> Option<u32> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let (o, id) = ray_slabs(ray);
         let mut best: Option<u32> = None;
-        let mut stack: Vec<u32> = vec![0];
-        while let Some(at) = stack.pop() {
+        // (Entry distance, node) pairs: a node is skipped when the nearest
+        // hit found since it was pushed lies before its entry.
+        let mut stack = [(0f32, 0u32); STACK];
+        let mut spill: Vec<(f32, u32)> = Vec::new();
+        let mut top = 1usize;
+        stack[0] = (ray.tmin, 0);
+        loop {
+            let (enter, at) = if top > 0 {
+                top -= 1;
+                stack[top]
+            } else if let Some(e) = spill.pop() {
+                e
+            } else {
+                break;
+            };
+            if enter > ray.tmax * (1.0 + 2.0 * f32::EPSILON) {
+                continue;
+            }
             let node = &self.nodes[at as usize];
             let (tnear, tfar) = slabs(node, &o, &id, ray.tmin, ray.tmax);
+            // The inner children crossed, farthest first on the stack.
+            let mut kids = [(0f32, 0u32); W];
+            let mut nk = 0;
             for k in 0..W {
                 let (child, count) = (node.child[k], node.count[k]);
                 if tnear[k] > tfar[k] || count == EMPTY {
                     continue;
                 }
                 if count == 0 {
-                    stack.push(child);
+                    let mut j = nk;
+                    while j > 0 && kids[j - 1].0 < tnear[k] {
+                        kids[j] = kids[j - 1];
+                        j -= 1;
+                    }
+                    kids[j] = (tnear[k], child);
+                    nk += 1;
                 } else {
                     for j in child..child + count {
-                        if let Some(t) = self.tris[j as usize].hit_t(&ray) {
+                        if let Some(t) = self.tris[j as usize].hit_t(ray, facing) {
                             // Nearest first; equal distances: lowest index.
                             let better = t < ray.tmax
                                 || best.is_none_or(|b| self.ids[j as usize] < self.ids[b as usize]);
@@ -306,13 +368,16 @@ impl Occluder {
                     }
                 }
             }
+            for &kid in &kids[..nk] {
+                if top < STACK {
+                    stack[top] = kid;
+                    top += 1;
+                } else {
+                    spill.push(kid);
+                }
+            }
         }
-        best.map(|j| {
-            (
-                self.ids[j as usize] as usize,
-                ray.tmax as f64 / self.inv_scale,
-            )
-        })
+        best
     }
 
     /// The triangles in the unit frame, in leaf order (for comparisons with
@@ -369,6 +434,23 @@ fn set_box(n: &mut Node, slot: usize, lo: Vec3A, hi: Vec3A) {
     }
 }
 
+/// Which triangles a nearest-hit query takes, by the side the ray meets
+/// them from (outward normals wind counter-clockwise).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Facing {
+    /// Every triangle.
+    Any,
+    /// Those the ray enters the mesh through (from outside).
+    Entering,
+    /// Those the ray leaves the mesh through (from inside).
+    Leaving,
+}
+
+/// How far outside a triangle, in barycentric units, a ray still hits
+/// it: more than the rounding of the f32 weights, so that the triangles
+/// sharing an edge leave no crack between them along it.
+const EDGE: f32 = 1e-6;
+
 /// A triangle ready for the ray test: `v0`, the edges `e1 = v0 - v1`,
 /// `e2 = v2 - v0` and `n = e1 x e2` (the Möller-Trumbore variant of
 /// `obvhs::triangle::Triangle::intersect`, both sides, with the per-test
@@ -393,17 +475,30 @@ impl Tri {
         }
     }
 
-    /// The hit distance in `[tmin, tmax]`, if any.
+    /// The hit distance in `[tmin, tmax]`, if any, on a triangle that
+    /// faces the ray as `facing` asks.
     #[inline(always)]
-    fn hit_t(&self, ray: &Ray) -> Option<f32> {
+    fn hit_t(&self, ray: &Ray, facing: Facing) -> Option<f32> {
         let c = self.v0 - ray.origin;
         let r = ray.direction.cross(c);
-        let inv_det = 1.0 / self.n.dot(ray.direction);
+        // (`n` is minus the counter-clockwise normal: the ray leaves
+        // through a triangle when `n . d < 0`.)
+        let det = self.n.dot(ray.direction);
+        let faces = match facing {
+            Facing::Any => true,
+            Facing::Entering => det > 0.0,
+            Facing::Leaving => det < 0.0,
+        };
+        if !faces {
+            return None;
+        }
+        let inv_det = 1.0 / det;
         let u = r.dot(self.e2) * inv_det;
         let v = r.dot(self.e1) * inv_det;
         let w = 1.0 - u - v;
-        let hit = u.to_bits() | v.to_bits() | w.to_bits();
-        if inv_det != 0.0 && inv_det.is_finite() && hit & 0x8000_0000 == 0 {
+        // Within `EDGE` of the triangle: a ray through an edge two
+        // triangles share hits both, never neither.
+        if inv_det != 0.0 && inv_det.is_finite() && u >= -EDGE && v >= -EDGE && w >= -EDGE {
             let t = self.n.dot(c) * inv_det;
             return (t >= ray.tmin && t <= ray.tmax).then_some(t);
         }
@@ -419,9 +514,7 @@ impl Tri {
         let u = r.dot(self.e2) * inv_det;
         let v = r.dot(self.e1) * inv_det;
         let w = 1.0 - u - v;
-        // All three non-negative: one sign test on the bits.
-        let hit = u.to_bits() | v.to_bits() | w.to_bits();
-        if inv_det != 0.0 && hit & 0x8000_0000 == 0 {
+        if inv_det != 0.0 && u >= -EDGE && v >= -EDGE && w >= -EDGE {
             let t = self.n.dot(c) * inv_det;
             return t >= ray.tmin && t <= ray.tmax;
         }
