@@ -9,6 +9,7 @@ pub mod promote;
 pub mod render;
 pub mod scatter;
 pub mod ssmulti;
+pub mod sssingle;
 
 /// Which stage makes each well-known attribute (`docs/DESIGN.md#stages`):
 /// an error about a missing attribute names it.
@@ -26,6 +27,7 @@ pub const MAKERS: &[(&str, &str)] = &[
     ("ssM", "ssmulti"),
     ("ssmulti_sd", "ssmulti"),
     ("ssmulti_rd", "ssmulti"),
+    ("ssS", "sssingle"),
     ("beauty", "render"),
     (crate::image::PIXEL_X, "render"),
     (crate::image::PIXEL_Y, "render"),

@@ -19,3 +19,4 @@ mod promote;
 mod python_interop;
 mod scatter;
 mod ssmulti;
+mod sssingle;

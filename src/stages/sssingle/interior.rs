@@ -1,0 +1,161 @@
+//! Rays inside the object: where the view ray enters and leaves it, and
+//! where a light's ray from a point inside enters it, with the mesh's
+//! normal there.
+//!
+//! The BVH ([`Occluder`]) finds the triangle in its f32 unit frame (about
+//! 1e-7 of the mesh's size); the distance is then recomputed in f64
+//! against that triangle's plane, from the ray's f64 origin, so that depths
+//! of 1e-8 of the object's size (a tiny mean free path) stay exact.
+
+use glam::DVec3;
+
+use crate::geom::bvh::{Facing, Occluder};
+use crate::geom::mesh::TriMesh;
+use crate::geom::{self, unit_or_zero};
+use crate::stages::facet::{corner_normals, Weight};
+
+/// A surface hit: the distance along the ray and the mesh's unit normal
+/// there.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    pub dist: f64,
+    pub normal: DVec3,
+}
+
+/// The mesh, its BVH and its normals (corners split at the cusp angle).
+pub struct Interior<'a> {
+    mesh: &'a TriMesh,
+    occ: Occluder,
+    face_n: Vec<DVec3>,
+    corner_n: Vec<DVec3>,
+    tri_face: Vec<u32>,
+    /// How far outside a point a view ray starts, to find the surface the
+    /// point lies on (1e-5 of the mesh's size).
+    margin: f64,
+    /// How far behind its origin a light's ray still finds a surface (1e-6
+    /// of the mesh's size: a point that rounding put just outside).
+    behind: f64,
+}
+
+impl<'a> Interior<'a> {
+    /// The queries on `mesh`, its normals smooth up to `cusp_deg`.
+    pub fn new(mesh: &'a TriMesh, cusp_deg: f64) -> Interior<'a> {
+        let face_n = mesh.face_normals();
+        let corner_n = corner_normals(mesh, &face_n, Weight::Angle, cusp_deg);
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &mesh.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let size = if lo.x <= hi.x {
+            (hi - lo).max_element()
+        } else {
+            0.0
+        };
+        Interior {
+            mesh,
+            occ: Occluder::new(mesh),
+            face_n,
+            corner_n,
+            tri_face: mesh.tri_faces(),
+            margin: 1e-5 * size,
+            behind: 1e-6 * size,
+        }
+    }
+
+    /// The BVH (for counting and benchmarks).
+    pub fn occluder(&self) -> &Occluder {
+        &self.occ
+    }
+
+    /// The distance from `o` along unit `dir` to triangle `t`'s plane, in
+    /// f64 (`None` parallel to it).
+    fn plane_dist(&self, t: usize, o: DVec3, dir: DVec3) -> Option<f64> {
+        let [a, b, c] = self.mesh.tri(t);
+        let n = geom::tri_cross(a, b, c);
+        let den = n.dot(dir);
+        let d = n.dot(a - o) / den;
+        d.is_finite().then_some(d)
+    }
+
+    /// The mesh's normal on triangle `t` at point `p`: its corners'
+    /// normals interpolated, the face's where they cancel.
+    fn normal_at(&self, t: usize, p: DVec3) -> DVec3 {
+        let [a, b, c] = self.mesh.tri(t);
+        let w = geom::closest_on_triangle(p, a, b, c);
+        let k = self.mesh.tris[t];
+        let n = self.corner_n[k[0] as usize] * w[0]
+            + self.corner_n[k[1] as usize] * w[1]
+            + self.corner_n[k[2] as usize] * w[2];
+        let n = unit_or_zero(n);
+        if n == DVec3::ZERO {
+            self.face_n[self.tri_face[t] as usize]
+        } else {
+            n
+        }
+    }
+
+    /// The view ray inside: the point where the ray along `dir` through
+    /// `xo` (a cloud point, on the surface up to rounding) enters the mesh
+    /// (`xo` itself when no surface lies that close), and the distance
+    /// from there to where it leaves (infinite when it does not). Only
+    /// the triangles the ray enters, then leaves, through are taken, so a
+    /// point rounded to either side of its surface finds the same.
+    pub fn view(&self, xo: DVec3, dir: DVec3) -> (DVec3, f64) {
+        let start = xo - dir * self.margin;
+        let on = match self
+            .occ
+            .nearest(start, dir, 0.0, 2.0 * self.margin, Facing::Entering)
+        {
+            Some((t, _)) => match self.plane_dist(t, start, dir) {
+                Some(d) => start + dir * d.clamp(0.0, 2.0 * self.margin),
+                None => xo,
+            },
+            None => xo,
+        };
+        let exit = self
+            .occ
+            .nearest(on, dir, -self.behind, f64::INFINITY, Facing::Leaving)
+            .and_then(|(t, _)| self.plane_dist(t, on, dir))
+            .map_or(f64::INFINITY, |d| d.max(0.0));
+        (on, exit)
+    }
+
+    /// Where the ray from `p` (inside) along unit `dir` first leaves the
+    /// mesh within `max` (a light's distance): the distance, at least 0,
+    /// and the mesh's normal there. A surface a little behind `p` counts
+    /// (a point at a tiny depth that rounding put outside), one the ray
+    /// would enter does not (a point just inside another face).
+    pub fn entry(&self, p: DVec3, dir: DVec3, max: f64) -> Option<Entry> {
+        let (t, _) = self
+            .occ
+            .nearest(p, dir, -self.behind, max, Facing::Leaving)?;
+        let dist = self.plane_dist(t, p, dir)?.max(0.0);
+        Some(Entry {
+            dist,
+            normal: self.normal_at(t, p + dir * dist),
+        })
+    }
+
+    /// Is `eye` inside the mesh? The nearest surface a ray from it meets
+    /// faces away from it (a closed mesh).
+    pub fn contains(&self, eye: DVec3) -> bool {
+        // Three directions, so a ray grazing an edge does not decide alone.
+        let dirs = [
+            DVec3::new(0.267, 0.535, 0.802),
+            DVec3::new(-0.802, 0.267, -0.535),
+            DVec3::new(0.535, -0.802, 0.267),
+        ];
+        let inside = dirs
+            .iter()
+            .filter(|d| {
+                let d = d.normalize();
+                self.occ.closest(eye, d).is_some_and(|(t, _)| {
+                    let [a, b, c] = self.mesh.tri(t);
+                    geom::tri_cross(a, b, c).dot(d) > 0.0
+                })
+            })
+            .count();
+        inside >= 2
+    }
+}

@@ -1,0 +1,524 @@
+//! `sssingle` (Marengo's `ssIntegSingle`): single scattering at every
+//! cloud point, for one eye, `ssS` (colour), as `docs/DESIGN.md#sssingle`
+//! writes it. Along the view ray refracted into the surface, `samples`
+//! depths (stratified, from the point's own random stream: the same bits
+//! on any thread count); from each, a ray towards every light sample finds
+//! where that light enters the mesh; the light is carried to the depth
+//! along the refracted path, scattered towards the eye by a
+//! Henyey-Greenstein phase function and refracted out, with Fresnel at
+//! both crossings.
+//!
+//! Two models ([`Model`]): Marengo's (`seed`: the smooth falloff over the
+//! refracted path, Rd and sd as ssmulti's, samples with density
+//! following the falloff) and the physical one (Jensen et al. 2001:
+//! albedo, mean free path, exponential attenuation, a truncated
+//! exponential over the depth; three different mean free paths share one
+//! set of rays through the balance heuristic).
+//!
+//! Work skipped: a point the eye does not see (`dot(N, eye - P) <= 0`)
+//! costs nothing; a light sample that sends nothing to a depth (outside a
+//! spot's cone, a one-sided emitter facing away) costs no ray; one
+//! channel's distances or mean free paths equal: one density.
+
+pub mod interior;
+pub mod optics;
+
+use glam::DVec3;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+use crate::cloud::{Cloud, DetailValue, Role};
+use crate::error::{Error, Result};
+use crate::geom::mesh::TriMesh;
+use crate::lights::{Arrival, Light};
+use crate::maths::uniform24;
+use crate::progress::Progress;
+use crate::stages::ssmulti::{falloff, Falloff};
+
+use self::interior::Interior;
+use self::optics::*;
+
+/// Which estimator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Model {
+    /// Marengo's ssIntegSingle: Rd and sd, the smooth falloff over the
+    /// refracted path, HG scaled to peak 1.
+    #[default]
+    Seed,
+    /// Jensen et al. 2001: albedo and mean free path per channel,
+    /// exponential attenuation, HG normalised.
+    Physical,
+}
+
+/// The most samples a point may ask for.
+pub const MAX_SAMPLES: u32 = 4096;
+
+/// Parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub model: Model,
+    /// Seed model: diffuse reflectance and scattering distance (`lu = Rd *
+    /// sd`, as ssmulti's `ld`).
+    pub rd: [f64; 3],
+    pub sd: f64,
+    /// Physical model: single-scattering albedo and mean free path per
+    /// channel.
+    pub albedo: [f64; 3],
+    pub mfp: [f64; 3],
+    /// Henyey-Greenstein asymmetry, in [-1, 1] (used clamped to +-0.998).
+    pub g: f64,
+    /// Relative index of refraction, inside over outside.
+    pub eta: f64,
+    /// Depth samples per point.
+    pub samples: u32,
+    /// Seed model: per-channel distances (Marengo's t_rgb).
+    pub rgb: bool,
+    /// Random seed.
+    pub seed: u64,
+    /// The eye.
+    pub eye: DVec3,
+    /// The mesh's normals are smooth across edges up to this angle
+    /// (degrees), as `facet --mode smooth`'s.
+    pub cusp: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            model: Model::Seed,
+            rd: [1.0; 3],
+            sd: 1.0,
+            albedo: [0.8; 3],
+            mfp: [1.0; 3],
+            g: 0.0,
+            eta: 1.3,
+            samples: 16,
+            rgb: false,
+            seed: 0,
+            eye: DVec3::ZERO,
+            cusp: 60.0,
+        }
+    }
+}
+
+/// What `sssingle` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Report {
+    pub points: usize,
+    /// Points whose `ssS` was computed (seen from the eye, and wanted).
+    pub computed: usize,
+    /// Points the eye does not see (nothing computed).
+    pub unseen: usize,
+    /// Points whose view ray is totally reflected (eta below 1).
+    pub reflected: usize,
+    /// Rays cast towards lights.
+    pub rays: u64,
+    /// Of those, rays that found where their light enters.
+    pub entered: u64,
+    /// The eye is inside the mesh.
+    pub eye_inside: bool,
+}
+
+/// Checks the parameters; errors name the option.
+pub fn validate(p: &Params) -> Result<()> {
+    let rgb_in = |name: &str, v: [f64; 3], ok: &dyn Fn(f64) -> bool, what: &str| -> Result<()> {
+        match v.iter().position(|&x| !ok(x)) {
+            Some(c) => Err(Error::param(
+                name,
+                format!("channel {c} is {:?}: {what}", v[c]),
+            )),
+            None => Ok(()),
+        }
+    };
+    if !(p.eta.is_finite() && p.eta > 0.0 && p.eta <= 1e3) {
+        return Err(Error::param(
+            "--eta",
+            format!("{:?} is not in (0, 1e3]", p.eta),
+        ));
+    }
+    if !(p.g.is_finite() && (-1.0..=1.0).contains(&p.g)) {
+        return Err(Error::param("--g", format!("{:?} is not in [-1, 1]", p.g)));
+    }
+    if !(1..=MAX_SAMPLES).contains(&p.samples) {
+        return Err(Error::param(
+            "--samples",
+            format!("{} is not in 1..={MAX_SAMPLES}", p.samples),
+        ));
+    }
+    if !p.eye.is_finite() {
+        return Err(Error::param("--eye", format!("{:?} is not finite", p.eye)));
+    }
+    if !(p.cusp.is_finite() && (0.0..=180.0).contains(&p.cusp)) {
+        return Err(Error::param(
+            "--cusp",
+            format!("{:?} is not an angle in [0, 180] degrees", p.cusp),
+        ));
+    }
+    match p.model {
+        Model::Seed => {
+            let finite = |x: f64| x.is_finite() && x >= 0.0;
+            rgb_in("--rd", p.rd, &finite, "not a finite number >= 0")?;
+            if !finite(p.sd) {
+                return Err(Error::param(
+                    "--sd",
+                    format!("{:?} is not a finite number >= 0", p.sd),
+                ));
+            }
+        }
+        Model::Physical => {
+            rgb_in(
+                "--albedo",
+                p.albedo,
+                &|x| (0.0..=1.0).contains(&x),
+                "not in [0, 1]",
+            )?;
+            rgb_in(
+                "--mfp",
+                p.mfp,
+                &|x| x.is_finite() && x > 0.0,
+                "not a finite distance > 0",
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Adds `ssS` to `cloud`'s points (which need `P` and `N`) for the eye
+/// `p.eye`, with light from `lights` entering through `mesh`.
+pub fn sssingle(
+    cloud: &mut Cloud,
+    mesh: &TriMesh,
+    lights: &[Light],
+    p: &Params,
+    progress: &Progress,
+) -> Result<Report> {
+    let (out, report) = sssingle_values(cloud, mesh, lights, p, None, progress)?;
+    cloud.points_mut().set_vec3("ssS", Role::Color, &out)?;
+    cloud.set_detail("sssingle_eye", DetailValue::V3D(p.eye.to_array()));
+    cloud.set_detail(
+        "sssingle_model",
+        DetailValue::Str(format!("{:?}", p.model).to_lowercase()),
+    );
+    match p.model {
+        Model::Seed => {
+            cloud.set_detail("sssingle_sd", DetailValue::F64(p.sd));
+            cloud.set_detail("sssingle_rd", DetailValue::V3D(p.rd));
+        }
+        Model::Physical => cloud.set_detail("sssingle_mfp", DetailValue::V3D(p.mfp)),
+    }
+    Ok(report)
+}
+
+/// `ssS` of `cloud`'s points without changing the cloud: of every point,
+/// or (`want`, one flag a point) only of the wanted ones (others get 0;
+/// `Report::computed` counts the wanted points the eye sees).
+pub fn sssingle_values(
+    cloud: &Cloud,
+    mesh: &TriMesh,
+    lights: &[Light],
+    p: &Params,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<(Vec<[f32; 3]>, Report)> {
+    validate(p)?;
+    let pts = cloud.points();
+    if !pts.has("N") {
+        return Err(Error::missing("point", "N"));
+    }
+    let pos = pts.vec3_f64("P")?;
+    let nrm = pts.vec3_f64("N")?;
+    if let Some(w) = want {
+        if w.len() != pos.len() {
+            return Err(Error::invalid(format!(
+                "{} flags for {} points",
+                w.len(),
+                pos.len()
+            )));
+        }
+    }
+    for i in 0..pos.len() {
+        let (x, n) = (DVec3::from_array(pos[i]), DVec3::from_array(nrm[i]));
+        if !x.is_finite() {
+            return Err(Error::invalid(format!(
+                "point {i}: P is {:?}, not finite",
+                pos[i]
+            )));
+        }
+        if !(n.is_finite() && n.length_squared() > 0.0) {
+            return Err(Error::invalid(format!(
+                "point {i}: N is {:?}, which has no direction",
+                nrm[i]
+            )));
+        }
+    }
+    let interior = Interior::new(mesh, p.cusp);
+    let run = Run::new(p, lights, &interior);
+    progress.start("single scattering", pos.len() as u64);
+    let per_point: Vec<([f64; 3], Outcome)> = (0..pos.len())
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, i| {
+            progress.inc(1);
+            if want.is_some_and(|w| !w[i]) {
+                return ([0.0; 3], Outcome::Skipped);
+            }
+            let xo = DVec3::from_array(pos[i]);
+            let no = DVec3::from_array(nrm[i]).normalize();
+            run.point(i as u64, xo, no, scratch)
+        })
+        .collect();
+    progress.finish();
+    let mut report = Report {
+        points: pos.len(),
+        eye_inside: interior.contains(p.eye),
+        ..Report::default()
+    };
+    let mut out = Vec::with_capacity(per_point.len());
+    for (i, (v, o)) in per_point.into_iter().enumerate() {
+        // Never a non-finite value it did not read: too much light for a
+        // float attribute is refused.
+        if !v
+            .iter()
+            .all(|x| x.is_finite() && x.abs() <= f32::MAX as f64)
+        {
+            return Err(Error::invalid(format!(
+                "point {i}: ssS would be {:e}, {:e}, {:e}, beyond the range of a float attribute (are the lights' intensities right?)",
+                v[0], v[1], v[2]
+            )));
+        }
+        out.push(v.map(|x| x as f32));
+        match o {
+            Outcome::Skipped => {}
+            Outcome::Unseen => report.unseen += 1,
+            Outcome::Reflected => report.reflected += 1,
+            Outcome::Lit { rays, entered } => {
+                report.computed += 1;
+                report.rays += rays;
+                report.entered += entered;
+            }
+        }
+    }
+    Ok((out, report))
+}
+
+/// A thread's reusable buffers.
+#[derive(Default)]
+struct Scratch {
+    emissions: Vec<Arrival>,
+    /// Per light: the sum over its pairs and the pairs with a hit.
+    sums: Vec<([f64; 3], u64)>,
+}
+
+/// What happened at a point.
+enum Outcome {
+    /// Not wanted.
+    Skipped,
+    Unseen,
+    Reflected,
+    Lit {
+        rays: u64,
+        entered: u64,
+    },
+}
+
+/// What every point of a run shares.
+struct Run<'a> {
+    p: &'a Params,
+    lights: &'a [Light],
+    interior: &'a Interior<'a>,
+    /// Seed model: the channels' distances and the largest.
+    lu: [f64; 3],
+    lu1: f64,
+    /// Physical model: extinction per channel.
+    sigma_t: [f64; 3],
+    /// One kernel or density serves every channel.
+    single: bool,
+}
+
+impl<'a> Run<'a> {
+    fn new(p: &'a Params, lights: &'a [Light], interior: &'a Interior<'a>) -> Run<'a> {
+        let lu = p.rd.map(|r| r * p.sd);
+        let sigma_t = p.mfp.map(|m| 1.0 / m);
+        let single = match p.model {
+            Model::Seed => !p.rgb || (lu[0] == lu[1] && lu[1] == lu[2]),
+            Model::Physical => sigma_t[0] == sigma_t[1] && sigma_t[1] == sigma_t[2],
+        };
+        Run {
+            p,
+            lights,
+            interior,
+            lu,
+            lu1: lu.iter().copied().fold(0.0, f64::max),
+            sigma_t,
+            single,
+        }
+    }
+
+    /// `ssS` at point `i` (`xo`, unit `no`).
+    fn point(&self, i: u64, xo: DVec3, no: DVec3, scratch: &mut Scratch) -> ([f64; 3], Outcome) {
+        let p = self.p;
+        let wo = (p.eye - xo).normalize_or_zero();
+        let cos_o = no.dot(wo);
+        // (Also an eye at the point itself: `wo` is zero.)
+        if cos_o.is_nan() || cos_o <= 0.0 {
+            return ([0.0; 3], Outcome::Unseen);
+        }
+        let Some(to) = refract(-wo, no, 1.0 / p.eta) else {
+            return ([0.0; 3], Outcome::Reflected);
+        };
+        let view = View {
+            wpo: -to,
+            kto: 1.0 - fresnel(cos_o, p.eta),
+        };
+        let (x0, d) = self.interior.view(xo, to);
+        let mut rng = Pcg32::new(p.seed, i);
+        let k = p.samples as usize;
+        let Scratch { emissions, sums } = scratch;
+        sums.clear();
+        sums.resize(self.lights.len(), ([0.0; 3], 0));
+        let (mut rays, mut entered) = (0u64, 0u64);
+        for j in 0..k {
+            let (s, weight) = self.depth(j, uniform24(&mut rng), d);
+            let ps = x0 + to * s;
+            for (l, light) in self.lights.iter().enumerate() {
+                let (r1, r2) = if light.samples > 1 {
+                    (uniform24(&mut rng), uniform24(&mut rng))
+                } else {
+                    (0.5, 0.5)
+                };
+                light.emissions(ps, r1, r2, emissions);
+                for e in emissions.iter() {
+                    rays += 1;
+                    let Some(hit) = self.interior.entry(ps, e.dir, e.dist) else {
+                        continue;
+                    };
+                    let ci = e.dir.dot(hit.normal);
+                    if ci.is_nan() || ci <= 0.0 {
+                        continue;
+                    }
+                    entered += 1;
+                    if let Some(f) = self.pair(&view, e, hit.dist, hit.normal, ci, weight) {
+                        let (sum, n) = &mut sums[l];
+                        for c in 0..3 {
+                            sum[c] += f[c];
+                        }
+                        *n += 1;
+                    }
+                }
+            }
+        }
+        let mut v = [0.0f64; 3];
+        for (l, (sum, hits)) in sums.iter().enumerate() {
+            // Seed: over the pairs with a hit (Marengo's); physical: the
+            // mean over every pair a light has.
+            let n = match p.model {
+                Model::Seed => *hits as f64,
+                Model::Physical => (k as u64 * self.lights[l].samples as u64) as f64,
+            };
+            if n > 0.0 {
+                for c in 0..3 {
+                    v[c] += sum[c] / n;
+                }
+            }
+        }
+        let scale = match p.model {
+            Model::Seed => [2.0; 3],
+            Model::Physical => p.albedo.map(|a| a * view.kto / (p.eta * p.eta)),
+        };
+        let out = [0, 1, 2].map(|c| v[c] * scale[c]);
+        (out, Outcome::Lit { rays, entered })
+    }
+
+    /// The depth of sample `j` (of `samples`, jittered by `xi` in its
+    /// stratum) along the view ray, and each channel's weight for it.
+    /// Seed: the falloff's own density on [0, min(d, lu1)], weight 1.
+    /// Physical: the truncated exponential on [0, d], weight its mass;
+    /// with three densities, their even mixture `q` (stratified along its
+    /// own distribution), and channel c weighs `mass_c p_c(s) / q(s)` (the
+    /// balance heuristic).
+    fn depth(&self, j: usize, xi: f64, d: f64) -> (f64, [f64; 3]) {
+        let k = self.p.samples as usize;
+        match self.p.model {
+            Model::Seed => {
+                let lu1 = self.lu1;
+                if lu1 <= 0.0 {
+                    return (0.0, [1.0; 3]);
+                }
+                let u = (j as f64 + xi) / k as f64;
+                let smax = d.min(lu1);
+                let s = lu1 * cdf_single_inv(u * cdf_single(smax / lu1));
+                (s.min(smax), [1.0; 3])
+            }
+            Model::Physical => {
+                let st = self.sigma_t;
+                let mass = st.map(|s| trunc_mass(s, d));
+                if self.single {
+                    let u = (j as f64 + xi) / k as f64;
+                    return (trunc_exp_inv(u, st[0], mass[0], d), mass);
+                }
+                let u = (j as f64 + xi) / k as f64;
+                let s = mixture_inv(u, st, mass, d);
+                let pdf = [0, 1, 2].map(|c| trunc_exp_pdf(s, st[c], mass[c]));
+                let q = (pdf[0] + pdf[1] + pdf[2]) / 3.0;
+                let w = [0, 1, 2].map(|c| {
+                    let r = mass[c] * pdf[c] / q;
+                    if r.is_finite() {
+                        r
+                    } else {
+                        0.0
+                    }
+                });
+                (s, w)
+            }
+        }
+    }
+
+    /// One pair's contribution per channel (before the per-light mean and
+    /// the model's scale): light sample `e` entering at distance `dist`
+    /// through normal `ni` (`ci = dot(Wi, Ni) > 0`).
+    fn pair(
+        &self,
+        v: &View,
+        e: &Arrival,
+        dist: f64,
+        ni: DVec3,
+        ci: f64,
+        w: [f64; 3],
+    ) -> Option<[f64; 3]> {
+        let p = self.p;
+        // The refracted cosine inside; none: the light is totally reflected.
+        let cos_t2 = 1.0 - (1.0 - ci * ci) / (p.eta * p.eta);
+        if cos_t2.is_nan() || cos_t2 <= 0.0 {
+            return None;
+        }
+        let cos_ti = cos_t2.sqrt();
+        let si = dist * ci / cos_ti;
+        let kti = 1.0 - fresnel(ci, p.eta);
+        let cl = e.e.to_array();
+        Some(match p.model {
+            Model::Seed => {
+                let ph = hg_peak1(p.g, (-e.dir).dot(v.wpo));
+                let common = ci * kti * v.kto * ph;
+                let wf = |d: f64| falloff(Falloff::Smooth, si, d, 0.0);
+                if p.rgb {
+                    [0, 1, 2].map(|c| cl[c] * common * wf(self.lu[c]))
+                } else {
+                    let w1 = wf(self.lu1);
+                    [0, 1, 2].map(|c| cl[c] * p.rd[c] * common * w1)
+                }
+            }
+            Model::Physical => {
+                let ti = refract(-e.dir, ni, 1.0 / p.eta)?;
+                let ph = hg(p.g, ti.dot(v.wpo));
+                let common = kti * ph * ci / cos_ti;
+                [0, 1, 2].map(|c| w[c] * cl[c] * common * (-self.sigma_t[c] * si).exp())
+            }
+        })
+    }
+}
+
+/// The view side of a point: the direction back up the refracted view
+/// ray, and the Fresnel transmittance out towards the eye.
+struct View {
+    wpo: DVec3,
+    kto: f64,
+}

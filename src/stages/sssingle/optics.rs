@@ -1,0 +1,267 @@
+//! The optics of single scattering as pure functions
+//! (`docs/DESIGN.md#sssingle`): refraction, Fresnel, the Henyey-Greenstein
+//! phase function, and the depth distributions samples are drawn from.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+/// `I` (unit) refracted at a surface of unit normal `n` with index ratio
+/// `r` (outside over inside); `None` on total internal reflection.
+#[inline]
+pub fn refract(i: DVec3, n: DVec3, r: f64) -> Option<DVec3> {
+    let c = n.dot(i);
+    let k = 1.0 - r * r * (1.0 - c * c);
+    (k >= 0.0).then(|| (i * r - n * (r * c + k.sqrt())).normalize())
+}
+
+/// The unpolarised Fresnel reflectance of a dielectric for light arriving
+/// from outside at cosine `cos_i` (`eta`: inside over outside); 1 on total
+/// internal reflection (`docs/DESIGN.md#fresnel`).
+#[inline]
+pub fn fresnel(cos_i: f64, eta: f64) -> f64 {
+    if eta == 1.0 {
+        return 0.0;
+    }
+    let ci = cos_i.clamp(0.0, 1.0);
+    let sin_t2 = (1.0 - ci * ci) / (eta * eta);
+    if sin_t2 >= 1.0 {
+        return 1.0;
+    }
+    let ct = (1.0 - sin_t2).sqrt();
+    let rs = (ci - eta * ct) / (ci + eta * ct);
+    let rp = (eta * ci - ct) / (eta * ci + ct);
+    let f = 0.5 * (rs * rs + rp * rp);
+    // (0/0 at a grazing cosine of exactly 0: all is reflected.)
+    if f.is_finite() {
+        f.min(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// The largest `|g|` used: the phase function stays finite.
+pub const G_MAX: f64 = 0.998;
+
+/// The Henyey-Greenstein phase function, normalised over the sphere:
+/// `(1 - g^2) / (4 pi (1 + g^2 - 2 g c)^(3/2))`, `c` the cosine between the
+/// light's travel direction and the scattered one.
+#[inline]
+pub fn hg(g: f64, c: f64) -> f64 {
+    let g = g.clamp(-G_MAX, G_MAX);
+    let den = hg_den(g, c);
+    (1.0 - g * g) / (4.0 * PI * den * den.sqrt())
+}
+
+/// Henyey-Greenstein scaled to peak 1 (Marengo's):
+/// `((1 - |g|)^2 / (1 + g^2 - 2 g c))^(3/2)`.
+#[inline]
+pub fn hg_peak1(g: f64, c: f64) -> f64 {
+    let g = g.clamp(-G_MAX, G_MAX);
+    let den = hg_den(g, c);
+    let x = (1.0 - g.abs()).powi(2) / den;
+    x * x.sqrt()
+}
+
+/// `1 + g^2 - 2 g c`, as `(1 - g)^2 + 2 g (1 - c)` (or with `1 + c` for
+/// `g < 0`): no cancellation near the peak, where it is `(1 - |g|)^2`.
+#[inline]
+fn hg_den(g: f64, c: f64) -> f64 {
+    let c = c.clamp(-1.0, 1.0);
+    let d = if g >= 0.0 {
+        (1.0 - g) * (1.0 - g) + 2.0 * g * (1.0 - c)
+    } else {
+        (1.0 + g) * (1.0 + g) - 2.0 * g * (1.0 + c)
+    };
+    d.max(f64::MIN_POSITIVE)
+}
+
+/// `F(y) = 2y - 2y^3 + y^4`: the integral of the smooth falloff `1 - 3t^2
+/// + 2t^3` over [0, y], normalised to 1 at y = 1 (Marengo's `cdfSingle`).
+#[inline]
+pub fn cdf_single(y: f64) -> f64 {
+    let y = y.clamp(0.0, 1.0);
+    y * (2.0 + y * y * (y - 2.0))
+}
+
+/// The inverse of [`cdf_single`] on [0, 1]: Newton's steps kept inside a
+/// shrinking bracket (`F' = 2 (1 - y)^2 (1 + 2y)` vanishes at 1, where
+/// the bracket takes over), to full precision.
+pub fn cdf_single_inv(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    let mut y = 0.5 * u;
+    for _ in 0..100 {
+        let f = cdf_single(y) - u;
+        if f > 0.0 {
+            hi = y;
+        } else {
+            lo = y;
+        }
+        let d = 2.0 * (1.0 - y) * (1.0 - y) * (1.0 + 2.0 * y);
+        let next = y - f / d;
+        let next = if next > lo && next < hi && d > 0.0 {
+            next
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - y).abs() <= 1e-16 * y.max(1e-300) || hi - lo <= 4.0 * f64::EPSILON {
+            return next;
+        }
+        y = next;
+    }
+    y
+}
+
+/// The truncated exponential of rate `sigma` on [0, d] (`d` may be
+/// infinite): `1 - e^(-sigma d)`, computed as `-expm1`.
+#[inline]
+pub fn trunc_mass(sigma: f64, d: f64) -> f64 {
+    if d.is_infinite() {
+        1.0
+    } else {
+        -(-sigma * d).exp_m1()
+    }
+}
+
+/// The depth at `u` in [0, 1) of the truncated exponential of rate
+/// `sigma` on [0, d] with mass `mass = trunc_mass(sigma, d)`.
+#[inline]
+pub fn trunc_exp_inv(u: f64, sigma: f64, mass: f64, d: f64) -> f64 {
+    (-(-u * mass).ln_1p() / sigma).min(d)
+}
+
+/// The density at depth `s` of the truncated exponential of rate `sigma`
+/// with mass `mass`.
+#[inline]
+pub fn trunc_exp_pdf(s: f64, sigma: f64, mass: f64) -> f64 {
+    sigma * (-sigma * s).exp() / mass
+}
+
+/// The cumulative distribution of the truncated exponential of rate
+/// `sigma` with mass `mass`, at depth `s`.
+#[inline]
+pub fn trunc_exp_cdf(s: f64, sigma: f64, mass: f64) -> f64 {
+    (-(-sigma * s).exp_m1() / mass).min(1.0)
+}
+
+/// The depth at `u` in [0, 1) of the even mixture of three truncated
+/// exponentials on [0, d] (rates `sigma`, masses `mass`): the root of
+/// `(F_0 + F_1 + F_2) / 3 = u`, which lies between the smallest and the
+/// largest of the three channels' own depths at `u`; Newton's steps kept
+/// inside that bracket.
+pub fn mixture_inv(u: f64, sigma: [f64; 3], mass: [f64; 3], d: f64) -> f64 {
+    let own = [0, 1, 2].map(|c| trunc_exp_inv(u, sigma[c], mass[c], d));
+    let (mut lo, mut hi) = (
+        own.iter().copied().fold(f64::INFINITY, f64::min),
+        own.iter().copied().fold(0.0, f64::max),
+    );
+    let q = |s: f64| {
+        (0..3)
+            .map(|c| trunc_exp_cdf(s, sigma[c], mass[c]))
+            .sum::<f64>()
+            / 3.0
+            - u
+    };
+    let dq = |s: f64| {
+        (0..3)
+            .map(|c| trunc_exp_pdf(s, sigma[c], mass[c]))
+            .sum::<f64>()
+            / 3.0
+    };
+    let mut s = (own[0] + own[1] + own[2]) / 3.0;
+    for _ in 0..100 {
+        let f = q(s);
+        if f > 0.0 {
+            hi = s;
+        } else {
+            lo = s;
+        }
+        let next = s - f / dq(s);
+        let next = if next > lo && next < hi {
+            next
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - s).abs() <= 1e-14 * s || hi - lo <= 1e-14 * hi {
+            return next;
+        }
+        s = next;
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_is_zero_at_eta_one_and_known_at_normal_incidence() {
+        assert_eq!(fresnel(0.3, 1.0), 0.0);
+        // ((eta - 1) / (eta + 1))^2 at normal incidence.
+        let r = fresnel(1.0, 1.5);
+        assert!((r - 0.04).abs() < 1e-15, "{r}");
+        assert_eq!(fresnel(0.1, 0.5), 1.0, "total internal reflection");
+        assert_eq!(fresnel(0.0, 1.33), 1.0);
+    }
+
+    #[test]
+    fn hg_integrates_to_one_and_peaks_at_one() {
+        // (Up to 0.9: sharper peaks need a finer rule than this one.)
+        for g in [-0.9, -0.3, 0.0, 0.7, 0.9] {
+            // int over the sphere = 2 pi int_-1^1 hg(c) dc (midpoint rule).
+            let n = 200_000;
+            let s: f64 = (0..n)
+                .map(|k| hg(g, -1.0 + (k as f64 + 0.5) * 2.0 / n as f64))
+                .sum::<f64>()
+                * 2.0
+                / n as f64;
+            assert!((2.0 * PI * s - 1.0).abs() < 2e-3, "g {g}: {}", 2.0 * PI * s);
+        }
+        for g in [-0.999, -0.9, -0.3, 0.0, 0.7, 0.999] {
+            let peak = hg_peak1(g, if g >= 0.0 { 1.0 } else { -1.0 });
+            assert!((peak - 1.0).abs() < 1e-12, "g {g}: {peak}");
+        }
+    }
+
+    #[test]
+    fn cdf_single_inverts() {
+        for k in 0..=1000 {
+            let u = k as f64 / 1000.0;
+            let y = cdf_single_inv(u);
+            assert!((0.0..=1.0).contains(&y));
+            assert!((cdf_single(y) - u).abs() < 1e-14, "{u}: {y}");
+        }
+    }
+
+    #[test]
+    fn the_mixture_inverts() {
+        let sigma = [20.0, 10.0, 5.0];
+        for d in [0.3, f64::INFINITY] {
+            let mass = sigma.map(|x| trunc_mass(x, d));
+            for k in 0..1000 {
+                let u = k as f64 / 1000.0;
+                let s = mixture_inv(u, sigma, mass, d);
+                let f: f64 = (0..3)
+                    .map(|c| trunc_exp_cdf(s, sigma[c], mass[c]))
+                    .sum::<f64>()
+                    / 3.0;
+                assert!((f - u).abs() < 1e-12, "{d} {u}: {s} gives {f}");
+            }
+        }
+    }
+
+    #[test]
+    fn truncated_exponentials_stay_finite_at_every_scale() {
+        for sigma in [1e-8, 1.0, 1e8] {
+            for d in [1e-8, 1.0, f64::INFINITY] {
+                let m = trunc_mass(sigma, d);
+                for u in [0.0, 0.5, 1.0 - 1e-9] {
+                    let s = trunc_exp_inv(u, sigma, m, d);
+                    assert!(s.is_finite() && s >= 0.0 && s <= d, "{sigma} {d} {u}: {s}");
+                    assert!(trunc_exp_pdf(s, sigma, m).is_finite());
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! The slab: the physical model against the closed form, the seed model
+//! against the quadrature of its expectation.
+
+use super::*;
+
+/// The physical model's closed form on a slab of thickness `t` (infinite:
+/// semi-infinite), channel by channel.
+fn physical_truth(
+    a: &Angles,
+    cl: [f64; 3],
+    albedo: [f64; 3],
+    mfp: [f64; 3],
+    g: f64,
+    eta: f64,
+    t: f64,
+) -> [f64; 3] {
+    let p = hg(g, a.cos_phys);
+    [0, 1, 2].map(|c| {
+        let thin = if t.is_finite() {
+            -(-(t / mfp[c]) * (1.0 / a.mu_i_t + 1.0 / a.mu_o_t)).exp_m1()
+        } else {
+            1.0
+        };
+        cl[c] * a.mu_i * albedo[c] * a.kti * a.kto * p / (eta * eta * (a.mu_i_t + a.mu_o_t)) * thin
+    })
+}
+
+/// `1 - smooth(0, d, r)`.
+fn w(r: f64, d: f64) -> f64 {
+    if d <= 0.0 {
+        return 0.0;
+    }
+    let x = (r / d).clamp(0.0, 1.0);
+    (1.0 - x) * (1.0 - x) * (1.0 + 2.0 * x)
+}
+
+/// Composite Simpson of `f` on [0, b] in `n` (even) pieces.
+fn simpson(f: impl Fn(f64) -> f64, b: f64, n: usize) -> f64 {
+    let h = b / n as f64;
+    let mut s = f(0.0) + f(b);
+    for k in 1..n {
+        s += f(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
+/// The seed model's expectation on a slab of thickness `t`: the mean of
+/// its per-sample value over depths `s` along the view ray with density
+/// proportional to `W(s, lu1)` on [0, min(d, lu1)], times 2.
+#[allow(clippy::too_many_arguments)]
+fn seed_truth(
+    a: &Angles,
+    cl: [f64; 3],
+    rd: [f64; 3],
+    sd: f64,
+    rgb: bool,
+    g: f64,
+    t: f64,
+) -> [f64; 3] {
+    let lu = rd.map(|r| r * sd);
+    let lu1 = lu.iter().copied().fold(0.0, f64::max);
+    let d = t / a.mu_o_t;
+    let smax = d.min(lu1);
+    let gc = g.clamp(-0.998, 0.998);
+    let ph = ((1.0 - gc.abs()).powi(2) / (1.0 + gc * gc - 2.0 * gc * a.cos_seed)).powf(1.5);
+    let common = a.mu_i * a.kti * a.kto * ph;
+    let norm = simpson(|s| w(s, lu1), smax, 20_000);
+    [0, 1, 2].map(|c| {
+        let f = |s: f64| {
+            let si = s * a.mu_o_t / a.mu_i_t;
+            if rgb {
+                w(si, lu[c])
+            } else {
+                rd[c] * w(si, lu1)
+            }
+        };
+        2.0 * cl[c] * common * simpson(|s| f(s) * w(s, lu1), smax, 20_000) / norm
+    })
+}
+
+/// The largest relative error of `got` (every point) against `want`.
+fn worst(got: &[[f64; 3]], want: [f64; 3]) -> f64 {
+    got.iter()
+        .flat_map(|v| (0..3).map(move |c| (v[c] - want[c]).abs() / want[c].abs()))
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn the_physical_model_on_a_slab_equals_the_closed_form() {
+    let cl = [1.0, 0.8, 0.6];
+    let cloud = top_points(4, 0.05, DVec3::ZERO);
+    let mut table = Vec::new();
+    // (eta, g, thickness, mean free paths, light and view angles)
+    let cases = [
+        (1.0, 0.0, f64::INFINITY, [0.1; 3], 30.0, 20.0, 0.0),
+        (1.33, 0.0, f64::INFINITY, [0.1; 3], 30.0, 20.0, 0.0),
+        (1.33, 0.7, f64::INFINITY, [0.1; 3], 40.0, 35.0, 180.0),
+        (1.33, -0.3, f64::INFINITY, [0.1; 3], 10.0, 50.0, 90.0),
+        (1.33, 0.7, 0.05, [0.1; 3], 40.0, 35.0, 180.0),
+        (1.0, 0.0, 0.02, [0.1; 3], 0.0, 0.0, 0.0),
+        (
+            1.33,
+            0.3,
+            f64::INFINITY,
+            [0.05, 0.1, 0.2],
+            30.0,
+            20.0,
+            180.0,
+        ),
+        (1.33, 0.3, 0.1, [0.05, 0.1, 0.2], 30.0, 20.0, 180.0),
+    ];
+    for (eta, g, t, mfp, ti, to, phi) in cases {
+        let mesh = slab_mesh(20.0, if t.is_finite() { t } else { 50.0 }, DVec3::ZERO);
+        let albedo = [0.9, 0.7, 0.5];
+        let p = Params {
+            model: Model::Physical,
+            albedo,
+            mfp,
+            g,
+            eta,
+            samples: 64,
+            eye: eye(to, phi, DVec3::ZERO),
+            ..Params::default()
+        };
+        let got = run(&cloud, &mesh, &distant(ti, cl), &p);
+        let a = Angles::new(ti, to, phi, eta);
+        let want = physical_truth(&a, cl, albedo, mfp, g, eta, t);
+        let e = worst(&got, want);
+        table.push(format!(
+            "eta {eta} g {g} t {t} mfp {mfp:?} in {ti} out {to}/{phi}: {:.6} vs {:.6}, worst {e:.1e}",
+            got[0][0], want[0]
+        ));
+        assert!(e < 0.01, "{}", table.last().unwrap());
+    }
+    eprintln!("{}", table.join("\n"));
+}
+
+#[test]
+fn the_seed_model_on_a_slab_equals_its_expectation() {
+    let cl = [1.0, 0.9, 0.8];
+    let cloud = top_points(4, 0.05, DVec3::ZERO);
+    let rd = [0.9, 0.5, 0.3];
+    let mut table = Vec::new();
+    // (eta, g, rgb, thickness, sd, angles): a thick slab, and one thinner
+    // than Rd * sd.
+    let cases = [
+        (1.0, 0.0, false, 50.0, 0.4, 30.0, 20.0, 0.0),
+        (1.33, 0.5, false, 50.0, 0.4, 30.0, 20.0, 180.0),
+        (1.33, 0.5, true, 50.0, 0.4, 30.0, 20.0, 180.0),
+        (1.33, -0.3, true, 50.0, 0.4, 45.0, 10.0, 90.0),
+        (1.33, 0.5, true, 0.1, 0.4, 30.0, 20.0, 180.0),
+        (1.33, 0.5, false, 0.1, 0.4, 30.0, 20.0, 180.0),
+    ];
+    for (eta, g, rgb, t, sd, ti, to, phi) in cases {
+        let mesh = slab_mesh(20.0, t, DVec3::ZERO);
+        let p = Params {
+            model: Model::Seed,
+            rd,
+            sd,
+            rgb,
+            g,
+            eta,
+            samples: 64,
+            eye: eye(to, phi, DVec3::ZERO),
+            ..Params::default()
+        };
+        let got = run(&cloud, &mesh, &distant(ti, cl), &p);
+        let a = Angles::new(ti, to, phi, eta);
+        let want = seed_truth(&a, cl, rd, sd, rgb, g, t);
+        let e = worst(&got, want);
+        table.push(format!(
+            "eta {eta} g {g} rgb {rgb} t {t}: {:?} vs {want:?}, worst {e:.1e}",
+            got[0]
+        ));
+        assert!(e < 0.01, "{}", table.last().unwrap());
+    }
+    eprintln!("{}", table.join("\n"));
+}
