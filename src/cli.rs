@@ -21,6 +21,7 @@ use crate::cloud::Cloud;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
+use crate::stages::sssingle::{self, Model};
 
 /// Verbosity flags.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -408,6 +409,88 @@ pub struct SsArgs {
     /// 2e-3 to 8e-3 at 0.3 (README, "Approximate method").
     #[arg(long, default_value_t = 0.0)]
     pub tolerance: f64,
+}
+
+/// `sssingle`'s model parameters (also `filter`'s and `render`'s, to
+/// compute `ssS` for the points they read); the seed model's Rd, sd and
+/// t_rgb are ssmulti's options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SingleArgs {
+    /// Single scattering: seed, Marengo's (--rd, --sd); physical, Jensen
+    /// et al. 2001 (--albedo, --mfp).
+    #[arg(long, value_enum, default_value = "seed")]
+    pub model: Model,
+    /// Physical model: single-scattering albedo R,G,B in [0, 1].
+    #[arg(long, value_name = "R,G,B", default_value = "0.8")]
+    pub albedo: String,
+    /// Physical model: mean free path R,G,B (1 / extinction).
+    #[arg(long, value_name = "R,G,B")]
+    pub mfp: Option<String>,
+    /// Henyey-Greenstein asymmetry in [-1, 1] (used within +-0.998).
+    #[arg(long, default_value_t = 0.0)]
+    pub g: f64,
+    /// Relative index of refraction, inside over outside.
+    #[arg(long, default_value_t = 1.3)]
+    pub eta: f64,
+    /// Depth samples per point (stratified), 1 to 4096.
+    #[arg(long, default_value_t = 16)]
+    pub samples: u32,
+    /// Random seed of the depth samples and area lights' offsets.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The mesh's normals are smooth across edges up to this angle
+    /// (degrees), as facet's.
+    #[arg(long, default_value_t = 60.0)]
+    pub cusp: f64,
+}
+
+impl SingleArgs {
+    /// The parameters for the eye `eye`, with the seed model's `rd`, `sd`
+    /// and `rgb`; checked. An error names the option at fault.
+    pub fn params(
+        &self,
+        rd: &str,
+        sd: Option<f64>,
+        rgb: bool,
+        eye: [f64; 3],
+    ) -> anyhow::Result<sssingle::Params> {
+        let (sd, mfp) = match self.model {
+            sssingle::Model::Seed => {
+                let sd = sd.ok_or_else(|| {
+                    crate::Error::param(
+                        "--sd",
+                        "required by --model seed (the scattering distance)",
+                    )
+                })?;
+                (sd, [1.0; 3])
+            }
+            sssingle::Model::Physical => {
+                let mfp = self.mfp.as_deref().ok_or_else(|| {
+                    crate::Error::param(
+                        "--mfp",
+                        "required by --model physical (the mean free path)",
+                    )
+                })?;
+                (0.0, parse_rgb("--mfp", mfp)?)
+            }
+        };
+        let p = sssingle::Params {
+            model: self.model,
+            rd: parse_rgb("--rd", rd)?,
+            sd,
+            albedo: parse_rgb("--albedo", &self.albedo)?,
+            mfp,
+            g: self.g,
+            eta: self.eta,
+            samples: self.samples,
+            rgb,
+            seed: self.seed,
+            eye: glam::DVec3::from_array(eye),
+            cusp: self.cusp,
+        };
+        sssingle::validate(&p)?;
+        Ok(p)
+    }
 }
 
 impl SsArgs {

@@ -5,17 +5,18 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::cli::{self, IoArgs, SsArgs};
+use pcsss::cli::{self, IoArgs, SingleArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
-use pcsss::stages::filter::{self, Params, Source};
+use pcsss::stages::filter::{self, Params, SingleSetup};
 use pcsss::Error;
 
-/// Reconstructs ssM at shade points (the input: a PLY/EXR cloud, a mesh's
-/// own vertices, or an OpenEXR image of P/N passes) from the cloud's
-/// nearest points, with Houdini's pcfilter weights. A cloud with illum
-/// but no ssM is computed lazily, only where a shade point reads it (give
-/// the ssmulti parameters: --sd, --rd, ...).
+/// Reconstructs ssM and ssS (or --attr) at shade points (the input: a
+/// PLY/EXR cloud, a mesh's own vertices, or an OpenEXR image of P/N
+/// passes) from the cloud's nearest points, with Houdini's pcfilter
+/// weights. A cloud with illum but no ssM has it computed lazily, only
+/// where a shade point reads it (give ssmulti's --sd, --rd, ...); ssS
+/// likewise with --single-lights, --single-mesh and the eye.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
 struct Args {
@@ -34,24 +35,84 @@ struct Args {
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     facing: bool,
+    /// The attributes to filter (colour or vector, comma-separated,
+    /// repeatable) [default: ssM and ssS, those the cloud has or can
+    /// compute].
+    #[arg(long = "attr", value_name = "NAME,..", value_delimiter = ',')]
+    attrs: Vec<String>,
     #[command(flatten)]
     ss: SsArgs,
+    /// Lazy ssS: the lights (JSON) single scattering is computed with,
+    /// for the cloud points read (with --single-mesh and --eye or
+    /// --camera, and sssingle's model options).
+    #[arg(long, value_name = "FILE", requires = "single_mesh")]
+    single_lights: Option<PathBuf>,
+    /// Lazy ssS: light mask (names and globs, ^ excludes).
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    single_lmask: String,
+    /// Lazy ssS: the mesh the cloud lies on.
+    #[arg(long, value_name = "MESH")]
+    single_mesh: Option<PathBuf>,
+    /// Lazy ssS: the eye, X,Y,Z.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        conflicts_with = "camera"
+    )]
+    eye: Option<String>,
+    /// Lazy ssS: the eye of a camera file.
+    #[arg(long, value_name = "FILE")]
+    camera: Option<PathBuf>,
+    #[command(flatten)]
+    single: SingleArgs,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
     let cloud_name = cli::display_name(Some(&args.cloud));
-    let lazy_params = args.ss.params()?;
+    let multi = args.ss.params()?;
     let r = args.radius;
     if !(r.is_finite() && r > 0.0) {
         return Err(Error::param("--radius", format!("{r}: must be a finite fraction > 0")).into());
     }
+    // Lazy single scattering: its parameters, lights and mesh first.
+    let single = match &args.single_lights {
+        None => None,
+        Some(lights) => {
+            let eye = match (&args.eye, &args.camera) {
+                (Some(e), _) => cli::parse_xyz("--eye", e)?,
+                (None, Some(cam)) => cli::read_camera(cam)?.position,
+                (None, None) => {
+                    let why = "lazy ssS needs the eye: --eye X,Y,Z or --camera FILE";
+                    return Err(Error::param("--single-lights", why).into());
+                }
+            };
+            let params = args
+                .single
+                .params(&args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
+            let lights = cli::read_lights(lights, &args.single_lmask)?;
+            let mesh_path = args.single_mesh.as_ref().expect("clap requires it");
+            Some((params, lights, cli::read_mesh(mesh_path)?))
+        }
+    };
+    let setup = single.as_ref().map(|(params, lights, mesh)| SingleSetup {
+        mesh,
+        lights,
+        params,
+    });
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let source = Source::choose(&cloud, lazy_params.as_ref()).map_err(cli::at(&cloud_name))?;
-    let reach = source
-        .reach(&cloud, args.nfp, args.radius)
+    let sources = filter::sources(&cloud, &args.attrs, multi.as_ref(), setup.as_ref())
         .map_err(cli::at(&cloud_name))?;
+    let reach = filter::reach(
+        &cloud,
+        args.nfp,
+        args.radius,
+        multi.as_ref(),
+        single.as_ref().map(|s| &s.0),
+    )
+    .map_err(cli::at(&cloud_name))?;
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());
@@ -66,12 +127,13 @@ fn run(args: Args) -> anyhow::Result<()> {
             reach,
             facing: args.facing,
         },
-        source,
+        &sources,
         &progress,
     )
     .map_err(cli::at(&name))?;
     if is_mesh {
-        filter::add_vertex_colours(&mut shade).map_err(cli::at(&name))?;
+        let names: Vec<&str> = sources.iter().map(|s| s.name()).collect();
+        filter::add_vertex_colours(&mut shade, &names).map_err(cli::at(&name))?;
     }
     let (info, warn) = rep.messages();
     info.iter().for_each(|m| msg.info(m));

@@ -6,18 +6,20 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use pcsss::cli::{self, MsgArgs, SsArgs};
+use pcsss::cli::{self, MsgArgs, SingleArgs, SsArgs};
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
-use pcsss::stages::filter::{Params, Source};
+use pcsss::geom::mesh::TriMesh;
+use pcsss::stages::filter::{self, Params, SingleSetup};
 use pcsss::stages::render;
 use pcsss::Error;
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
-/// coverage passes by ray casting, then the beauty = ssM filtered from
-/// the cloud at every hit (lazily computed when the cloud has only
-/// illum), plus with --direct a diffuse direct term. Writes an OpenEXR image (channels beauty, ssM, P, N, A) and,
-/// with --png, a tone-mapped sRGB preview.
+/// coverage passes by ray casting, then the beauty = ssM + ssS filtered
+/// from the cloud at every hit (computed lazily when the cloud has only
+/// illum), plus with --direct a diffuse direct term. Writes an OpenEXR
+/// image (channels beauty, ssM, ssS, P, N, A) and, with --png, a
+/// tone-mapped sRGB preview.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
 struct Args {
@@ -27,7 +29,8 @@ struct Args {
     /// The camera file (JSON).
     #[arg(long, value_name = "FILE")]
     camera: PathBuf,
-    /// The cloud: P and ssM (or P, N, ptarea, illum and --sd for lazy).
+    /// The cloud: P and ssM, ssS (or P, N, ptarea, illum and --sd to
+    /// compute ssM lazily; --single-lights for ssS).
     #[arg(long, value_name = "CLOUD")]
     cloud: PathBuf,
     /// Output image (OpenEXR).
@@ -49,7 +52,7 @@ struct Args {
     #[arg(long)]
     facing: bool,
     /// Add a direct diffuse term from these lights (JSON, as illum's):
-    /// beauty = ssM + kd * illum, with shadows from the mesh.
+    /// beauty = ssM + ssS + kd * illum, with shadows from the mesh.
     #[arg(long, value_name = "LIGHTS")]
     direct: Option<PathBuf>,
     /// Light mask for --direct (names and globs, ^ excludes).
@@ -61,8 +64,22 @@ struct Args {
     /// OpenEXR compression.
     #[arg(long, value_name = "C", default_value = "zip")]
     compression: Compression,
+    /// What the beauty sums (comma-separated, repeatable) [default: ssM
+    /// and ssS, those the cloud has or can compute].
+    #[arg(long = "attr", value_name = "NAME,..", value_delimiter = ',')]
+    attrs: Vec<String>,
     #[command(flatten)]
     ss: SsArgs,
+    /// Lazy ssS: the lights (JSON) single scattering is computed with, for
+    /// the cloud points read, seen from the camera (with sssingle's model
+    /// options).
+    #[arg(long, value_name = "FILE")]
+    single_lights: Option<PathBuf>,
+    /// Lazy ssS: light mask (names and globs, ^ excludes).
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    single_lmask: String,
+    #[command(flatten)]
+    single: SingleArgs,
     #[command(flatten)]
     msg: MsgArgs,
 }
@@ -88,14 +105,41 @@ fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => Some(cli::read_lights(path, &args.lmask)?),
         None => None,
     };
+    let single = match &args.single_lights {
+        Some(path) => {
+            let params = args
+                .single
+                .params(&args.ss.rd, args.ss.sd, args.ss.rgb, cam.position)?;
+            Some((params, cli::read_lights(path, &args.single_lmask)?))
+        }
+        None => None,
+    };
     let mesh_name = args.mesh.display().to_string();
     let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
+    let tris = match single {
+        Some(_) => Some(TriMesh::from_cloud(&mesh).map_err(cli::at(&mesh_name))?),
+        None => None,
+    };
+    let setup = single
+        .as_ref()
+        .zip(tris.as_ref())
+        .map(|((params, lights), mesh)| SingleSetup {
+            mesh,
+            lights,
+            params,
+        });
     let cloud_name = args.cloud.display().to_string();
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let source = Source::choose(&cloud, lazy.as_ref()).map_err(cli::at(&cloud_name))?;
-    let reach = source
-        .reach(&cloud, args.nfp, args.radius)
+    let sources = filter::sources(&cloud, &args.attrs, lazy.as_ref(), setup.as_ref())
         .map_err(cli::at(&cloud_name))?;
+    let reach = filter::reach(
+        &cloud,
+        args.nfp,
+        args.radius,
+        lazy.as_ref(),
+        single.as_ref().map(|s| &s.0),
+    )
+    .map_err(cli::at(&cloud_name))?;
     let scene = render::Scene {
         mesh: &mesh,
         mesh_name: &mesh_name,
@@ -106,7 +150,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             reach,
             facing: args.facing,
         },
-        source,
+        sources: &sources,
         direct: lights_used.as_deref().map(|l| (l, kd)),
     };
     let progress = msg.progress();

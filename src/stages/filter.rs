@@ -31,9 +31,11 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, Role};
 use crate::error::{Error, Result};
 use crate::geom::kdtree::PointTree;
+use crate::geom::mesh::TriMesh;
+use crate::lights::Light;
 use crate::maths::smoothstep;
 use crate::progress::Progress;
-use crate::stages::ssmulti;
+use crate::stages::{ssmulti, sssingle};
 
 /// Which cloud points a shade point reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,9 +64,10 @@ pub struct Report {
     pub empty: usize,
     /// Mean number of cloud points a shade point read.
     pub mean_used: f64,
-    /// Lazy mode: cloud points read by some shade point, and the cloud
-    /// points whose `ssM` was computed (whole leaves).
-    pub lazy: Option<(usize, usize)>,
+    /// Lazy evaluation: per attribute computed, the cloud points read by
+    /// some shade point and the cloud points it was computed at (ssM:
+    /// whole leaves; ssS: those the eye sees).
+    pub lazy: Vec<(String, usize, usize)>,
 }
 
 /// The cloud's positions in a k-d tree (relative to its bounding box's
@@ -177,58 +180,145 @@ pub fn average(nb: &[(u32, f64)], values: &[[f32; 3]]) -> Option<[f64; 3]> {
     (ws > 0.0).then(|| s.map(|x| x / ws))
 }
 
-/// How the cloud's `ssM` is had: already there, or computed lazily.
-#[derive(Clone, Copy)]
-pub enum Source<'a> {
-    /// The cloud has `ssM`.
-    Eager,
-    /// Compute it with these parameters for the points read.
-    Lazy(&'a ssmulti::Params),
+/// The attributes `filter` gives shade points by default: the scattering
+/// stages' (when the cloud has them or they can be computed).
+pub const SCATTERING: [&str; 2] = ["ssM", "ssS"];
+
+/// What `sssingle` needs to compute `ssS` lazily.
+pub struct SingleSetup<'a> {
+    pub mesh: &'a TriMesh,
+    pub lights: &'a [Light],
+    pub params: &'a sssingle::Params,
 }
 
-impl<'a> Source<'a> {
-    /// Eager when the cloud has `ssM`, else lazy with `lazy` (an error
-    /// naming ssmulti without it).
-    pub fn choose(cloud: &Cloud, lazy: Option<&'a ssmulti::Params>) -> Result<Source<'a>> {
-        match (lazy, cloud.points().has("ssM")) {
-            (_, true) => Ok(Source::Eager),
-            (Some(p), false) => Ok(Source::Lazy(p)),
-            (None, false) => Err(Error::invalid(
-                "no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it for the points read",
-            )),
+/// Where one filtered attribute's values come from.
+#[derive(Clone, Copy)]
+pub enum Source<'a> {
+    /// The cloud's colour or 3-vector attribute of this name.
+    Stored(&'a str),
+    /// `ssM`, computed with ssmulti's code for the points read.
+    Multi(&'a ssmulti::Params),
+    /// `ssS`, computed with sssingle's code for the points read (those
+    /// the eye sees: the others are 0).
+    Single(&'a SingleSetup<'a>),
+}
+
+impl Source<'_> {
+    /// The attribute it gives the shade points.
+    pub fn name(&self) -> &str {
+        match self {
+            Source::Stored(n) => n,
+            Source::Multi(_) => "ssM",
+            Source::Single(_) => "ssS",
         }
     }
+}
 
-    /// The reach asked for on the command line: the `nfp` nearest, else
-    /// all within `fraction` of D (`distance`).
-    pub fn reach(&self, cloud: &Cloud, nfp: Option<usize>, fraction: f64) -> Result<Reach> {
-        Ok(match nfp {
-            Some(n) => Reach::Nearest(n),
-            None => Reach::Radius(fraction * self.distance(cloud)?),
+/// The sources for the attributes `names` (none: every scattering
+/// attribute, [`SCATTERING`], the cloud has or can compute). An attribute
+/// the cloud has is read; `ssM` and `ssS` it lacks are computed lazily
+/// with `multi` and `single`; anything else is an error that says how to
+/// make it.
+pub fn sources<'a>(
+    cloud: &Cloud,
+    names: &'a [String],
+    multi: Option<&'a ssmulti::Params>,
+    single: Option<&'a SingleSetup<'a>>,
+) -> Result<Vec<Source<'a>>> {
+    let pick = |name: &'a str| -> Option<Source<'a>> {
+        if cloud.points().has(name) {
+            return Some(Source::Stored(name));
+        }
+        match name {
+            "ssM" => multi.map(Source::Multi),
+            "ssS" => single.map(Source::Single),
+            _ => None,
+        }
+    };
+    if names.is_empty() {
+        let found: Vec<Source> = SCATTERING.iter().filter_map(|n| pick(n)).collect();
+        if found.is_empty() {
+            return Err(Error::invalid(
+                "no point attribute 'ssM' (made by ssmulti) or 'ssS' (made by sssingle): run them, or give ssmulti's --sd (and --rd ...) to compute ssM for the points read",
+            ));
+        }
+        return Ok(found);
+    }
+    names
+        .iter()
+        .map(|n| {
+            pick(n).ok_or_else(|| match n.as_str() {
+                "ssM" => Error::invalid(
+                    "no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it for the points read",
+                ),
+                "ssS" => Error::invalid(
+                    "no point attribute 'ssS' (made by sssingle): run sssingle, or give --single-mesh, --lights and the eye to compute it for the points read",
+                ),
+                _ => Error::missing("point", n),
+            })
         })
-    }
+        .collect()
+}
 
-    /// The scattering distance D = sd * max(Rd): the lazy run's, else the
-    /// one ssmulti recorded in the cloud (`ssmulti_sd`, `ssmulti_rd`).
-    pub fn distance(&self, cloud: &Cloud) -> Result<f64> {
-        let d = match self {
-            Source::Lazy(p) => p.sd * p.rd.iter().copied().fold(0.0, f64::max),
-            Source::Eager => {
-                let sd = cloud.detail_f64("ssmulti_sd")?;
-                let rd = cloud
-                    .detail("ssmulti_rd")
-                    .map_or(1.0, |v| v.components().into_iter().fold(0.0, f64::max));
-                sd * rd
-            }
-        };
-        if d.is_finite() && d > 0.0 {
-            Ok(d)
-        } else {
-            Err(Error::invalid(format!(
-                "the scattering distance D = sd * max(Rd) is {d}: a filter radius needs D > 0"
-            )))
+/// The scattering distance D that a filter radius is a fraction of:
+/// `sd * max(Rd)` of the ssmulti parameters given, else of those ssmulti
+/// recorded in the cloud (`ssmulti_sd`, `ssmulti_rd`), else sssingle's
+/// (its seed model's `sd * max(Rd)`, its physical model's largest mean
+/// free path), given or recorded.
+pub fn distance(
+    cloud: &Cloud,
+    multi: Option<&ssmulti::Params>,
+    single: Option<&sssingle::Params>,
+) -> Result<f64> {
+    let max = |v: [f64; 3]| v.iter().copied().fold(0.0, f64::max);
+    let recorded = |sd: &str, rd: &str| -> Option<f64> {
+        let sd = cloud.detail_f64(sd).ok()?;
+        Some(sd * cloud.detail(rd).map_or(1.0, |v| max3(&v.components())))
+    };
+    let d = if let Some(p) = multi {
+        p.sd * max(p.rd)
+    } else if let Some(d) = recorded("ssmulti_sd", "ssmulti_rd") {
+        d
+    } else if let Some(p) = single {
+        match p.model {
+            sssingle::Model::Seed => p.sd * max(p.rd),
+            sssingle::Model::Physical => max(p.mfp),
         }
+    } else if let Some(d) = recorded("sssingle_sd", "sssingle_rd") {
+        d
+    } else if let Some(v) = cloud.detail("sssingle_mfp") {
+        max3(&v.components())
+    } else {
+        return Err(Error::invalid(
+            "no scattering distance to take the filter radius from: the cloud records none (ssmulti_sd) and no --sd is given; give --nfp, or --sd",
+        ));
+    };
+    if d.is_finite() && d > 0.0 {
+        Ok(d)
+    } else {
+        Err(Error::invalid(format!(
+            "the scattering distance D = sd * max(Rd) is {d}: a filter radius needs D > 0"
+        )))
     }
+}
+
+fn max3(v: &[f64]) -> f64 {
+    v.iter().copied().fold(0.0, f64::max)
+}
+
+/// The reach asked for on the command line: the `nfp` nearest, else all
+/// within `fraction` of D ([`distance`]).
+pub fn reach(
+    cloud: &Cloud,
+    nfp: Option<usize>,
+    fraction: f64,
+    multi: Option<&ssmulti::Params>,
+    single: Option<&sssingle::Params>,
+) -> Result<Reach> {
+    Ok(match nfp {
+        Some(n) => Reach::Nearest(n),
+        None => Reach::Radius(fraction * distance(cloud, multi, single)?),
+    })
 }
 
 impl Report {
@@ -238,15 +328,15 @@ impl Report {
             "{} shade points from {} cloud points, {:.1} read each on average",
             self.shade_points, self.cloud_points, self.mean_used
         )];
-        if let Some((read, computed)) = self.lazy {
+        for (name, read, computed) in &self.lazy {
             info.push(format!(
-                "lazy: ssM computed at {computed} of {} cloud points ({read} read)",
+                "lazy: {name} computed at {computed} of {} cloud points ({read} read)",
                 self.cloud_points
             ));
         }
         let warn = (self.empty > 0).then(|| {
             format!(
-                "{} shade points had no cloud point in reach: ssM = 0 there",
+                "{} shade points had no cloud point in reach: 0 there",
                 self.empty
             )
         });
@@ -254,12 +344,13 @@ impl Report {
     }
 }
 
-/// Adds `ssM` to the shade points `shade` from `cloud`.
+/// Gives the shade points `shade` each attribute of `sources` from
+/// `cloud`, with one search for the cloud points each shade point reads.
 pub fn filter(
     cloud: &Cloud,
     shade: &mut Cloud,
     p: &Params,
-    source: Source,
+    sources: &[Source],
     progress: &Progress,
 ) -> Result<Report> {
     match p.reach {
@@ -315,37 +406,51 @@ pub fn filter(
         cloud_points: nc,
         ..Report::default()
     };
-    let values: Vec<[f32; 3]> = match source {
-        Source::Eager => {
-            if !cloud.points().has("ssM") {
-                return Err(Error::missing("cloud point", "ssM"));
-            }
-            cloud.points().vec3_f32("ssM")?
+    let mut want = vec![false; nc];
+    for nb in &nbs {
+        for &(i, _) in nb {
+            want[i as usize] = true;
         }
-        Source::Lazy(sp) => {
-            let mut want = vec![false; nc];
-            for nb in &nbs {
-                for &(i, _) in nb {
-                    want[i as usize] = true;
-                }
+    }
+    let read = want.iter().filter(|&&w| w).count();
+    for source in sources {
+        let values: Vec<[f32; 3]> = match *source {
+            Source::Stored(name) => cloud.points().vec3_f32(name)?,
+            Source::Multi(sp) => {
+                let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)?;
+                report.lazy.push(("ssM".into(), read, rep.computed));
+                v
             }
-            let read = want.iter().filter(|&&w| w).count();
-            let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)?;
-            report.lazy = Some((read, rep.computed));
-            v
-        }
-    };
-    let out: Vec<[f32; 3]> = nbs
-        .par_iter()
-        .map(|nb| average(nb, &values).map_or([0.0; 3], |v| v.map(|x| x as f32)))
-        .collect();
+            Source::Single(ss) => {
+                let (v, rep) = sssingle::sssingle_values(
+                    cloud,
+                    ss.mesh,
+                    ss.lights,
+                    ss.params,
+                    Some(&want),
+                    progress,
+                )?;
+                report.lazy.push(("ssS".into(), read, rep.computed));
+                v
+            }
+        };
+        let out: Vec<[f32; 3]> = nbs
+            .par_iter()
+            .map(|nb| average(nb, &values).map_or([0.0; 3], |v| v.map(|x| x as f32)))
+            .collect();
+        let role = cloud
+            .points()
+            .attr(source.name())
+            .and_then(|a| a.role())
+            .unwrap_or(Role::Color);
+        shade.points_mut().set_vec3(source.name(), role, &out)?;
+    }
     report.empty = nbs.iter().filter(|nb| nb.is_empty()).count();
     report.mean_used = if nbs.is_empty() {
         0.0
     } else {
         nbs.iter().map(|nb| nb.len()).sum::<usize>() as f64 / nbs.len() as f64
     };
-    shade.points_mut().set_vec3("ssM", Role::Color, &out)?;
     Ok(report)
 }
 
@@ -359,10 +464,18 @@ pub fn srgb(x: f64) -> f64 {
     }
 }
 
-/// `red green blue` (uchar, sRGB of `ssM` clamped to [0, 1]) on the
-/// points: the vertex colours MeshLab and Blender show.
-pub fn add_vertex_colours(shade: &mut Cloud) -> Result<()> {
-    let v = shade.points().vec3_f64("ssM")?;
+/// `red green blue` (uchar, sRGB of the sum of the colour attributes
+/// `names`, clamped to [0, 1]) on the points: the vertex colours MeshLab
+/// and Blender show.
+pub fn add_vertex_colours(shade: &mut Cloud, names: &[&str]) -> Result<()> {
+    let mut v = vec![[0.0f64; 3]; shade.len()];
+    for name in names {
+        for (acc, x) in v.iter_mut().zip(shade.points().vec3_f64(name)?) {
+            for c in 0..3 {
+                acc[c] += x[c];
+            }
+        }
+    }
     for (c, name) in ["red", "green", "blue"].iter().enumerate() {
         let col: Vec<u8> = v.iter().map(|x| (srgb(x[c]) * 255.0 + 0.5) as u8).collect();
         shade.points_mut().set(crate::cloud::Attribute::scalar(

@@ -126,7 +126,8 @@ pub struct Scene<'a> {
     pub cloud: &'a Cloud,
     pub cloud_name: &'a str,
     pub filter: filter::Params,
-    pub source: filter::Source<'a>,
+    /// What the beauty sums: `ssM`, `ssS` (stored or computed lazily).
+    pub sources: &'a [filter::Source<'a>],
     /// A direct diffuse term: the lights and the diffuse reflectance
     /// `kd` (`beauty = ssM + kd * illum`, shadows from the mesh).
     pub direct: Option<(&'a [Light], [f64; 3])>,
@@ -142,7 +143,7 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         scene.cloud,
         &mut shade,
         &scene.filter,
-        scene.source,
+        scene.sources,
         progress,
     )
     .map_err(|e| e.about(scene.cloud_name))?;
@@ -156,7 +157,8 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         .direct
         .zip(occluder.as_ref())
         .map(|((lights, kd), occ)| (lights, occ, kd));
-    beauty(&mut shade, direct, progress)?;
+    let names: Vec<&str> = scene.sources.iter().map(|s| s.name()).collect();
+    beauty(&mut shade, &names, direct, progress)?;
     Ok((shade, rep, frep))
 }
 
@@ -242,22 +244,30 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
     Ok((shade, report))
 }
 
-/// The beauty at the shade points: `beauty = ssM + kd * illum`, with
-/// `illum` the direct diffuse light from `lights` (`illum`'s code: `Cl
-/// max(0, N.L)` with shadow rays against `occluder`, kept as the attribute
-/// `illum`); without lights, `beauty = ssM`.
+/// The beauty at the shade points: the sum of the colour attributes
+/// `names` (`ssM`, `ssS`) plus `kd * illum`, with `illum` the direct
+/// diffuse light from `lights` (`illum`'s code: `Cl max(0, N.L)` with
+/// shadow rays against `occluder`, kept as the attribute `illum`).
 pub fn beauty(
     shade: &mut Cloud,
+    names: &[&str],
     direct: Option<(&[Light], &Occluder, [f64; 3])>,
     progress: &Progress,
 ) -> Result<()> {
-    let ssm = shade.points().vec3_f64("ssM")?;
+    let mut sum = vec![[0.0f64; 3]; shade.len()];
+    for name in names {
+        for (acc, v) in sum.iter_mut().zip(shade.points().vec3_f64(name)?) {
+            for c in 0..3 {
+                acc[c] += v[c];
+            }
+        }
+    }
     let out: Vec<[f32; 3]> = match direct {
-        None => ssm.iter().map(|v| v.map(|x| x as f32)).collect(),
+        None => sum.iter().map(|v| v.map(|x| x as f32)).collect(),
         Some((lights, occ, kd)) => {
             crate::stages::illum::illum(shade, lights, Some(occ), 0, progress)?;
             let e = shade.points().vec3_f64("illum")?;
-            ssm.iter()
+            sum.iter()
                 .zip(&e)
                 .map(|(m, e)| [0, 1, 2].map(|c| (m[c] + kd[c] * e[c]) as f32))
                 .collect()

@@ -60,7 +60,7 @@ fn filt(
         cloud,
         &mut s,
         &Params { reach, facing },
-        Source::Eager,
+        &[Source::Stored("ssM")],
         &Progress::hidden(),
     )
     .unwrap();
@@ -300,7 +300,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
             &full,
             &mut eager,
             &params,
-            Source::Eager,
+            &[Source::Stored("ssM")],
             &Progress::hidden(),
         )
         .unwrap();
@@ -308,7 +308,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
             &cloud,
             &mut lazy,
             &params,
-            Source::Lazy(&sp),
+            &[Source::Multi(&sp)],
             &Progress::hidden(),
         )
         .unwrap();
@@ -323,7 +323,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
                 );
             }
         }
-        let (read, computed) = rep.lazy.unwrap();
+        let (_, read, computed) = rep.lazy[0].clone();
         // The cap z > 0.45 (reach 0.05) is 27.5% of the sphere: the points
         // read are about that, and the computed leaves not many more.
         let frac_read = read as f64 / cloud.len() as f64;
@@ -626,7 +626,7 @@ fn the_direct_term_adds_kd_times_the_light() {
             reach: Reach::Nearest(4),
             facing: false,
         },
-        Source::Eager,
+        &[Source::Stored("ssM")],
         &Progress::hidden(),
     )
     .unwrap();
@@ -638,7 +638,13 @@ fn the_direct_term_adds_kd_times_the_light() {
     let occ =
         pcsss::geom::bvh::Occluder::new(&pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap());
     let kd = [0.1, 0.2, 0.4];
-    render::beauty(&mut shade, Some((&lights, &occ, kd)), &Progress::hidden()).unwrap();
+    render::beauty(
+        &mut shade,
+        &["ssM"],
+        Some((&lights, &occ, kd)),
+        &Progress::hidden(),
+    )
+    .unwrap();
     let b = shade.points().vec3_f64("beauty").unwrap();
     for v in &b {
         for (k, base) in [0.5, 0.25, 0.125].iter().enumerate() {
@@ -646,7 +652,7 @@ fn the_direct_term_adds_kd_times_the_light() {
         }
     }
     // Without lights the beauty is ssM.
-    render::beauty(&mut shade, None, &Progress::hidden()).unwrap();
+    render::beauty(&mut shade, &["ssM"], None, &Progress::hidden()).unwrap();
     let b = shade.points().vec3_f64("beauty").unwrap();
     assert!((b[0][0] - 0.5).abs() < 1e-6);
 }
