@@ -296,16 +296,25 @@ impl Occluder {
         if self.nodes.is_empty() {
             return None;
         }
-        let o = ((origin - self.centre) * self.inv_scale).as_vec3();
-        let t0 = (tmin * self.inv_scale) as f32;
-        let t1 = (tmax * self.inv_scale) as f32;
-        let mut ray = Ray::new(o.into(), Vec3A::from(dir.as_vec3()), t0, t1);
+        let mut ray = self.unit_ray(origin, dir, tmin, tmax);
         self.nearest_ray(&mut ray, facing).map(|j| {
             (
                 self.ids[j as usize] as usize,
                 ray.tmax as f64 / self.inv_scale,
             )
         })
+    }
+
+    /// The ray from `origin` along the unit `dir` over `[tmin, tmax]`, in
+    /// the BVH's unit frame (what [`Occluder::nearest`] traces; for
+    /// comparisons with other ray tracers).
+    pub fn unit_ray(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Ray {
+        let o = ((origin - self.centre) * self.inv_scale).as_vec3();
+        let (t0, t1) = (
+            (tmin * self.inv_scale) as f32,
+            (tmax * self.inv_scale) as f32,
+        );
+        Ray::new(o.into(), Vec3A::from(dir.as_vec3()), t0, t1)
     }
 
     /// The nearest hit of `ray` (in the unit frame): its place in leaf

@@ -18,6 +18,7 @@ use pcsss::stages::sssingle::{self, Model, Params};
 use pcsss::Cloud;
 
 mod bad_input;
+mod filter;
 mod slab;
 mod stability;
 
