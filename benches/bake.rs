@@ -205,6 +205,19 @@ fn main() {
         t.row(format!(
             "| {scene} | {n} | **whole bake** | **{sum_ours:.2}** | **{sum_py:.2}** |"
         ));
+        // Single scattering (16 samples, the camera's eye): no Python
+        // counterpart, so outside the comparison above.
+        let single = format!(
+            "{} -q {} --mesh {} --lights {lights} --camera {camera} --rd {rd} --sd {sd} --rgb --samples 16 -o {}",
+            bin("sssingle"),
+            f("ss.ply"),
+            f("mesh.ply"),
+            f("sss.ply")
+        );
+        let s = best_cmd(1, &single).unwrap_or(f64::NAN);
+        t.row(format!(
+            "| {scene} | {n} | sssingle (16 samples; not in the Python pipeline) | {s:.3} | - |"
+        ));
         // The two renders of the same cloud, pixel by pixel.
         let width = std::fs::read_to_string(camera)
             .ok()
