@@ -499,11 +499,14 @@ impl<'a> Run<'a> {
                 let ph = hg_peak1(p.g, (-e.dir).dot(v.wpo));
                 let common = ci * kti * v.kto * ph;
                 let wf = |d: f64| falloff(Falloff::Smooth, si, d, 0.0);
-                if p.rgb {
+                if !self.single {
                     [0, 1, 2].map(|c| cl[c] * common * wf(self.lu[c]))
                 } else {
-                    let w1 = wf(self.lu1);
-                    [0, 1, 2].map(|c| cl[c] * p.rd[c] * common * w1)
+                    // One kernel: t_rgb with equal distances (no Rd), or
+                    // Rd times the kernel at lu1.
+                    let w1 = common * wf(self.lu1);
+                    let k = if p.rgb { [1.0; 3] } else { p.rd };
+                    [0, 1, 2].map(|c| cl[c] * k[c] * w1)
                 }
             }
             Model::Physical => {

@@ -176,3 +176,33 @@ fn the_seed_model_on_a_slab_equals_its_expectation() {
     }
     eprintln!("{}", table.join("\n"));
 }
+
+#[test]
+fn rgb_with_equal_distances_takes_one_kernel_and_equals_its_quadrature() {
+    let cl = [1.0, 0.9, 0.8];
+    let cloud = top_points(3, 0.05, DVec3::ZERO);
+    let mesh = slab_mesh(20.0, 50.0, DVec3::ZERO);
+    let rd = [0.5; 3];
+    let p = Params {
+        model: Model::Seed,
+        rd,
+        sd: 0.6,
+        rgb: true,
+        g: 0.5,
+        eta: 1.33,
+        samples: 64,
+        eye: eye(20.0, 180.0, DVec3::ZERO),
+        ..Params::default()
+    };
+    let got = run(&cloud, &mesh, &distant(30.0, cl), &p);
+    let a = Angles::new(30.0, 20.0, 180.0, 1.33);
+    let want = seed_truth(&a, cl, rd, 0.6, true, 0.5, 50.0);
+    assert!(worst(&got, want) < 0.01, "{:?} vs {want:?}", got[0]);
+    // Without t_rgb the same kernel, times Rd.
+    let plain = run(&cloud, &mesh, &distant(30.0, cl), &Params { rgb: false, ..p });
+    for (x, y) in got.iter().zip(&plain) {
+        for c in 0..3 {
+            assert!((x[c] * rd[c] - y[c]).abs() <= 1e-6 * y[c], "{x:?} {y:?}");
+        }
+    }
+}
