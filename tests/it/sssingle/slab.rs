@@ -199,7 +199,12 @@ fn rgb_with_equal_distances_takes_one_kernel_and_equals_its_quadrature() {
     let want = seed_truth(&a, cl, rd, 0.6, true, 0.5, 50.0);
     assert!(worst(&got, want) < 0.01, "{:?} vs {want:?}", got[0]);
     // Without t_rgb the same kernel, times Rd.
-    let plain = run(&cloud, &mesh, &distant(30.0, cl), &Params { rgb: false, ..p });
+    let plain = run(
+        &cloud,
+        &mesh,
+        &distant(30.0, cl),
+        &Params { rgb: false, ..p },
+    );
     for (x, y) in got.iter().zip(&plain) {
         for c in 0..3 {
             assert!((x[c] * rd[c] - y[c]).abs() <= 1e-6 * y[c], "{x:?} {y:?}");
