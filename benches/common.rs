@@ -184,3 +184,51 @@ pub fn read_npy(path: &Path) -> Vec<f64> {
         .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
         .collect()
 }
+
+/// Embree (Python embreex) on `rays` against `tris`, both in a BVH's unit
+/// frame, with `query` "occluded" (shadow rays) or "intersect" (nearest
+/// hits): the JSON line of benches/py/embree_rays.py, or None (with the
+/// reason on stderr) when embreex is not installed.
+pub fn embree(
+    dir: &Path,
+    tris: &[obvhs::triangle::Triangle],
+    rays: &[obvhs::ray::Ray],
+    query: &str,
+) -> Option<serde_json::Value> {
+    let tris_bin = dir.join(format!("embree_{query}_tris.f32"));
+    let rays_bin = dir.join(format!("embree_{query}_rays.f32"));
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&tris_bin).ok()?);
+    for t in tris {
+        for v in [t.v0, t.v1, t.v2] {
+            for x in v.to_array() {
+                w.write_all(&x.to_le_bytes()).ok()?;
+            }
+        }
+    }
+    w.flush().ok()?;
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&rays_bin).ok()?);
+    for r in rays {
+        for x in r
+            .origin
+            .to_array()
+            .into_iter()
+            .chain(r.direction.to_array())
+            .chain([r.tmax])
+        {
+            w.write_all(&x.to_le_bytes()).ok()?;
+        }
+    }
+    w.flush().ok()?;
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/embree_rays.py");
+    std::process::Command::new(python())
+        .args([script, tris_bin.to_str()?, rays_bin.to_str()?, query])
+        .output()
+        .ok()
+        .filter(|o| {
+            if !o.status.success() {
+                eprintln!("embree: {}", String::from_utf8_lossy(&o.stderr));
+            }
+            o.status.success()
+        })
+        .and_then(|o| serde_json::from_slice(&o.stdout).ok())
+}

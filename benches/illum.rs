@@ -137,46 +137,7 @@ fn main() {
     let (c2, _) = trace(&rays, 2, cw_hit);
 
     // The same rays and triangles for Embree.
-    let tris_bin = dir.join("illum_tris.f32");
-    let rays_bin = dir.join("illum_rays.f32");
-    let mut w = BufWriter::new(File::create(&tris_bin).unwrap());
-    for t in occ.triangles() {
-        for v in [t.v0, t.v1, t.v2] {
-            for x in v.to_array() {
-                w.write_all(&x.to_le_bytes()).unwrap();
-            }
-        }
-    }
-    w.flush().unwrap();
-    let mut w = BufWriter::new(File::create(&rays_bin).unwrap());
-    for r in &rays {
-        for x in r
-            .origin
-            .to_array()
-            .into_iter()
-            .chain(r.direction.to_array())
-            .chain([r.tmax])
-        {
-            w.write_all(&x.to_le_bytes()).unwrap();
-        }
-    }
-    w.flush().unwrap();
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/embree_shadow.py");
-    let embree: Option<serde_json::Value> = std::process::Command::new(python())
-        .args([
-            script,
-            tris_bin.to_str().unwrap(),
-            rays_bin.to_str().unwrap(),
-        ])
-        .output()
-        .ok()
-        .filter(|o| {
-            if !o.status.success() {
-                eprintln!("embree: {}", String::from_utf8_lossy(&o.stderr));
-            }
-            o.status.success()
-        })
-        .and_then(|o| serde_json::from_slice(&o.stdout).ok());
+    let embree = embree(&dir, occ.triangles(), &rays, "occluded");
 
     let nr = rays.len() as f64;
     let mut tab = Table::new(

@@ -167,46 +167,7 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
     let (t2, _, _) = trace(&rays, 2, nearest(Facing::Any));
     let (l1, lhits, _) = trace(&rays, 1, nearest(Facing::Leaving));
     let (l2, _, _) = trace(&rays, 2, nearest(Facing::Leaving));
-    let tris_bin = dir.join("sssingle_tris.f32");
-    let rays_bin = dir.join("sssingle_rays.f32");
-    let mut w = BufWriter::new(File::create(&tris_bin).unwrap());
-    for t in occ.triangles() {
-        for v in [t.v0, t.v1, t.v2] {
-            for x in v.to_array() {
-                w.write_all(&x.to_le_bytes()).unwrap();
-            }
-        }
-    }
-    w.flush().unwrap();
-    let mut w = BufWriter::new(File::create(&rays_bin).unwrap());
-    for r in &rays {
-        for x in r
-            .origin
-            .to_array()
-            .into_iter()
-            .chain(r.direction.to_array())
-            .chain([r.tmax])
-        {
-            w.write_all(&x.to_le_bytes()).unwrap();
-        }
-    }
-    w.flush().unwrap();
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/py/embree_closest.py");
-    let embree: Option<serde_json::Value> = std::process::Command::new(python())
-        .args([
-            script,
-            tris_bin.to_str().unwrap(),
-            rays_bin.to_str().unwrap(),
-        ])
-        .output()
-        .ok()
-        .filter(|o| {
-            if !o.status.success() {
-                eprintln!("embree: {}", String::from_utf8_lossy(&o.stderr));
-            }
-            o.status.success()
-        })
-        .and_then(|o| serde_json::from_slice(&o.stdout).ok());
+    let embree = embree(&dir, occ.triangles(), &rays, "intersect");
     let nr = rays.len() as f64;
     tab.row(format!(
         "| {} rays from inside a bumpy sphere of {} triangles ({} points x 16 depths x 2 lights, those the eye sees) | | | |",

@@ -1,10 +1,12 @@
-"""Embree (through embreex) on the same closest-hit rays as benches/sssingle.rs.
+"""Embree (through embreex) on the same rays as a Rust benchmark.
 
-Usage: embree_closest.py TRIS RAYS
+Usage: embree_rays.py TRIS RAYS QUERY
 TRIS: float32 triangles (n x 3 x 3), RAYS: float32 rays (m x 7: origin,
 direction, tmax; inf for none), both in the BVH's unit frame, written by
-the Rust benchmark. Prints one JSON line: build seconds, rays that hit,
-the sum of the hit distances, trace seconds on 1 and 2 processes (each
+the Rust benchmark (benches/illum.rs: shadow rays, QUERY occluded;
+benches/sssingle.rs: nearest hits, QUERY intersect). Prints one JSON line:
+build seconds; the rays blocked (occluded) or that hit, with the sum of
+their hit distances (intersect); trace seconds on 1 and 2 processes (each
 process traces half the rays on its own copy of the scene: embreex traces
 on one thread per call).
 """
@@ -24,17 +26,21 @@ def load(tris_path):
     scene = rtcore_scene.EmbreeScene(robust=False)
     TriangleMesh(scene, tris)
     # Commit happens on the first run: force it with one ray.
-    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
     return scene, time.perf_counter() - t
 
 
 def trace(args):
-    tris_path, rays = args
+    tris_path, rays, query = args
     scene, _ = load(tris_path)
     o = np.ascontiguousarray(rays[:, 0:3])
     d = np.ascontiguousarray(rays[:, 3:6])
     tmax = np.where(np.isinf(rays[:, 6]), np.float32(1e30), rays[:, 6]).astype(np.float32)
     t = time.perf_counter()
+    if query == "occluded":
+        hit = np.asarray(scene.run(o, d, dists=tmax, query="OCCLUDED")) != -1
+        dt = time.perf_counter() - t
+        return dt, int(hit.sum()), 0.0
     res = scene.run(o, d, dists=tmax, query="INTERSECT", output=1)
     dt = time.perf_counter() - t
     hit = np.asarray(res["primID"]) != -1
@@ -43,16 +49,16 @@ def trace(args):
 
 
 def main():
-    tris_path, rays_path = sys.argv[1], sys.argv[2]
+    tris_path, rays_path, query = sys.argv[1], sys.argv[2], sys.argv[3]
     rays = np.fromfile(rays_path, dtype=np.float32).reshape(-1, 7)
     _, build = load(tris_path)
-    one, hits, dist = trace((tris_path, rays))
+    one, hits, dist = trace((tris_path, rays, query))
     halves = np.array_split(rays, 2)
     with mp.get_context("fork").Pool(2) as pool:
-        res = pool.map(trace, [(tris_path, h) for h in halves])
+        res = pool.map(trace, [(tris_path, h, query) for h in halves])
     two = max(r[0] for r in res)
-    print(json.dumps({"rays": len(rays), "build": build, "hits": hits, "dist": dist,
-                      "seconds_1": one, "seconds_2": two}))
+    print(json.dumps({"rays": len(rays), "build": build, "hits": hits, "blocked": hits,
+                      "dist": dist, "seconds_1": one, "seconds_2": two}))
 
 
 if __name__ == "__main__":
