@@ -232,3 +232,30 @@ pub fn embree(
         })
         .and_then(|o| serde_json::from_slice(&o.stdout).ok())
 }
+
+/// `n` points on `mesh` (scatter, seed 1, per-face areas) with smooth
+/// normals (facet, cusp 60).
+pub fn points_on(mesh: &pcsss::Cloud, n: usize) -> pcsss::Cloud {
+    let m = pcsss::geom::mesh::TriMesh::from_cloud(mesh).unwrap();
+    let mut cloud = pcsss::stages::scatter::scatter(
+        mesh,
+        &pcsss::stages::scatter::Params {
+            amount: pcsss::stages::scatter::Amount::Count(n),
+            seed: 1,
+            ptarea: pcsss::stages::scatter::PtareaMode::Prim,
+            relax: 0,
+        },
+    )
+    .unwrap();
+    pcsss::stages::facet::facet_points(
+        &mut cloud,
+        &m,
+        &pcsss::stages::facet::Params {
+            mode: pcsss::stages::facet::Mode::Smooth,
+            weight: pcsss::stages::facet::Weight::Angle,
+            cusp: 60.0,
+        },
+    )
+    .unwrap();
+    cloud
+}

@@ -18,8 +18,6 @@ use pcsss::formats::{self, Format};
 use pcsss::geom::bvh::Occluder;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::lights;
-use pcsss::stages::facet;
-use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 use pcsss::Cloud;
 use rayon::prelude::*;
 
@@ -61,26 +59,7 @@ fn main() {
         1.0 + 0.15 * (5.0 * th).sin() * (7.0 * ph).cos()
     });
     let m = TriMesh::from_cloud(&mesh).unwrap();
-    let mut cloud = scatter::scatter(
-        &mesh,
-        &Params {
-            amount: Amount::Count(n),
-            seed: 1,
-            ptarea: PtareaMode::Prim,
-            relax: 0,
-        },
-    )
-    .unwrap();
-    facet::facet_points(
-        &mut cloud,
-        &m,
-        &facet::Params {
-            mode: facet::Mode::Smooth,
-            weight: facet::Weight::Angle,
-            cusp: 60.0,
-        },
-    )
-    .unwrap();
+    let cloud = points_on(&mesh, n);
     let mesh_path = dir.join("illum_mesh.ply");
     let cloud_path = dir.join("illum_cloud.ply");
     let lights_path = dir.join("illum_lights.json");

@@ -35,8 +35,6 @@ use pcsss::geom::bvh::Facing;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::lights::{self, Arrival};
 use pcsss::progress::Progress;
-use pcsss::stages::facet;
-use pcsss::stages::scatter::{self, Amount, PtareaMode};
 use pcsss::stages::sssingle::{self, interior::Interior, optics, Model, Params};
 use pcsss::Cloud;
 use rayon::prelude::*;
@@ -50,32 +48,6 @@ fn write(path: &std::path::Path, c: &Cloud) {
     let mut w = BufWriter::new(File::create(path).unwrap());
     formats::write_cloud(&mut w, c, Format::DEFAULT).unwrap();
     w.flush().unwrap();
-}
-
-/// `n` points on `mesh` with smooth normals.
-fn points_on(mesh: &Cloud, n: usize) -> Cloud {
-    let m = TriMesh::from_cloud(mesh).unwrap();
-    let mut cloud = scatter::scatter(
-        mesh,
-        &scatter::Params {
-            amount: Amount::Count(n),
-            seed: 1,
-            ptarea: PtareaMode::Prim,
-            relax: 0,
-        },
-    )
-    .unwrap();
-    facet::facet_points(
-        &mut cloud,
-        &m,
-        &facet::Params {
-            mode: facet::Mode::Smooth,
-            weight: facet::Weight::Angle,
-            cusp: 60.0,
-        },
-    )
-    .unwrap();
-    cloud
 }
 
 /// The rays sssingle's seed model casts from `cloud`'s points towards

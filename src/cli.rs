@@ -524,14 +524,17 @@ pub fn env_flag(name: &str) -> bool {
     std::env::var_os(name).is_some()
 }
 
-/// `X,Y,Z`, the value of option `flag` (named in errors).
-pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .split(',')
+/// Numbers separated by commas, the value of option `flag`.
+fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    Ok(s.split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?;
-    match v[..] {
+        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?)
+}
+
+/// `X,Y,Z`, the value of option `flag` (named in errors).
+pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    match parse_list(flag, s)?[..] {
         [x, y, z] => Ok([x, y, z]),
         _ => Err(crate::Error::param(flag, format!("'{s}' is not X,Y,Z")).into()),
     }
@@ -540,12 +543,7 @@ pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
 /// `R,G,B` or one value for all three, the value of option `flag`
 /// (named in errors).
 pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?;
-    match v[..] {
+    match parse_list(flag, s)?[..] {
         [x] => Ok([x; 3]),
         [r, g, b] => Ok([r, g, b]),
         _ => Err(crate::Error::param(flag, format!("'{s}' is not R,G,B or one value")).into()),
