@@ -35,7 +35,7 @@ use crate::maths::uniform24;
 use crate::progress::Progress;
 use crate::stages::ssmulti::{falloff, Falloff};
 
-use self::interior::Interior;
+use self::interior::{Entry, Interior};
 use self::optics::*;
 
 /// Which estimator.
@@ -396,13 +396,12 @@ impl<'a> Run<'a> {
                         continue;
                     }
                     entered += 1;
-                    if let Some(f) = self.pair(&view, e, hit.dist, hit.normal, ci, weight) {
-                        let (sum, n) = &mut sums[l];
-                        for c in 0..3 {
-                            sum[c] += f[c];
-                        }
-                        *n += 1;
+                    let f = self.pair(&view, e, &hit, ci, weight);
+                    let (sum, n) = &mut sums[l];
+                    for c in 0..3 {
+                        sum[c] += f[c];
                     }
+                    *n += 1;
                 }
             }
         }
@@ -473,28 +472,21 @@ impl<'a> Run<'a> {
     }
 
     /// One pair's contribution per channel (before the per-light mean and
-    /// the model's scale): light sample `e` entering at distance `dist`
-    /// through normal `ni` (`ci = dot(Wi, Ni) > 0`).
-    fn pair(
-        &self,
-        v: &View,
-        e: &Arrival,
-        dist: f64,
-        ni: DVec3,
-        ci: f64,
-        w: [f64; 3],
-    ) -> Option<[f64; 3]> {
+    /// the model's scale): light sample `e` entering at `hit` (`ci =
+    /// dot(Wi, Ni) > 0`), the channels weighted by `w`; 0 when the light is
+    /// totally reflected there (a pair all the same).
+    fn pair(&self, v: &View, e: &Arrival, hit: &Entry, ci: f64, w: [f64; 3]) -> [f64; 3] {
         let p = self.p;
         // The refracted cosine inside; none: the light is totally reflected.
         let cos_t2 = 1.0 - (1.0 - ci * ci) / (p.eta * p.eta);
         if cos_t2.is_nan() || cos_t2 <= 0.0 {
-            return None;
+            return [0.0; 3];
         }
         let cos_ti = cos_t2.sqrt();
-        let si = dist * ci / cos_ti;
+        let si = hit.dist * ci / cos_ti;
         let kti = 1.0 - fresnel(ci, p.eta);
         let cl = e.e.to_array();
-        Some(match p.model {
+        match p.model {
             Model::Seed => {
                 let ph = hg_peak1(p.g, (-e.dir).dot(v.wpo));
                 let common = ci * kti * v.kto * ph;
@@ -510,12 +502,14 @@ impl<'a> Run<'a> {
                 }
             }
             Model::Physical => {
-                let ti = refract(-e.dir, ni, 1.0 / p.eta)?;
+                let Some(ti) = refract(-e.dir, hit.normal, 1.0 / p.eta) else {
+                    return [0.0; 3];
+                };
                 let ph = hg(p.g, ti.dot(v.wpo));
                 let common = kti * ph * ci / cos_ti;
                 [0, 1, 2].map(|c| w[c] * cl[c] * common * (-self.sigma_t[c] * si).exp())
             }
-        })
+        }
     }
 }
 
