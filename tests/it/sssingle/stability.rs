@@ -187,13 +187,13 @@ fn points_on_edges_and_corners_and_any_thread_count() {
         "test",
     )
     .unwrap();
-    let mut first: Option<Vec<[f64; 3]>> = None;
     for model in [Model::Physical, Model::Seed] {
         let params = Params {
             model,
             sd: 0.5,
             ..physical([0.1, 0.2, 0.3], 1.4, 0.5, DVec3::new(3.0, 2.0, 4.0), 8)
         };
+        let mut first: Option<Vec<[f64; 3]>> = None;
         for threads in [1, 2, 3] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -201,11 +201,10 @@ fn points_on_edges_and_corners_and_any_thread_count() {
                 .unwrap();
             let got = pool.install(|| run(&cloud, &mesh, &lights, &params));
             assert!(finite(&got), "{model:?}: {got:?}");
-            if model == Model::Physical {
-                match &first {
-                    None => first = Some(got),
-                    Some(f) => assert_eq!(&got, f, "{threads} threads"),
-                }
+            assert!(got.iter().any(|v| v[0] > 0.0), "{model:?}: all dark");
+            match &first {
+                None => first = Some(got),
+                Some(f) => assert_eq!(&got, f, "{model:?}, {threads} threads"),
             }
         }
     }
