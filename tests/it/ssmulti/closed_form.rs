@@ -49,7 +49,7 @@ fn a_flat_evenly_lit_plane_gives_rd_times_e() {
                 ..Params::default()
             };
             let got = run(&c, &p);
-            // The seed's exp falloff and the truncated Burley profile jump
+            // The slides' exp falloff and the truncated Burley profile jump
             // to 0 at D: which grid points fall inside the disk is Gauss's
             // circle problem, an error of O((h / D)^(3/2)) times the jump
             // (4e-3 for exp with sigma -> 0, 22 points per D). Local
@@ -125,7 +125,7 @@ fn every_falloff_integrates_to_its_disk_integral() {
 
 #[test]
 fn local_normalisation_keeps_an_open_edge_lit() {
-    // A half-plane: x >= 0. At the edge the seed's normalisation sees half
+    // A half-plane: x >= 0. At the edge Houdini's normalisation sees half
     // the disk (exactly half the kernel's integral): 0.5 Rd E; the local
     // one divides by the area present: Rd E.
     let (k, h, sd) = (140usize, 0.01, 0.3);
@@ -150,7 +150,7 @@ fn local_normalisation_keeps_an_open_edge_lit() {
         assert!(!edge.is_empty());
         for v in edge {
             // The edge points sit on the boundary: their own row counts
-            // half, so the seed's value is 0.5 plus half a row's share.
+            // half, so Houdini's value is 0.5 plus half a row's share.
             assert!((v - want).abs() < 0.03, "{norm:?}: {v} vs {want}");
         }
     }

@@ -122,7 +122,7 @@ fn sd_beyond_the_whole_object_sums_every_pair() {
         }
     }
     // Reaches beyond f32's range (and beyond the padding lanes' "far
-    // away"): every pair, no padding lane, finite sums; the seed's
+    // away"): every pair, no padding lane, finite sums; Houdini's
     // normalisation divides by ~sd^2 (an f32 0), the local one gives the
     // mean light.
     // Every falloff: the kernels are taken no longer than 1e5-1e8 times
