@@ -33,14 +33,15 @@ pub enum Error {
     /// A parameter is out of range or not finite.
     #[error("parameter {name}: {what}")]
     Param { name: String, what: String },
-    /// An operating-system I/O error.
-    #[error("{0}")]
+    /// An operating-system I/O error. (Transparent: its message is printed
+    /// once, not again as its own cause.)
+    #[error(transparent)]
     Io(#[from] std::io::Error),
     /// An error about a named input (a file, `<stdin>`): for library
     /// functions that read several inputs, so the message names the one
     /// at fault.
-    #[error("{name}: {source}")]
-    In { name: String, source: Box<Error> },
+    #[error("{name}: {inner}")]
+    In { name: String, inner: Box<Error> },
 }
 
 /// A missing attribute, with the stage that makes it.
@@ -102,7 +103,7 @@ impl Error {
     pub fn about(self, name: &str) -> Self {
         Error::In {
             name: name.to_string(),
-            source: Box::new(self),
+            inner: Box::new(self),
         }
     }
 
@@ -110,7 +111,7 @@ impl Error {
     pub fn is_broken_pipe(&self) -> bool {
         match self {
             Error::Io(e) => e.kind() == std::io::ErrorKind::BrokenPipe,
-            Error::In { source, .. } => source.is_broken_pipe(),
+            Error::In { inner, .. } => inner.is_broken_pipe(),
             _ => false,
         }
     }

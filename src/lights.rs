@@ -229,9 +229,20 @@ fn finite3(key: &'static str, v: [f64; 3]) -> Check<DVec3> {
     }
 }
 
+/// `d` made unit length, scaled by its largest component first: a vector
+/// like [1e300, 1e300, 0] or [1e-300, 0, 0] has a length f64 cannot
+/// square. Zero for the zero vector.
+fn direction(d: DVec3) -> DVec3 {
+    let m = d.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        (d / m).normalize_or_zero()
+    } else {
+        DVec3::ZERO
+    }
+}
+
 fn unit3(key: &'static str, v: [f64; 3]) -> Check<DVec3> {
-    let d = finite3(key, v)?;
-    let n = d.normalize_or_zero();
+    let n = direction(finite3(key, v)?);
     if n == DVec3::ZERO {
         Err((key, format!("{v:?} has no direction")))
     } else {
@@ -364,7 +375,7 @@ fn validate(s: Spec) -> Check<Light> {
         } => {
             let (name, cl) = common(name, color, intensity)?;
             let (du, dv) = (finite3("u", u)?, finite3("v", v)?);
-            let normal = du.cross(dv).normalize_or_zero();
+            let normal = direction(direction(du).cross(direction(dv)));
             if normal == DVec3::ZERO {
                 return Err(("v", format!("u = {u:?} and v = {v:?} span no area")));
             }
@@ -434,17 +445,54 @@ fn validate(s: Spec) -> Check<Light> {
     })
 }
 
+/// The patterns of a light mask: separated by commas or spaces, except
+/// inside `{...}` (a glob's alternatives) and inside double quotes (a name
+/// with spaces or commas: `"key light"`; the quotes are dropped). An
+/// unclosed brace or quote is an error.
+fn mask_patterns(patterns: &str) -> Result<Vec<String>> {
+    let (mut out, mut cur, mut depth, mut quoted) = (Vec::new(), String::new(), 0u32, false);
+    for c in patterns.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            '{' if !quoted => {
+                depth += 1;
+                cur.push(c);
+            }
+            '}' if !quoted && depth > 0 => {
+                depth -= 1;
+                cur.push(c);
+            }
+            c if !quoted && depth == 0 && (c == ',' || c.is_whitespace()) => {
+                if !cur.is_empty() {
+                    out.push(std::mem::take(&mut cur));
+                }
+            }
+            c => cur.push(c),
+        }
+    }
+    if quoted || depth > 0 {
+        let what = if quoted { "a quote" } else { "a brace" };
+        return Err(Error::param(
+            "--lmask",
+            format!("'{patterns}': {what} is not closed"),
+        ));
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    Ok(out)
+}
+
 /// The light mask (Houdini's `lmask`): names and glob patterns separated
-/// by commas or spaces; a pattern starting with `^` excludes. A light is
-/// used when it matches some including pattern (all lights when there is
-/// none) and no excluding one. Returns the indices of the lights used.
+/// by commas or spaces (not inside `{a,b}` or double quotes); a pattern
+/// starting with `^` excludes. A light is used when it matches some
+/// including pattern (all lights when there is none) and no excluding
+/// one. Returns the indices of the lights used.
 pub fn mask(lights: &[Light], patterns: &str) -> Result<Vec<usize>> {
     let mut include: Vec<GlobMatcher> = Vec::new();
     let mut exclude: Vec<GlobMatcher> = Vec::new();
-    for p in patterns
-        .split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|p| !p.is_empty())
-    {
+    for p in mask_patterns(patterns)? {
+        let p = p.as_str();
         let (list, pat) = match p.strip_prefix('^') {
             Some(rest) => (&mut exclude, rest),
             None => (&mut include, p),

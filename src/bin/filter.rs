@@ -122,6 +122,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     let progress = msg.progress();
     let rep = filter::filter(
         &cloud,
+        &cloud_name,
         &mut shade,
         &Params {
             reach,

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Parser;
 use pcsss::cli::{self, MsgArgs};
 use pcsss::formats::Select;
-use pcsss::tools::diff::{compare, Options, Tol};
+use pcsss::tools::diff::{compare, unknown_names, Options, Tol};
 
 /// Compare two point clouds attribute by attribute. Values a, b agree when
 /// |a - b| <= max(ABS, REL * max(|a|, |b|)) (NaN agrees with NaN). Exit
@@ -81,6 +81,10 @@ fn run(args: Args) -> anyhow::Result<bool> {
         ignore: args.ignore,
         only: args.only,
     };
+    if let Some((flag, name)) = unknown_names(&a, &b, &opt).into_iter().next() {
+        let why = format!("'{name}' names no attribute of either cloud");
+        return Err(pcsss::Error::param(flag, why).into());
+    }
     let rep = compare(&a, &b, &opt);
     for n in &rep.notes {
         msg.info(format!("note: {n}"));

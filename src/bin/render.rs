@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
 use clap::Parser;
 use pcsss::cli::{self, MsgArgs, SingleArgs, SsArgs};
 use pcsss::formats::exr::{Compression, ExrOptions};
@@ -94,6 +93,30 @@ fn run(args: Args) -> anyhow::Result<()> {
         let what = format!("{}: must be a finite fraction > 0", args.radius);
         return Err(Error::param("--radius", what).into());
     }
+    // The outputs before any work: an OpenEXR, a PNG beside it (not the
+    // same file), in directories that exist.
+    let exr_ok = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !exr_ok {
+        let why = format!(
+            "{}: render writes OpenEXR: name a .exr file",
+            args.output.display()
+        );
+        return Err(Error::param("--output", why).into());
+    }
+    cli::output::check_output(&args.output)?;
+    if let Some(png) = &args.png {
+        if png
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
+        {
+            let why = format!("{}: name a .png file", png.display());
+            return Err(Error::param("--png", why).into());
+        }
+        cli::output::check_output(png)?;
+    }
     let cam = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params()?;
     // The direct term's parameters and lights, checked before any work.
@@ -168,23 +191,25 @@ fn run(args: Args) -> anyhow::Result<()> {
         compression: args.compression,
         half: vec![],
     };
-    let out_name = args.output.display().to_string();
-    cli::write_atomic(&args.output, |w| {
+    // Both files complete before either is in place: all or none.
+    let exr = cli::Staged::write(&args.output, |w| {
         formats::write_cloud_with(w, &shade, Format::Exr, &opt).map_err(Into::into)
-    })
-    .with_context(|| out_name)?;
-    if let Some(png_path) = &args.png {
-        let name = png_path.display().to_string();
-        cli::write_atomic(png_path, |out| {
+    })?;
+    let png = match &args.png {
+        Some(path) => Some(cli::Staged::write(path, |w| {
             Ok(render::write_png(
-                out,
+                w,
                 &shade,
                 "beauty",
                 args.exposure,
                 [0.03; 3],
             )?)
-        })
-        .with_context(|| name)?;
+        })?),
+        None => None,
+    };
+    exr.commit()?;
+    if let Some(png) = png {
+        png.commit()?;
     }
     Ok(())
 }

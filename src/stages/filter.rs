@@ -99,11 +99,17 @@ impl CloudIndex {
         };
         let nrm = if with_normals {
             let n = cloud.points().vec3_f64("N")?;
-            Some(
-                n.iter()
-                    .map(|v| DVec3::from_array(*v).normalize_or_zero())
-                    .collect(),
-            )
+            let unit: Vec<DVec3> = n
+                .iter()
+                .map(|v| DVec3::from_array(*v).normalize_or_zero())
+                .collect();
+            if let Some(i) = unit.iter().position(|v| *v == DVec3::ZERO) {
+                return Err(Error::invalid(format!(
+                    "cloud point {i}: N is {:?}, which has no direction (--facing needs one)",
+                    n[i]
+                )));
+            }
+            Some(unit)
         } else {
             None
         };
@@ -271,21 +277,28 @@ pub fn distance(
     single: Option<&sssingle::Params>,
 ) -> Result<f64> {
     let max = |v: [f64; 3]| v.iter().copied().fold(0.0, f64::max);
-    let recorded = |sd: &str, rd: &str| -> Option<f64> {
-        let sd = cloud.detail_f64(sd).ok()?;
-        Some(sd * cloud.detail(rd).map_or(1.0, |v| max3(&v.components())))
+    let recorded = |sd: &str, rd: &str| -> Option<Result<f64>> {
+        let sd_v = cloud.detail_f64(sd).ok()?;
+        let rd_v = cloud.detail(rd).map_or(vec![1.0], |v| v.components());
+        if !(sd_v.is_finite() && sd_v >= 0.0) || rd_v.iter().any(|x| !(x.is_finite() && *x >= 0.0))
+        {
+            return Some(Err(Error::invalid(format!(
+                "the cloud records {sd} = {sd_v:?} and {rd} = {rd_v:?}: not a distance and reflectances >= 0"
+            ))));
+        }
+        Some(Ok(sd_v * max3(&rd_v)))
     };
     let d = if let Some(p) = multi {
         p.sd * max(p.rd)
     } else if let Some(d) = recorded("ssmulti_sd", "ssmulti_rd") {
-        d
+        d?
     } else if let Some(p) = single {
         match p.model {
             sssingle::Model::Seed => p.sd * max(p.rd),
             sssingle::Model::Physical => max(p.mfp),
         }
     } else if let Some(d) = recorded("sssingle_sd", "sssingle_rd") {
-        d
+        d?
     } else if let Some(v) = cloud.detail("sssingle_mfp") {
         max3(&v.components())
     } else {
@@ -346,8 +359,10 @@ impl Report {
 
 /// Gives the shade points `shade` each attribute of `sources` from
 /// `cloud`, with one search for the cloud points each shade point reads.
+/// An error about the cloud names it (`cloud_name`, [`Error::In`]).
 pub fn filter(
     cloud: &Cloud,
+    cloud_name: &str,
     shade: &mut Cloud,
     p: &Params,
     sources: &[Source],
@@ -375,20 +390,28 @@ pub fn filter(
             return Err(Error::missing("shade point", "N"));
         }
         if !cloud.points().has("N") {
-            return Err(Error::missing("cloud point", "N"));
+            return Err(Error::missing("cloud point", "N").about(cloud_name));
         }
-        Some(
-            shade
-                .points()
-                .vec3_f64("N")?
-                .iter()
-                .map(|v| DVec3::from_array(*v).normalize_or_zero())
-                .collect(),
-        )
+        let n: Vec<DVec3> = shade
+            .points()
+            .vec3_f64("N")?
+            .iter()
+            .map(|v| DVec3::from_array(*v).normalize_or_zero())
+            .collect();
+        // (Facing needs a side: a point without one is named, not left
+        // with nothing in reach.)
+        if let Some(i) = n.iter().position(|v| *v == DVec3::ZERO) {
+            return Err(Error::invalid(format!(
+                "shade point {i}: N is {:?}, which has no direction (--facing needs one)",
+                shade.points().vec3_f64("N")?[i]
+            )));
+        }
+        Some(n)
     } else {
         None
     };
-    let index = CloudIndex::new(cloud, p.facing)?;
+    let about_cloud = |e: Error| e.about(cloud_name);
+    let index = CloudIndex::new(cloud, p.facing).map_err(about_cloud)?;
     progress.start("finding neighbours", sp.len() as u64);
     let nbs: Vec<Vec<(u32, f64)>> = sp
         .par_iter()
@@ -415,9 +438,10 @@ pub fn filter(
     let read = want.iter().filter(|&&w| w).count();
     for source in sources {
         let values: Vec<[f32; 3]> = match *source {
-            Source::Stored(name) => cloud.points().vec3_f32(name)?,
+            Source::Stored(name) => cloud.points().vec3_f32(name).map_err(about_cloud)?,
             Source::Multi(sp) => {
-                let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)?;
+                let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)
+                    .map_err(about_cloud)?;
                 report.lazy.push(("ssM".into(), read, rep.computed));
                 v
             }
@@ -429,7 +453,8 @@ pub fn filter(
                     ss.params,
                     Some(&want),
                     progress,
-                )?;
+                )
+                .map_err(about_cloud)?;
                 report.lazy.push(("ssS".into(), read, rep.computed));
                 v
             }

@@ -141,12 +141,12 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
     let (mut shade, rep) = render(scene.mesh, scene.camera).map_err(at_mesh)?;
     let frep = filter::filter(
         scene.cloud,
+        scene.cloud_name,
         &mut shade,
         &scene.filter,
         scene.sources,
         progress,
-    )
-    .map_err(|e| e.about(scene.cloud_name))?;
+    )?;
     let occluder = match scene.direct {
         Some(_) => Some(Occluder::new(
             &TriMesh::from_cloud(scene.mesh).map_err(at_mesh)?,

@@ -71,6 +71,30 @@ impl Options {
     }
 }
 
+/// The names `opt` refers to (`only`, `ignore`, per-attribute tolerances)
+/// that no attribute of either cloud has, with the option that named them:
+/// a golden test that names nothing would compare nothing.
+pub fn unknown_names(a: &Cloud, b: &Cloud, opt: &Options) -> Vec<(&'static str, String)> {
+    let known = |n: &str| {
+        [a, b]
+            .iter()
+            .any(|c| c.elements.iter().any(|e| e.attr(n).is_some()) || c.detail(n).is_some())
+    };
+    let mut out = Vec::new();
+    for (flag, names) in [("--only", &opt.only), ("--ignore", &opt.ignore)] {
+        out.extend(
+            names
+                .iter()
+                .filter(|n| !known(n))
+                .map(|n| (flag, n.clone())),
+        );
+    }
+    let mut tols: Vec<&String> = opt.per_attr.keys().filter(|n| !known(n)).collect();
+    tols.sort();
+    out.extend(tols.into_iter().map(|n| ("--tol", n.clone())));
+    out
+}
+
 /// The outcome of a comparison.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Report {

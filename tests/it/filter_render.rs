@@ -58,6 +58,7 @@ fn filt(
     let mut s = shade.clone();
     let rep = filter::filter(
         cloud,
+        "cloud",
         &mut s,
         &Params { reach, facing },
         &[Source::Stored("ssM")],
@@ -298,6 +299,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
         let mut lazy = eager.clone();
         filter::filter(
             &full,
+            "cloud",
             &mut eager,
             &params,
             &[Source::Stored("ssM")],
@@ -306,6 +308,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
         .unwrap();
         let rep = filter::filter(
             &cloud,
+            "cloud",
             &mut lazy,
             &params,
             &[Source::Multi(&sp)],
@@ -621,6 +624,7 @@ fn the_direct_term_adds_kd_times_the_light() {
     cloud.points_mut().set_vec3("P", Role::Point, &p).unwrap();
     filter::filter(
         &cloud,
+        "cloud",
         &mut shade,
         &Params {
             reach: Reach::Nearest(4),

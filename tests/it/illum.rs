@@ -547,3 +547,29 @@ fn illum_runs_in_a_pipe_and_bad_input_is_a_clear_error() {
         assert!(e.contains(want), "{args:?}: '{e}' lacks '{want}'");
     }
 }
+
+/// Globs with alternatives and quoted names with spaces select what the
+/// mask's documentation says (formats/LIGHTS.md).
+#[test]
+fn light_masks_take_brace_alternatives_and_quoted_names() {
+    let all = lights::parse(
+        r#"{"lights": [
+            {"type": "distant", "name": "key", "direction": [0, -1, 0]},
+            {"type": "distant", "name": "rim", "direction": [0, -1, 0]},
+            {"type": "distant", "name": "fill light", "direction": [0, -1, 0]},
+            {"type": "distant", "name": "top,2", "direction": [0, -1, 0]}
+        ]}"#,
+        "test",
+    )
+    .unwrap();
+    let m = |p: &str| lights::mask(&all, p).map_err(|e| e.to_string());
+    assert_eq!(m("{key,rim}"), Ok(vec![0, 1]));
+    assert_eq!(m("^{key,rim}"), Ok(vec![2, 3]));
+    assert_eq!(m("{key,rim} \"fill light\""), Ok(vec![0, 1, 2]));
+    assert_eq!(m("\"top,2\""), Ok(vec![3]));
+    assert_eq!(m("key,rim"), Ok(vec![0, 1]));
+    for bad in ["{key,rim", "\"fill", "nosuch"] {
+        let e = m(bad).unwrap_err();
+        assert!(e.contains("--lmask"), "{bad}: {e}");
+    }
+}

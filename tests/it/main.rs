@@ -9,6 +9,7 @@ mod cli;
 mod exr_format;
 mod facet;
 mod filter_render;
+mod hostile;
 mod illum;
 mod measure;
 mod mesh_input;

@@ -56,6 +56,7 @@ fn lazy_sss_equals_the_stored_one_and_computes_only_what_the_eye_needs() {
     let mut eager = shade.clone();
     filter::filter(
         &full,
+        "cloud",
         &mut eager,
         &fp,
         &[Source::Stored("ssS")],
@@ -70,6 +71,7 @@ fn lazy_sss_equals_the_stored_one_and_computes_only_what_the_eye_needs() {
     let mut lazy = shade.clone();
     let frep = filter::filter(
         &cloud,
+        "cloud",
         &mut lazy,
         &fp,
         &[Source::Single(&setup)],

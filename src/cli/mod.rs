@@ -7,11 +7,21 @@
 //! - The output format comes from `--format`, else the output's extension,
 //!   else binary little-endian PLY.
 //! - Messages go to stderr; `-q` silences them, `-v` adds detail.
-//! - Errors are one line, `stage: file: what is wrong`, exit status 1; a
-//!   broken pipe (`| head`) is success.
+//! - Errors are one line, `stage: file: what is wrong`; exit status 2 for
+//!   a usage error or a bad parameter, 1 otherwise; a broken pipe (`| head`)
+//!   is success.
+//!
+//! Output files and signals are in [`output`], the stages' shared options
+//! in [`args`].
+
+pub mod args;
+pub mod output;
+
+pub use args::{parse_rgb, parse_xyz, SingleArgs, SsArgs};
+pub use output::{grow_pipe, write_atomic, write_output, Staged};
 
 use std::fs::File;
-use std::io::{self, BufReader, BufWriter, IsTerminal, Read, Write};
+use std::io::{self, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -20,8 +30,6 @@ use anyhow::Context;
 use crate::cloud::Cloud;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
-use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
-use crate::stages::sssingle::{self, Model};
 
 /// Verbosity flags.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -78,8 +86,13 @@ impl IoArgs {
         display_name(self.input.as_deref())
     }
 
-    /// Reads the main input, decoding `select`ed attributes now.
+    /// Reads the main input, decoding `select`ed attributes now; the
+    /// output is checked first ([`output::check_output`]), so a stage that
+    /// cannot write fails before any work.
     pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
+        if let Some(out) = self.output.as_deref().filter(|_| !is_std(&self.output)) {
+            output::check_output(out)?;
+        }
         read_input(self.input.as_deref(), select)
     }
 
@@ -143,81 +156,6 @@ pub fn read_input(path: Option<&Path>, select: &Select) -> anyhow::Result<Cloud>
         }
     };
     result.with_context(|| name)
-}
-
-/// Writes through `body` to `path` atomically, or to stdout when `None`.
-pub fn write_output(
-    path: Option<&Path>,
-    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    match path {
-        None => {
-            let stdout = io::stdout();
-            grow_pipe(&stdout);
-            let mut w = BufWriter::with_capacity(1 << 16, stdout.lock());
-            body(&mut w)?;
-            w.flush()?;
-            Ok(())
-        }
-        Some(path) => write_atomic(path, body).with_context(|| path.display().to_string()),
-    }
-}
-
-/// Writes to a temp file beside `path`, then renames it into place: a
-/// failure never leaves a partial file at `path`. Devices and FIFOs are
-/// written directly.
-pub fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    // A device or FIFO (`-o /dev/null`, a named pipe) is written directly.
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        let f = std::fs::OpenOptions::new().write(true).open(path)?;
-        let mut w = BufWriter::with_capacity(1 << 16, f);
-        body(&mut w)?;
-        w.flush()?;
-        return Ok(());
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".pcsss-")
-        .suffix(".tmp")
-        .tempfile_in(dir)?;
-    {
-        let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file());
-        body(&mut w)?;
-        w.flush()?;
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        tmp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
-    }
-    tmp.persist(path)?;
-    Ok(())
-}
-
-/// Asks the kernel for a 1 MiB pipe buffer when `fd` is a pipe (Linux):
-/// with the default 64 KiB, a pipe moves data at a third of the speed
-/// (measured in benches/ply_io.rs). Anything else is left alone.
-pub fn grow_pipe(fd: &impl std::os::fd::AsRawFd) {
-    #[cfg(target_os = "linux")]
-    {
-        let fd = fd.as_raw_fd();
-        // SAFETY: fstat and fcntl on a descriptor we hold; failures ignored.
-        unsafe {
-            let mut st: libc::stat = std::mem::zeroed();
-            if libc::fstat(fd, &mut st) == 0 && (st.st_mode & libc::S_IFMT) == libc::S_IFIFO {
-                libc::fcntl(fd, libc::F_SETPIPE_SZ, 1 << 20);
-            }
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = fd;
 }
 
 /// Reads all of `path` (stdin when `None`) into memory.
@@ -328,6 +266,7 @@ pub fn is_param_error(e: &anyhow::Error) -> bool {
 /// and returns exit status 2 for a bad parameter (as for a usage error),
 /// 1 for anything else (a broken pipe is success).
 pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
+    output::remove_temps_on_signals();
     match body() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
@@ -340,9 +279,13 @@ pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCo
 }
 
 /// Prefixes a library error with the file (or `<stdin>`) it is about:
-/// `.map_err(cli::at(&name))`.
+/// `.map_err(cli::at(&name))`; an error that already names its input
+/// ([`crate::Error::In`]) keeps that name.
 pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
-    move |e| anyhow::anyhow!("{name}: {e}")
+    move |e| match e {
+        crate::Error::In { .. } => anyhow::Error::from(e),
+        e => anyhow::anyhow!("{name}: {e}"),
+    }
 }
 
 /// Parses the command line like `clap::Parser::parse`, with one help
@@ -377,175 +320,9 @@ pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
     }
 }
 
-/// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
-#[derive(clap::Args, Debug, Clone)]
-pub struct SsArgs {
-    /// Diffuse reflectance: R,G,B (or one value for all three).
-    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
-    pub rd: String,
-    /// Scattering distance (per channel: Rd * sd).
-    #[arg(long)]
-    pub sd: Option<f64>,
-    /// Bounce attenuation, 0 (off) to 1.
-    #[arg(long, default_value_t = 0.0)]
-    pub bounce: f64,
-    /// Per-channel distances (Houdini's t_rgb): each channel reaches its Rd times sd.
-    #[arg(long)]
-    pub rgb: bool,
-    /// Falloff kernel.
-    #[arg(long, value_enum, default_value = "smooth")]
-    pub falloff: FalloffKind,
-    /// exp: decay rate (default 4); burley: D / d (default 5.625: the
-    /// profile's mean radius equals the smooth falloff's).
-    #[arg(long)]
-    pub sigma: Option<f64>,
-    /// Normalisation.
-    #[arg(long, value_enum, default_value = "seed")]
-    pub norm: Norm,
-    /// 0: the exact method; above: the approximate one, which sums a
-    /// cluster of sources whole when its radius is at most T times the
-    /// kernel's length scale. Measured RMS error against exact (unit
-    /// sphere, 200 to 20,000 neighbours, smooth): 5e-5 to 1e-3 at 0.1,
-    /// 2e-3 to 8e-3 at 0.3 (README, "Approximate method").
-    #[arg(long, default_value_t = 0.0)]
-    pub tolerance: f64,
-}
-
-/// `sssingle`'s model parameters (also `filter`'s and `render`'s, to
-/// compute `ssS` for the points they read); the seed model's Rd, sd and
-/// t_rgb are ssmulti's options.
-#[derive(clap::Args, Debug, Clone)]
-pub struct SingleArgs {
-    /// Single scattering: seed, Marengo's (--rd, --sd); physical, Jensen
-    /// et al. 2001 (--albedo, --mfp).
-    #[arg(long, value_enum, default_value = "seed")]
-    pub model: Model,
-    /// Physical model: single-scattering albedo R,G,B in [0, 1].
-    #[arg(long, value_name = "R,G,B", default_value = "0.8")]
-    pub albedo: String,
-    /// Physical model: mean free path R,G,B (1 / extinction).
-    #[arg(long, value_name = "R,G,B")]
-    pub mfp: Option<String>,
-    /// Henyey-Greenstein asymmetry in [-1, 1] (used within +-0.998).
-    #[arg(long, default_value_t = 0.0)]
-    pub g: f64,
-    /// Relative index of refraction, inside over outside.
-    #[arg(long, default_value_t = 1.3)]
-    pub eta: f64,
-    /// Depth samples per point (stratified), 1 to 4096.
-    #[arg(long, default_value_t = 16)]
-    pub samples: u32,
-    /// Random seed of the depth samples and area lights' offsets.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// The mesh's normals are smooth across edges up to this angle
-    /// (degrees), as facet's.
-    #[arg(long, default_value_t = 60.0)]
-    pub cusp: f64,
-}
-
-impl SingleArgs {
-    /// The parameters for the eye `eye`, with the seed model's `rd`, `sd`
-    /// and `rgb`; checked. An error names the option at fault.
-    pub fn params(
-        &self,
-        rd: &str,
-        sd: Option<f64>,
-        rgb: bool,
-        eye: [f64; 3],
-    ) -> anyhow::Result<sssingle::Params> {
-        let (sd, mfp) = match self.model {
-            sssingle::Model::Seed => {
-                let sd = sd.ok_or_else(|| {
-                    crate::Error::param(
-                        "--sd",
-                        "required by --model seed (the scattering distance)",
-                    )
-                })?;
-                (sd, [1.0; 3])
-            }
-            sssingle::Model::Physical => {
-                let mfp = self.mfp.as_deref().ok_or_else(|| {
-                    crate::Error::param(
-                        "--mfp",
-                        "required by --model physical (the mean free path)",
-                    )
-                })?;
-                (0.0, parse_rgb("--mfp", mfp)?)
-            }
-        };
-        let p = sssingle::Params {
-            model: self.model,
-            rd: parse_rgb("--rd", rd)?,
-            sd,
-            albedo: parse_rgb("--albedo", &self.albedo)?,
-            mfp,
-            g: self.g,
-            eta: self.eta,
-            samples: self.samples,
-            rgb,
-            seed: self.seed,
-            eye: glam::DVec3::from_array(eye),
-            cusp: self.cusp,
-        };
-        sssingle::validate(&p)?;
-        Ok(p)
-    }
-}
-
-impl SsArgs {
-    /// The parameters, `None` without `--sd`; checked. `PCSSS_NO_AVX2`
-    /// in the environment forces the baseline pair loop.
-    pub fn params(&self) -> anyhow::Result<Option<Params>> {
-        let Some(sd) = self.sd else { return Ok(None) };
-        let params = Params {
-            rd: parse_rgb("--rd", &self.rd)?,
-            sd,
-            bounce: self.bounce,
-            rgb: self.rgb,
-            falloff: Falloff::new(self.falloff, self.sigma),
-            norm: self.norm,
-            tolerance: self.tolerance,
-            simd: if env_flag("PCSSS_NO_AVX2") {
-                Simd::Baseline
-            } else {
-                Simd::Auto
-            },
-        };
-        ssmulti::validate(&params)?;
-        Ok(Some(params))
-    }
-}
-
 /// True when the environment variable `name` is set (to anything): the
 /// switches the binaries read for the library (`PCSSS_NO_AVX2`,
 /// `PCSSS_TIMES`, `PCSSS_NO_MMAP`).
 pub fn env_flag(name: &str) -> bool {
     std::env::var_os(name).is_some()
-}
-
-/// Numbers separated by commas, the value of option `flag`.
-fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
-    Ok(s.split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?)
-}
-
-/// `X,Y,Z`, the value of option `flag` (named in errors).
-pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
-    match parse_list(flag, s)?[..] {
-        [x, y, z] => Ok([x, y, z]),
-        _ => Err(crate::Error::param(flag, format!("'{s}' is not X,Y,Z")).into()),
-    }
-}
-
-/// `R,G,B` or one value for all three, the value of option `flag`
-/// (named in errors).
-pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
-    match parse_list(flag, s)?[..] {
-        [x] => Ok([x; 3]),
-        [r, g, b] => Ok([r, g, b]),
-        _ => Err(crate::Error::param(flag, format!("'{s}' is not R,G,B or one value")).into()),
-    }
 }

@@ -1,0 +1,173 @@
+//! The options several stages share: ssmulti's (`ssmulti`, and `filter`
+//! and `render` to compute `ssM` lazily), sssingle's model (`sssingle`,
+//! `filter`, `render`), and the parsers of `R,G,B` and `X,Y,Z` values.
+
+use super::env_flag;
+use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
+use crate::stages::sssingle::{self, Model};
+
+/// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SsArgs {
+    /// Diffuse reflectance: R,G,B (or one value for all three).
+    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
+    pub rd: String,
+    /// Scattering distance (per channel: Rd * sd).
+    #[arg(long)]
+    pub sd: Option<f64>,
+    /// Bounce attenuation, 0 (off) to 1.
+    #[arg(long, default_value_t = 0.0)]
+    pub bounce: f64,
+    /// Per-channel distances (Houdini's t_rgb): each channel reaches its Rd times sd.
+    #[arg(long)]
+    pub rgb: bool,
+    /// Falloff kernel.
+    #[arg(long, value_enum, default_value = "smooth")]
+    pub falloff: FalloffKind,
+    /// exp: decay rate (default 4); burley: D / d (default 5.625: the
+    /// profile's mean radius equals the smooth falloff's).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Normalisation.
+    #[arg(long, value_enum, default_value = "seed")]
+    pub norm: Norm,
+    /// 0: the exact method; up to 0.5: the approximate one, which sums a
+    /// cluster of sources whole when its radius is at most T times the
+    /// kernel's length scale. Measured RMS error against exact (unit
+    /// sphere, 200 to 20,000 neighbours, smooth): 5e-5 to 1e-3 at 0.1,
+    /// 2e-3 to 8e-3 at 0.3 (README, "ssmulti").
+    #[arg(long, default_value_t = 0.0)]
+    pub tolerance: f64,
+}
+
+/// `sssingle`'s model parameters (also `filter`'s and `render`'s, to
+/// compute `ssS` for the points they read); the seed model's Rd, sd and
+/// t_rgb are ssmulti's options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SingleArgs {
+    /// Single scattering: seed, Marengo's (--rd, --sd); physical, Jensen
+    /// et al. 2001 (--albedo, --mfp).
+    #[arg(long, value_enum, default_value = "seed")]
+    pub model: Model,
+    /// Physical model: single-scattering albedo R,G,B in [0, 1].
+    #[arg(long, value_name = "R,G,B", default_value = "0.8")]
+    pub albedo: String,
+    /// Physical model: mean free path R,G,B (1 / extinction).
+    #[arg(long, value_name = "R,G,B")]
+    pub mfp: Option<String>,
+    /// Henyey-Greenstein asymmetry in [-1, 1] (used within +-0.998).
+    #[arg(long, default_value_t = 0.0)]
+    pub g: f64,
+    /// Relative index of refraction, inside over outside.
+    #[arg(long, default_value_t = 1.3)]
+    pub eta: f64,
+    /// Depth samples per point (stratified), 1 to 4096.
+    #[arg(long, default_value_t = 16)]
+    pub samples: u32,
+    /// Random seed of the depth samples and area lights' offsets.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The mesh's normals are smooth across edges up to this angle
+    /// (degrees), as facet's.
+    #[arg(long, default_value_t = 60.0)]
+    pub cusp: f64,
+}
+
+impl SingleArgs {
+    /// The parameters for the eye `eye`, with the seed model's `rd`, `sd`
+    /// and `rgb`; checked. An error names the option at fault.
+    pub fn params(
+        &self,
+        rd: &str,
+        sd: Option<f64>,
+        rgb: bool,
+        eye: [f64; 3],
+    ) -> anyhow::Result<sssingle::Params> {
+        let (sd, mfp) = match self.model {
+            sssingle::Model::Seed => {
+                let sd = sd.ok_or_else(|| {
+                    crate::Error::param(
+                        "--sd",
+                        "required by --model seed (the scattering distance)",
+                    )
+                })?;
+                (sd, [1.0; 3])
+            }
+            sssingle::Model::Physical => {
+                let mfp = self.mfp.as_deref().ok_or_else(|| {
+                    crate::Error::param(
+                        "--mfp",
+                        "required by --model physical (the mean free path)",
+                    )
+                })?;
+                (0.0, parse_rgb("--mfp", mfp)?)
+            }
+        };
+        let p = sssingle::Params {
+            model: self.model,
+            rd: parse_rgb("--rd", rd)?,
+            sd,
+            albedo: parse_rgb("--albedo", &self.albedo)?,
+            mfp,
+            g: self.g,
+            eta: self.eta,
+            samples: self.samples,
+            rgb,
+            seed: self.seed,
+            eye: glam::DVec3::from_array(eye),
+            cusp: self.cusp,
+        };
+        sssingle::validate(&p)?;
+        Ok(p)
+    }
+}
+
+impl SsArgs {
+    /// The parameters, `None` without `--sd`; checked. `PCSSS_NO_AVX2`
+    /// in the environment forces the baseline pair loop.
+    pub fn params(&self) -> anyhow::Result<Option<Params>> {
+        let Some(sd) = self.sd else { return Ok(None) };
+        let params = Params {
+            rd: parse_rgb("--rd", &self.rd)?,
+            sd,
+            bounce: self.bounce,
+            rgb: self.rgb,
+            falloff: Falloff::new(self.falloff, self.sigma),
+            norm: self.norm,
+            tolerance: self.tolerance,
+            simd: if env_flag("PCSSS_NO_AVX2") {
+                Simd::Baseline
+            } else {
+                Simd::Auto
+            },
+        };
+        ssmulti::validate(&params)?;
+        Ok(Some(params))
+    }
+}
+
+/// Numbers separated by commas, the value of option `flag`.
+fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    Ok(s.split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| crate::Error::param(flag, format!("'{s}': {e}")))?)
+}
+
+/// `X,Y,Z`, the value of option `flag` (named in errors).
+pub fn parse_xyz(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    match parse_list(flag, s)?[..] {
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(crate::Error::param(flag, format!("'{s}' is not X,Y,Z")).into()),
+    }
+}
+
+/// `R,G,B` or one value for all three, the value of option `flag`
+/// (named in errors).
+pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    match parse_list(flag, s)?[..] {
+        [x] => Ok([x; 3]),
+        [r, g, b] => Ok([r, g, b]),
+        _ => Err(crate::Error::param(flag, format!("'{s}' is not R,G,B or one value")).into()),
+    }
+}
