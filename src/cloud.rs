@@ -267,6 +267,24 @@ impl Element {
         Ok(())
     }
 
+    /// Adds `attr`, whose name no attribute of the element has (a reader
+    /// that made the names unique): no search, so building an element of
+    /// many attributes takes linear time.
+    pub(crate) fn push_unique(&mut self, attr: Attribute) -> Result<()> {
+        if attr.len() != self.len {
+            return Err(Error::invalid(format!(
+                "attribute '{}' has {} rows, element '{}' has {}",
+                attr.name,
+                attr.len(),
+                self.name,
+                self.len
+            )));
+        }
+        debug_assert!(self.attr(&attr.name).is_none(), "{} twice", attr.name);
+        self.attrs.push(attr);
+        Ok(())
+    }
+
     /// Removes the attribute called `name`, returning it.
     pub fn remove(&mut self, name: &str) -> Option<Attribute> {
         let i = self.attrs.iter().position(|a| a.name == name)?;

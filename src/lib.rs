@@ -13,6 +13,7 @@
 //!   meshes ([`geom::mesh`]), rays against them ([`geom::bvh`]), neighbour
 //!   search over points ([`geom::kdtree`]).
 //! - [`maths`]: smoothstep and uniform numbers from seeded streams.
+//! - [`memory`]: memory asked for before the work that needs it.
 //! - [`lights`]: the lights file, light masks, light arriving at a point.
 //! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti, filter,
 //!   render.
@@ -32,6 +33,7 @@ pub mod geom;
 pub mod image;
 pub mod lights;
 pub mod maths;
+pub mod memory;
 pub mod progress;
 pub mod radix;
 pub mod stages;

@@ -172,12 +172,32 @@ pub fn read_bytes(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
     Ok(v)
 }
 
+/// The largest lights or camera file read (`formats/LIGHTS.md`): a file
+/// that goes on (`/dev/zero`) is refused, not read until memory runs out.
+pub const MAX_JSON_BYTES: u64 = 16 << 20;
+
+/// A JSON file's text, at most [`MAX_JSON_BYTES`]; errors name the file.
+fn read_json_text(path: &Path) -> anyhow::Result<String> {
+    let name = path.display().to_string();
+    let f = File::open(path).with_context(|| name.clone())?;
+    let mut bytes = Vec::new();
+    f.take(MAX_JSON_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .with_context(|| name.clone())?;
+    if bytes.len() as u64 > MAX_JSON_BYTES {
+        anyhow::bail!(
+            "{name}: larger than {} MiB: not a lights or camera file",
+            MAX_JSON_BYTES >> 20
+        );
+    }
+    String::from_utf8(bytes).map_err(|_| anyhow::anyhow!("{name}: not UTF-8 text"))
+}
+
 /// Reads a lights file (`formats/LIGHTS.md`) and keeps the lights the
 /// mask selects (an error names the file, or the mask that selects none).
 pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<Vec<crate::lights::Light>> {
     let name = path.display().to_string();
-    let text = std::fs::read(path).with_context(|| name.clone())?;
-    let text = String::from_utf8(text).map_err(|_| anyhow::anyhow!("{name}: not UTF-8 text"))?;
+    let text = read_json_text(path)?;
     let all = crate::lights::parse(&text, &name)?;
     Ok(crate::lights::mask(&all, mask)?
         .into_iter()
@@ -188,7 +208,7 @@ pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<Vec<crate::lights:
 /// Reads a camera file (`formats/CAMERA.md`).
 pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| name.clone())?;
+    let text = read_json_text(path)?;
     Ok(crate::stages::render::Camera::parse(&text, &name)?)
 }
 

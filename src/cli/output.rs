@@ -86,7 +86,7 @@ pub fn write_output(
             let written = body(&mut w).and_then(|()| Ok(w.flush()?));
             written.context("<stdout>")
         }
-        Some(path) => write_atomic(path, body).with_context(|| path.display().to_string()),
+        Some(path) => write_atomic(path, body),
     }
 }
 
@@ -99,11 +99,14 @@ pub fn write_atomic(
 ) -> anyhow::Result<()> {
     // A device or FIFO (`-o /dev/null`, a named pipe) is written directly.
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        let f = std::fs::OpenOptions::new().write(true).open(path)?;
-        let mut w = BufWriter::with_capacity(1 << 16, f);
-        body(&mut w)?;
-        w.flush()?;
-        return Ok(());
+        let direct = || -> anyhow::Result<()> {
+            let f = std::fs::OpenOptions::new().write(true).open(path)?;
+            let mut w = BufWriter::with_capacity(1 << 16, f);
+            body(&mut w)?;
+            w.flush()?;
+            Ok(())
+        };
+        return direct().with_context(|| path.display().to_string());
     }
     Staged::write(path, body)?.commit()
 }

@@ -112,6 +112,13 @@ impl TriMesh {
             let poly = polys.polygon(f);
             pts.clear();
             pts.extend(poly.iter().map(|&v| positions[v as usize]));
+            if pts.len() > geom::MAX_CONCAVE_CORNERS && !geom::is_convex(&pts) {
+                return Err(Error::invalid(format!(
+                    "face {f} has {} corners and is not convex (a concave face has at most {})",
+                    pts.len(),
+                    geom::MAX_CONCAVE_CORNERS
+                )));
+            }
             local.clear();
             geom::triangulate(&pts, &mut local);
             let base = polys.offsets[f] as u32;

@@ -88,6 +88,17 @@ pub fn triangulate(pts: &[DVec3], out: &mut Vec<[usize; 3]>) {
     let cross2 = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
     };
+    // (Strictly convex: exactly ear clipping's triangles. Past the size
+    // where ear clipping turns slow, convex up to rounding.)
+    if convex_2d(&p2, n > MAX_CONCAVE_CORNERS) {
+        // The triangles ear clipping finds on a convex polygon (its first
+        // ear each time: a fan around the last corner), in linear time.
+        for i in 0..n - 3 {
+            out.push([n - 1, i, i + 1]);
+        }
+        out.push([n - 3, n - 2, n - 1]);
+        return;
+    }
     let mut ring: Vec<usize> = (0..n).collect();
     let start = out.len();
     while ring.len() > 3 {
@@ -120,6 +131,61 @@ pub fn triangulate(pts: &[DVec3], out: &mut Vec<[usize; 3]>) {
     }
     out.push([ring[0], ring[1], ring[2]]);
 }
+
+/// Is the projected polygon convex (every turn to the left, once
+/// around)? Strictly, or (`slack`) allowing turns to the right as small as
+/// the rounding of its coordinates (a many-sided polygon read as f32).
+fn convex_2d(p: &[[f64; 2]], slack: bool) -> bool {
+    let n = p.len();
+    // A corner moved by f32 rounding of the coordinates (`scale` their
+    // size) changes a turn's cross product by about that times the edges.
+    let scale = p
+        .iter()
+        .fold(0.0f64, |m, q| m.max(q[0].abs()).max(q[1].abs()));
+    let mut turning = 0.0;
+    for i in 0..n {
+        let (a, b, c) = (p[i], p[(i + 1) % n], p[(i + 2) % n]);
+        let (e, f) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+        let cross = e[0] * f[1] - e[1] * f[0];
+        let least = if slack {
+            -4.0 * f32::EPSILON as f64 * scale * (e[0].hypot(e[1]) + f[0].hypot(f[1]))
+        } else {
+            0.0
+        };
+        if cross.is_nan() || cross <= least {
+            return false;
+        }
+        turning += cross.atan2(e[0] * f[0] + e[1] * f[1]);
+    }
+    // Once around: 2 pi (a star that winds twice turns 4 pi).
+    turning < 3.0 * std::f64::consts::PI
+}
+
+/// Is the polygon (in 3D, projected on its plane) convex, up to the
+/// rounding of its coordinates?
+pub fn is_convex(pts: &[DVec3]) -> bool {
+    let nrm = newell(pts);
+    let ax = nrm.abs().max_position();
+    if pts.len() < 3 || nrm[ax] == 0.0 {
+        return false;
+    }
+    let (u, v) = match ax {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let flip = nrm[ax] < 0.0;
+    let p2: Vec<[f64; 2]> = pts
+        .iter()
+        .map(|p| if flip { [p[v], p[u]] } else { [p[u], p[v]] })
+        .collect();
+    convex_2d(&p2, true)
+}
+
+/// The most corners of a face that is not convex: ear clipping takes time
+/// quadratic (at worst cubic) in them. A convex face of any size takes
+/// linear time.
+pub const MAX_CONCAVE_CORNERS: usize = 1024;
 
 fn fan(n: usize, out: &mut Vec<[usize; 3]>) {
     for k in 1..n - 1 {

@@ -80,7 +80,7 @@ pub fn illum(
         }
     }
     progress.start("shading", pos.len() as u64);
-    let chunks: Vec<(Vec<[f32; 3]>, u64, u64, usize)> = pos
+    let chunks: Vec<(Vec<DVec3>, u64, u64, usize)> = pos
         .par_chunks(CHUNK)
         .zip(nrm.par_chunks(CHUNK))
         .enumerate()
@@ -124,7 +124,7 @@ pub fn illum(
                 if e == DVec3::ZERO {
                     dark += 1;
                 }
-                out.push(e.as_vec3().to_array());
+                out.push(e);
             }
             progress.inc(pc.len() as u64);
             (out, rays, blocked, dark)
@@ -135,9 +135,22 @@ pub fn illum(
         points: pos.len(),
         ..Report::default()
     };
-    let mut illum = Vec::with_capacity(pos.len());
+    let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     for (out, rays, blocked, dark) in chunks {
-        illum.extend(out);
+        for e in out {
+            // Never a value beyond a float attribute: too much light is
+            // refused, with the point.
+            if !(e.is_finite() && e.abs().max_element() <= f32::MAX as f64) {
+                return Err(Error::invalid(format!(
+                    "point {}: illum would be {:e}, {:e}, {:e}, beyond the range of a float attribute (are the lights' intensities right?)",
+                    illum.len(),
+                    e.x,
+                    e.y,
+                    e.z
+                )));
+            }
+            illum.push(e.as_vec3().to_array());
+        }
         report.rays += rays;
         report.blocked += blocked;
         report.dark += dark;

@@ -20,7 +20,9 @@ pub struct Report {
     pub degenerate: usize,
 }
 
-/// Adds face attributes `area` and `perimeter` (float) to `mesh`.
+/// Adds face attributes `area` and `perimeter` to `mesh`: float, or double
+/// when a value is beyond float's range (a mesh with coordinates of 1e20
+/// has areas of 1e40: written as they are, never as infinity).
 pub fn measure(mesh: &mut Cloud) -> Result<Report> {
     let m = TriMesh::from_cloud(mesh)?;
     let tri_area = m.tri_areas();
@@ -36,12 +38,25 @@ pub fn measure(mesh: &mut Cloud) -> Result<Report> {
         pts.extend(m.polys.polygon(f).iter().map(|&v| m.positions[v as usize]));
         degenerate += usize::from(a == 0.0);
         total.add(a);
-        area.push(a as f32);
-        perim.push(geom::perimeter(&pts) as f32);
+        area.push(a);
+        perim.push(geom::perimeter(&pts));
     }
+    if !total.value().is_finite() {
+        return Err(Error::invalid(format!(
+            "the mesh's total area is {:e}: beyond a double (coordinates too large to square)",
+            total.value()
+        )));
+    }
+    let column = |v: Vec<f64>| {
+        if v.iter().all(|x| x.abs() <= f32::MAX as f64) {
+            crate::column::Column::F32(v.into_iter().map(|x| x as f32).collect())
+        } else {
+            crate::column::Column::F64(v)
+        }
+    };
     let faces = mesh.faces_mut().ok_or_else(|| Error::invalid("no faces"))?;
-    faces.set_scalar("area", area)?;
-    faces.set_scalar("perimeter", perim)?;
+    faces.set(crate::cloud::Attribute::scalar("area", column(area)))?;
+    faces.set(crate::cloud::Attribute::scalar("perimeter", column(perim)))?;
     Ok(Report {
         faces: m.face_count(),
         total_area: total.value(),

@@ -166,6 +166,14 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
 /// shade points with `P`, `N` (the vertices' smooth normals interpolated),
 /// `pixel_x`, `pixel_y` and the image windows.
 pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
+    // About 300 bytes a covered pixel at the peak (hits, shade points,
+    // the filtered attributes, the image written): asked for first.
+    let pixels = cam.width as u64 * cam.height as u64;
+    crate::memory::check_available(
+        300 * pixels,
+        "--camera",
+        &format!("a {} x {} image", cam.width, cam.height),
+    )?;
     let m = TriMesh::from_cloud(mesh)?;
     if m.tris.is_empty() {
         return Err(Error::invalid("no faces: a mesh is needed"));

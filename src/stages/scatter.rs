@@ -136,6 +136,14 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         Amount::Count(n) => n,
         Amount::Density(d) => count_for_density(d, total)?,
     };
+    // About 200 bytes a point at the peak (samples, areas, the columns
+    // written, Voronoi's temporaries): asked for before the work.
+    let flag = if matches!(p.amount, Amount::Density(_)) {
+        "--density"
+    } else {
+        "--count"
+    };
+    crate::memory::check_available(200 * n as u64, flag, &format!("{n} points"))?;
     let mut tri_of = Vec::with_capacity(n);
     let last = areas
         .iter()

@@ -173,8 +173,13 @@ fn compare_columns(a: &Column, b: &Column, tol: Tol) -> Worst {
 /// Compares `a` against `b`.
 pub fn compare(a: &Cloud, b: &Cloud, opt: &Options) -> Report {
     let mut rep = Report::default();
+    // (Maps by name, not scans: linear in the elements and attributes.)
+    let (ma, mb) = (
+        by_name(&a.elements, |e| &e.name),
+        by_name(&b.elements, |e| &e.name),
+    );
     for ea in &a.elements {
-        match b.element(&ea.name) {
+        match mb.get(ea.name.as_str()) {
             None => rep
                 .differences
                 .push(format!("element '{}' only in A", ea.name)),
@@ -182,13 +187,22 @@ pub fn compare(a: &Cloud, b: &Cloud, opt: &Options) -> Report {
         }
     }
     for eb in &b.elements {
-        if a.element(&eb.name).is_none() {
+        if !ma.contains_key(eb.name.as_str()) {
             rep.differences
                 .push(format!("element '{}' only in B", eb.name));
         }
     }
     compare_detail(a, b, opt, &mut rep);
     rep
+}
+
+/// The first item of each name.
+fn by_name<T>(items: &[T], name: impl Fn(&T) -> &String) -> HashMap<&str, &T> {
+    let mut m = HashMap::with_capacity(items.len());
+    for it in items {
+        m.entry(name(it).as_str()).or_insert(it);
+    }
+    m
 }
 
 fn compare_elements(ea: &Element, eb: &Element, opt: &Options, rep: &mut Report) {
@@ -201,8 +215,12 @@ fn compare_elements(ea: &Element, eb: &Element, opt: &Options, rep: &mut Report)
         ));
         return;
     }
+    let (ma, mb) = (
+        by_name(ea.attrs(), |x| &x.name),
+        by_name(eb.attrs(), |x| &x.name),
+    );
     for aa in ea.attrs().iter().filter(|x| opt.compared(&x.name)) {
-        match eb.attr(&aa.name) {
+        match mb.get(aa.name.as_str()) {
             None => rep
                 .differences
                 .push(format!("{}.{} only in A", ea.name, aa.name)),
@@ -210,7 +228,7 @@ fn compare_elements(ea: &Element, eb: &Element, opt: &Options, rep: &mut Report)
         }
     }
     for ab in eb.attrs().iter().filter(|x| opt.compared(&x.name)) {
-        if ea.attr(&ab.name).is_none() {
+        if !ma.contains_key(ab.name.as_str()) {
             rep.differences
                 .push(format!("{}.{} only in B", eb.name, ab.name));
         }
@@ -266,8 +284,12 @@ fn compare_attrs(el: &str, a: &Attribute, b: &Attribute, tol: Tol, rep: &mut Rep
 }
 
 fn compare_detail(a: &Cloud, b: &Cloud, opt: &Options, rep: &mut Report) {
+    let (ma, mb) = (
+        by_name(&a.detail, |d| &d.name),
+        by_name(&b.detail, |d| &d.name),
+    );
     for da in a.detail.iter().filter(|d| opt.compared(&d.name)) {
-        let Some(vb) = b.detail(&da.name) else {
+        let Some(vb) = mb.get(da.name.as_str()).map(|d| &d.value) else {
             rep.differences
                 .push(format!("detail.{} only in A", da.name));
             continue;
@@ -290,7 +312,7 @@ fn compare_detail(a: &Cloud, b: &Cloud, opt: &Options, rep: &mut Report) {
         }
     }
     for db in b.detail.iter().filter(|d| opt.compared(&d.name)) {
-        if a.detail(&db.name).is_none() {
+        if !ma.contains_key(db.name.as_str()) {
             rep.differences
                 .push(format!("detail.{} only in B", db.name));
         }

@@ -230,3 +230,201 @@ fn light_masks_with_braces_and_quotes_work_in_illum() {
         assert!((e[0][0] - want).abs() < 1e-6, "{mask}: {:?}", e[0]);
     }
 }
+
+/// Runs `name args` under a 2 GiB address-space limit (a request the
+/// machine cannot meet must fail cleanly, not abort), with `timeout`
+/// seconds at most.
+fn limited(dir: &std::path::Path, name: &str, args: &[&str], secs: u32) -> std::process::Output {
+    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
+    Command::new("bash")
+        .args([
+            "-c",
+            &format!(
+                "ulimit -v 2097152; exec timeout {secs} {} {}",
+                bin(name).display(),
+                quoted.join(" ")
+            ),
+        ])
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap()
+}
+
+/// Class 1: work a header or a file can make unbounded takes time linear
+/// in the input (or hits a documented cap).
+#[test]
+fn headers_and_files_cannot_make_the_work_unbounded() {
+    let dir = tempdir();
+    let w = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    // Rows without properties: a count far past the cap is refused.
+    let empty = w(
+        "empty.ply",
+        "ply\nformat binary_little_endian 1.0\nelement e 1000000000000\nend_header\n",
+    );
+    let o = limited(dir.path(), "pcinfo", &[&empty], 10);
+    assert!(one_line(&o, 1, "empty rows").contains("no properties"));
+    // 40,000 properties, 200,000 elements, 100,000 details: each well
+    // under the 10 s it would take in quadratic time.
+    let props: String = (0..40_000)
+        .map(|i| format!("property float p{i}\n"))
+        .collect();
+    let zeros = vec!["0"; 40_000].join(" ");
+    let many_props = w(
+        "props.ply",
+        &format!("ply\nformat ascii 1.0\nelement vertex 1\n{props}end_header\n{zeros}\n"),
+    );
+    let els: String = (0..200_000).map(|i| format!("element e{i} 0\n")).collect();
+    let many_els = w(
+        "els.ply",
+        &format!("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n{els}end_header\n0\n"),
+    );
+    let det: String = (0..100_000)
+        .map(|i| format!("comment pcsss detail d{i} f64 1\n"))
+        .collect();
+    let many_det = w(
+        "det.ply",
+        &format!("ply\nformat ascii 1.0\n{det}element vertex 1\nproperty float x\nend_header\n0\n"),
+    );
+    for f in [&many_props, &many_els, &many_det] {
+        let t = std::time::Instant::now();
+        let exr = format!("{f}.exr");
+        let o = limited(dir.path(), "pcconvert", &[f, "-o", &exr], 10);
+        assert!(o.status.success(), "{f}: {}", stderr(&o));
+        let o = limited(dir.path(), "pcdiff", &[f, &exr, "-q"], 10);
+        assert!(o.status.code().is_some(), "{f}: {}", stderr(&o));
+        assert!(t.elapsed().as_secs_f64() < 10.0, "{f}: {:?}", t.elapsed());
+    }
+    // A 50,000-gon: linear when convex; a concave one past the cap refused.
+    let n = 50_000;
+    let ring = |r: &dyn Fn(usize) -> f64| -> String {
+        let v: String = (0..n)
+            .map(|i| {
+                let a = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                format!("v {:.12} {:.12} 0\n", r(i) * a.cos(), r(i) * a.sin())
+            })
+            .collect();
+        let f: Vec<String> = (1..=n).map(|i| i.to_string()).collect();
+        format!("{v}f {}\n", f.join(" "))
+    };
+    let convex = w("convex.obj", &ring(&|_| 1.0));
+    let o = limited(dir.path(), "measure", &[&convex, "-o", "convex.ply"], 10);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let star = w("star.obj", &ring(&|i| if i % 2 == 0 { 1.0 } else { 0.5 }));
+    let o = limited(dir.path(), "measure", &[&star, "-o", "star.ply"], 10);
+    assert!(one_line(&o, 1, "concave n-gon").contains("not convex"));
+    // A lights or camera file that goes on forever.
+    let cloud = files(dir.path()).0;
+    let o = limited(
+        dir.path(),
+        "illum",
+        &[&cloud, "--lights", "/dev/zero", "--no-shadows"],
+        10,
+    );
+    assert!(one_line(&o, 1, "/dev/zero lights").contains("16 MiB"));
+}
+
+/// Class 2: a count from a header or the command line that cannot be
+/// held is refused before it is allocated.
+#[test]
+fn requests_beyond_memory_are_refused_not_aborted() {
+    let dir = tempdir();
+    let (cloud, mesh) = files(dir.path());
+    let o = limited(
+        dir.path(),
+        "scatter",
+        &[&mesh, "-n", "2147483648", "-o", "s.ply"],
+        20,
+    );
+    assert!(one_line(&o, 1, "scatter -n").contains("--count"));
+    let cam = dir.path().join("cam.json");
+    std::fs::write(
+        &cam,
+        r#"{"position": [0, 0, 5], "look_at": [0, 0, 0], "width": 16384, "height": 16384}"#,
+    )
+    .unwrap();
+    let cam = cam.display().to_string();
+    let o = limited(
+        dir.path(),
+        "render",
+        &[
+            "--mesh", &mesh, "--camera", &cam, "--cloud", &cloud, "-o", "r.exr",
+        ],
+        20,
+    );
+    assert!(one_line(&o, 1, "huge camera").contains("--camera"));
+    // An 8 x 8 OpenEXR whose data window claims 8 x 1e9 pixels.
+    let mut img = Cloud::with_points(4);
+    img.points_mut()
+        .set_vec3("P", Role::Point, &[[0.0f32; 3]; 4])
+        .unwrap();
+    let exr = dir.path().join("p.exr");
+    std::fs::write(&exr, to_bytes(&img, pcsss::formats::Format::Exr)).unwrap();
+    let mut b = std::fs::read(&exr).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = b.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+    b[at + 12..at + 16].copy_from_slice(&1_000_000_000i32.to_le_bytes());
+    // (Without the chunk count, as other writers leave it out.)
+    let cc = b"chunkCount\0int\0";
+    if let Some(c) = b.windows(cc.len()).position(|w| w == cc) {
+        b.drain(c..c + cc.len() + 8);
+    }
+    std::fs::write(&exr, &b).unwrap();
+    let o = limited(dir.path(), "pcinfo", &[&exr.display().to_string()], 20);
+    let err = one_line(&o, 1, "lying data window");
+    assert!(
+        err.contains("claims 1 x 1000000001 pixels")
+            || err.contains("claims 4 x 1000000001 pixels"),
+        "{err}"
+    );
+}
+
+/// Class 3: a stage never writes a non-finite value it did not read.
+#[test]
+fn results_beyond_a_float_are_refused_or_written_finite() {
+    let dir = tempdir();
+    let (cloud, _) = files(dir.path());
+    // ssmulti with a distance its float pair loop cannot resolve.
+    for sd in ["1e-300", "1e-20"] {
+        let o = run("ssmulti", &[&cloud, "--sd", sd], b"");
+        assert!(one_line(&o, 2, sd).contains("--sd"));
+    }
+    // A light of intensity 1e39.
+    let lights = dir.path().join("l.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"type": "distant", "name": "sun", "direction": [0, 0, -1], "intensity": 1e39}]}"#,
+    )
+    .unwrap();
+    let l = lights.display().to_string();
+    let o = run("illum", &[&cloud, "--lights", &l, "--no-shadows"], b"");
+    assert!(one_line(&o, 1, "1e39 light").contains("illum would be"));
+    // A triangle with coordinates of 1e20: its area, 5e39, written as a
+    // double, and Tarea finite.
+    let tri = dir.path().join("t.obj");
+    std::fs::write(&tri, "v 0 0 0\nv 1e20 0 0\nv 0 1e20 0\nf 1 2 3\n").unwrap();
+    let o = run("measure", &[&tri.display().to_string()], b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = from_bytes(&o.stdout);
+    let area = m.faces().unwrap().scalar_f64("area").unwrap()[0];
+    assert!((area / 5e39 - 1.0).abs() < 1e-6, "{area}");
+    let o = run("promote", &["--class", "face", "--attr", "area"], &o.stdout);
+    let m = from_bytes(&o.stdout);
+    assert!((m.detail_f64("Tarea").unwrap() / 5e39 - 1.0).abs() < 1e-6);
+    // --half never turns 3e38 into infinity.
+    let mut c = Cloud::with_points(2);
+    c.points_mut()
+        .set_vec3("P", Role::Point, &[[0.0f32; 3]; 2])
+        .unwrap();
+    c.points_mut().set_scalar("q", vec![1.0f32, 3e38]).unwrap();
+    let o = run(
+        "pcconvert",
+        &["--format", "exr", "--half", "q"],
+        &to_bytes(&c, LE),
+    );
+    assert!(one_line(&o, 2, "--half").contains("half"));
+}

@@ -9,7 +9,7 @@ use super::{
     detail_from_exr, exr_error, from_text, suffixes, ATTR_COMMENTS, ATTR_DETAIL, ATTR_DETAIL_ORDER,
     ATTR_OBJ_INFO, ATTR_POINTS, ATTR_TYPES,
 };
-use crate::cloud::{Attribute, Cloud, DetailValue, Element, Role, POINTS};
+use crate::cloud::{Attribute, Cloud, Detail, DetailValue, Element, Role, POINTS};
 use crate::column::{Column, ScalarType};
 use crate::error::{Error, Result};
 use crate::image::{self, Window, PIXEL_X, PIXEL_Y};
@@ -101,12 +101,36 @@ fn column_of(
     }
 }
 
+/// The most decoded sample bytes a file may hold per byte of it.
+const MAX_RATIO: u64 = 4096;
+
 /// Reads an OpenEXR point cloud or shade-point image from its bytes.
 pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
     // The header first: its claims are checked before pixels are decoded.
     let meta =
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(exr_error)?;
     for h in &meta.headers {
+        // Never allocate what a header claims beyond what its bytes can
+        // hold: no codec OpenEXR has expands data more than MAX_RATIO
+        // times (deflate's bound is 1032).
+        let pixels = h.layer_size.width() as u64 * h.layer_size.height() as u64;
+        let sample_bytes: u64 = h
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        let decoded = pixels.saturating_mul(sample_bytes);
+        if pixels > crate::image::MAX_PIXELS as u64
+            || decoded > MAX_RATIO.saturating_mul(bytes.len() as u64)
+        {
+            return Err(Error::invalid(format!(
+                "OpenEXR: the header claims {} x {} pixels ({decoded} bytes of samples) in a file of {} bytes",
+                h.layer_size.width(),
+                h.layer_size.height(),
+                bytes.len()
+            )));
+        }
         if h.deep {
             return Err(Error::unsupported(
                 "OpenEXR: a deep image; point clouds and shade points need a flat one",
@@ -190,14 +214,18 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
     let mut attrs: Vec<Attribute> = Vec::new();
     // Recorded attributes first, in their recorded order.
     let mut recorded: Vec<(&String, &TypeInfo)> = types.iter().collect();
-    let order_of = |name: &str| match other.get(&Text::from(ATTR_TYPES)) {
-        Some(AttributeValue::Text(t)) => from_text(t)
-            .split(';')
-            .position(|it| it.split_whitespace().next() == Some(name))
-            .unwrap_or(usize::MAX),
-        _ => usize::MAX,
+    // (Positions from a map, not a scan each: linear in the attributes.)
+    let type_text = match other.get(&Text::from(ATTR_TYPES)) {
+        Some(AttributeValue::Text(t)) => from_text(t),
+        _ => String::new(),
     };
-    recorded.sort_by_key(|(n, _)| order_of(n));
+    let mut type_order: HashMap<&str, usize> = HashMap::new();
+    for (i, it) in type_text.split(';').enumerate() {
+        if let Some(n) = it.split_whitespace().next() {
+            type_order.entry(n).or_insert(i);
+        }
+    }
+    recorded.sort_by_key(|(n, _)| type_order.get(n.as_str()).copied().unwrap_or(usize::MAX));
     for (name, info) in recorded {
         let comp = |ch: &str| -> Option<Column> {
             let c = by_name.get(ch)?;
@@ -327,19 +355,24 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
         })
         .collect();
     // In the recorded order, then any others by name.
-    let order: Vec<String> = match other.get(&Text::from(ATTR_DETAIL_ORDER)) {
-        Some(AttributeValue::Text(t)) => from_text(t).split(' ').map(String::from).collect(),
-        _ => Vec::new(),
+    let order_text = match other.get(&Text::from(ATTR_DETAIL_ORDER)) {
+        Some(AttributeValue::Text(t)) => from_text(t),
+        _ => String::new(),
     };
-    details.sort_by_key(|(name, _)| {
-        (
-            order.iter().position(|o| o == name).unwrap_or(usize::MAX),
-            name.clone(),
-        )
-    });
-    for (k, v) in details {
-        cloud.set_detail(&k, v);
+    let mut order: HashMap<&str, usize> = HashMap::new();
+    for (i, n) in order_text.split(' ').enumerate() {
+        order.entry(n).or_insert(i);
     }
+    details.sort_by(|(a, _), (b, _)| {
+        let at = |n: &String| order.get(n.as_str()).copied().unwrap_or(usize::MAX);
+        (at(a), a).cmp(&(at(b), b))
+    });
+    // (The header's names are distinct: pushed, not searched.)
+    cloud.detail.extend(
+        details
+            .into_iter()
+            .map(|(name, value)| Detail { name, value }),
+    );
     let lines = |key: &str| match other.get(&Text::from(key)) {
         Some(AttributeValue::Text(t)) => from_text(t).lines().map(String::from).collect(),
         _ => Vec::new(),

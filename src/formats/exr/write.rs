@@ -77,7 +77,25 @@ pub fn write_exr<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, opt: &ExrOptions) 
                     format!("attribute '{h}' is not a float attribute"),
                 ))
             }
-            _ => {}
+            Some(a) => {
+                // Never a finite value turned into infinity.
+                let max = f16::MAX.to_f64();
+                for c in a.components() {
+                    let col = c.column();
+                    if let Some(i) = (0..n).find(|&i| {
+                        let x = col.get_f64(i);
+                        x.is_finite() && x.abs() > max
+                    }) {
+                        return Err(Error::param(
+                            "--half",
+                            format!(
+                                "attribute '{h}' is {:e} at point {i}, beyond a half's range ({max})",
+                                col.get_f64(i)
+                            ),
+                        ));
+                    }
+                }
+            }
         }
     }
     let image = image::data_window(cloud)?;

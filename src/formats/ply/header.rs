@@ -5,6 +5,7 @@
 //! scalar `A` is `A`. Detail attributes and roles that the names cannot
 //! carry travel in `comment pcsss ...` lines, which other readers skip.
 
+use std::collections::{HashMap, HashSet};
 use std::io::BufRead;
 
 use crate::cloud::{Detail, DetailValue, Role};
@@ -95,6 +96,7 @@ pub fn read_header<R: BufRead>(r: &mut R) -> Result<Header> {
         roles: Vec::new(),
     };
     let mut have_format = false;
+    let (mut element_names, mut prop_names) = (HashSet::new(), HashSet::new());
     let mut buf = Vec::new();
     let mut lineno = 0usize;
     loop {
@@ -169,9 +171,12 @@ pub fn read_header<R: BufRead>(r: &mut R) -> Result<Header> {
                 let count: u64 = f[1]
                     .parse()
                     .map_err(|_| bad("element count is not a non-negative integer"))?;
-                if h.elements.iter().any(|e| e.name == f[0]) {
+                // (Sets, not scans: a header of many elements or
+                // properties parses in linear time.)
+                if !element_names.insert(f[0].to_string()) {
                     return Err(bad("element declared twice"));
                 }
+                prop_names.clear();
                 h.elements.push(ElementDef {
                     name: f[0].to_string(),
                     count,
@@ -205,7 +210,7 @@ pub fn read_header<R: BufRead>(r: &mut R) -> Result<Header> {
                     .elements
                     .last_mut()
                     .ok_or_else(|| bad("property before any element"))?;
-                if el.props.iter().any(|p| p.name == prop.name) {
+                if !prop_names.insert(prop.name.clone()) {
                     return Err(bad("property declared twice"));
                 }
                 el.props.push(prop);
@@ -378,12 +383,34 @@ impl Layout {
     }
 }
 
+/// The role comments of a header by (element, attribute): the roles
+/// given, in order.
+pub type Roles = HashMap<(String, String), Vec<Role>>;
+
+/// The header's role comments as [`Roles`] (made once, not searched for
+/// each attribute).
+pub fn roles(h: &Header) -> Roles {
+    let mut m: Roles = HashMap::new();
+    for (e, a, r) in &h.roles {
+        m.entry((e.clone(), a.clone())).or_default().push(*r);
+    }
+    m
+}
+
 /// Groups an element's properties into attributes by the naming convention.
 /// A group is formed only when all three components exist as scalars of one
 /// type and its name does not clash; it takes the place of its first
 /// component.
-pub fn layout(el: &ElementDef, roles: &[(String, String, Role)]) -> Vec<Layout> {
-    let find = |n: &str| el.props.iter().position(|p| p.name == n);
+pub fn layout(el: &ElementDef, roles: &Roles) -> Vec<Layout> {
+    // (Maps, not scans: linear in the element's properties.)
+    let index: HashMap<&str, usize> = el
+        .props
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.name.as_str(), i))
+        .collect();
+    let find = |n: &str| index.get(n).copied();
+    let mut named: HashSet<String> = HashSet::new();
     let mut used = vec![false; el.props.len()];
     let mut out: Vec<Layout> = Vec::new();
     for (i, p) in el.props.iter().enumerate() {
@@ -406,12 +433,15 @@ pub fn layout(el: &ElementDef, roles: &[(String, String, Role)]) -> Vec<Layout> 
             let same = idx
                 .iter()
                 .all(|&k| !used[k] && el.props[k].kind == PropKind::Scalar(ty));
-            let clash = find(&name).is_some() || out.iter().any(|l| l.name() == name);
+            let clash = find(&name).is_some() || named.contains(&name);
             // A role comment may refine the role, never rename the components.
             let role = roles
-                .iter()
-                .find(|(e, a, r)| *e == el.name && *a == name && component_names(a, *r) == names)
-                .map(|r| r.2)
+                .get(&(el.name.clone(), name.clone()))
+                .and_then(|rs| {
+                    rs.iter()
+                        .copied()
+                        .find(|r| component_names(&name, *r) == names)
+                })
                 .unwrap_or(role);
             (same && !clash).then_some((name, role, idx))
         });
@@ -420,6 +450,7 @@ pub fn layout(el: &ElementDef, roles: &[(String, String, Role)]) -> Vec<Layout> 
                 for k in idx {
                     used[k] = true;
                 }
+                named.insert(name.clone());
                 out.push(Layout::Vec3 {
                     name,
                     role,

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use memmap2::Mmap;
 
-use super::header::{layout, read_header, ElementDef, Encoding, Header, Layout, PropKind};
+use super::header::{layout, read_header, roles, ElementDef, Encoding, Header, Layout, PropKind};
 use crate::cloud::{AttrData, Attribute, Cloud, Element, ListColumn};
 use crate::column::{Bytes, Column, RawBlock, RawRef, ScalarType, Values};
 use crate::error::{Error, Result};
@@ -110,6 +110,9 @@ impl<R: BufRead> BufRead for Stream<R> {
 
 impl<R: BufRead> Source for Stream<R> {}
 
+/// The most rows an element without properties may declare.
+pub const MAX_EMPTY_ROWS: u64 = 1 << 20;
+
 /// Reads a whole PLY file from a stream.
 pub fn read_ply<R: BufRead>(r: R, select: &Select) -> Result<Cloud> {
     read_ply_from(Stream(r), select)
@@ -126,8 +129,24 @@ pub fn read_ply_from<R: Source>(mut r: R, select: &Select) -> Result<Cloud> {
         obj_info: h.obj_info.clone(),
     };
     let mut tokens = Tokens::new();
+    let roles = roles(&h);
     for def in &h.elements {
-        let lay = layout(def, &h.roles);
+        if def.props.is_empty() {
+            // Rows without properties hold nothing to read: a count
+            // beyond the cap can only be a lie (and would cost a loop, or
+            // an ASCII writer a line, for each).
+            if def.count > MAX_EMPTY_ROWS {
+                return Err(Error::invalid(format!(
+                    "element '{}' declares {} rows but no properties (at most {MAX_EMPTY_ROWS})",
+                    def.name, def.count
+                )));
+            }
+            cloud
+                .elements
+                .push(Element::new(&def.name, def.count as usize));
+            continue;
+        }
+        let lay = layout(def, &roles);
         let el = match (h.encoding, def.fixed_stride()) {
             (Encoding::Ascii, _) => read_ascii(&mut r, &mut tokens, def, &lay)?,
             (enc, Some(stride)) if stride > 0 => {
@@ -188,7 +207,9 @@ fn assemble(
             ),
             Layout::List { prop, .. } => AttrData::List(take(*prop).list()),
         };
-        el.set(Attribute {
+        // (The header's names are unique and the layout's groups never
+        // clash with them.)
+        el.push_unique(Attribute {
             name: l.name().to_string(),
             data,
         })

@@ -225,6 +225,27 @@ pub fn validate(p: &Params) -> Result<()> {
         }
         _ => {}
     }
+    // The pair loop's f32 kernel constants (1 / D^2, sigma / D) must be
+    // finite: below about 5e-20 they overflow and every weight would come
+    // out 0.
+    let ld = p.rd.map(|r| r * p.sd);
+    for d in ld.into_iter().filter(|&d| d > 0.0) {
+        let inv = 1.0 / d as f32;
+        let ok = match p.falloff {
+            Falloff::Smooth => (inv * inv).is_finite(),
+            Falloff::Exp { sigma: k } | Falloff::Burley { kappa: k } => {
+                (k as f32 * inv).is_finite()
+            }
+        };
+        if !ok {
+            return Err(Error::param(
+                "--sd",
+                format!(
+                    "Rd * sd = {d:e} is too small for the float pair loop (the smooth falloff needs at least 5.5e-20): give the scene in larger units"
+                ),
+            ));
+        }
+    }
     if !(p.tolerance.is_finite() && (0.0..=MAX_TOLERANCE).contains(&p.tolerance)) {
         return Err(Error::param(
             "--tolerance",
@@ -286,6 +307,17 @@ fn ssmulti_columns(
         sum_all(&inp, p, want, progress, &mut report, &mut out);
     } else {
         report.computed = n;
+    }
+    // Never a non-finite value from finite inputs: sums beyond a float are
+    // refused, with the point.
+    for c in 0..3 {
+        if let Some(i) = out[c].iter().position(|x| !x.is_finite()) {
+            return Err(Error::invalid(format!(
+                "point {i}: ssM would be {} (channel {c}), beyond the range of a float attribute: illum * ptarea too large for Rd * sd = {:e}",
+                out[c][i],
+                Distances::of(p).ld1
+            )));
+        }
     }
     Ok((out, report))
 }
