@@ -17,6 +17,7 @@ mod pcdiff;
 mod ply_bad_input;
 mod ply_roundtrip;
 mod promote;
+mod props;
 mod python_interop;
 mod scatter;
 mod ssmulti;

@@ -374,7 +374,9 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
             .map(|(name, value)| Detail { name, value }),
     );
     let lines = |key: &str| match other.get(&Text::from(key)) {
-        Some(AttributeValue::Text(t)) => from_text(t).lines().map(String::from).collect(),
+        // Written only when there are lines, joined by '\n': split, not
+        // `lines()`, keeps empty lines and a trailing '\r'.
+        Some(AttributeValue::Text(t)) => from_text(t).split('\n').map(String::from).collect(),
         _ => Vec::new(),
     };
     cloud.comments = lines(ATTR_COMMENTS);

@@ -177,6 +177,13 @@ pub fn write_exr<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, opt: &ExrOptions) 
             }
         }
     }
+    if channels.is_empty() {
+        // OpenEXR needs a channel; a placeholder would be a channel other
+        // readers show as data.
+        return Err(Error::unsupported(
+            "the points have no attributes and OpenEXR needs at least one channel (write PLY)",
+        ));
+    }
     let mut other: HashMap<Text, AttributeValue> = HashMap::new();
     match image {
         None => {

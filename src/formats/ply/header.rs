@@ -261,8 +261,22 @@ fn parse_tag_comment(body: &str, h: &mut Header) -> std::result::Result<(), Stri
                 _ => Err("role needs ELEMENT ATTRIBUTE ROLE".into()),
             }
         }
+        "comment" => {
+            let text: String =
+                serde_json::from_str(rest).map_err(|e| format!("comment value: {e}"))?;
+            h.comments.push(text);
+            Ok(())
+        }
         other => Err(format!("unknown kind '{other}'")),
     }
+}
+
+/// True when the plain comment `c` would read back as one of the
+/// toolkit's own `pcsss` lines (the writer then quotes it).
+pub fn is_tag_comment(c: &str) -> bool {
+    c.trim()
+        .strip_prefix(TAG)
+        .is_some_and(|b| b.starts_with(' '))
 }
 
 fn parse_detail_value(tag: &str, val: &str) -> std::result::Result<DetailValue, String> {

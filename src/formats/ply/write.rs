@@ -8,7 +8,9 @@
 
 use std::io::Write;
 
-use super::header::{component_names, default_role, detail_comment, Encoding, TAG};
+use super::header::{
+    ascii_json, component_names, default_role, detail_comment, is_tag_comment, Encoding, TAG,
+};
 use crate::cloud::{AttrData, Cloud, Element};
 use crate::column::{Column, ScalarType, Values};
 use crate::error::{Error, Result};
@@ -54,7 +56,12 @@ pub fn header_text(cloud: &Cloud, enc: Encoding) -> Result<String> {
     let mut h = format!("ply\nformat {} 1.0\n", enc.keyword());
     for c in &cloud.comments {
         check_line("comment", c)?;
-        h += &format!("comment {c}\n");
+        if is_tag_comment(c) {
+            // Would read back as the toolkit's own line: carried quoted.
+            h += &format!("comment {TAG} comment {}\n", ascii_json(c));
+        } else {
+            h += &format!("comment {c}\n");
+        }
     }
     for c in &cloud.obj_info {
         check_line("obj_info", c)?;
