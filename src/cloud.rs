@@ -300,8 +300,35 @@ impl Element {
     }
 
     fn require(&self, name: &str) -> Result<&Attribute> {
-        self.attr(name)
-            .ok_or_else(|| Error::missing(self.class(), name))
+        self.attr(name).ok_or_else(|| self.missing(name))
+    }
+
+    /// The error for an attribute `name` this element lacks: "missing"
+    /// (naming the stage that makes it), unless some of its components
+    /// are here as scalars (`nx ny` without `nz`, or `x y z` of two
+    /// types: the readers group only three of one type), when the
+    /// message names them.
+    pub fn missing(&self, name: &str) -> Error {
+        self.missing_as(self.class(), name)
+    }
+
+    /// [`Element::missing`], the element called `class` in the message
+    /// ("shade point").
+    pub fn missing_as(&self, class: &'static str, name: &str) -> Error {
+        let found: Vec<String> = component_candidates(name)
+            .iter()
+            .filter_map(|c| match self.attr(c).map(|a| &a.data) {
+                Some(AttrData::Scalar(v)) => Some(format!("{c} ({})", v.ty().ply_name())),
+                _ => None,
+            })
+            .collect();
+        if found.is_empty() {
+            return Error::missing(class, name);
+        }
+        Error::invalid(format!(
+            "{class} attribute '{name}' cannot be formed from {}: a 3-vector needs all three components, of one type",
+            found.join(", ")
+        ))
     }
 
     /// Decodes the named attributes now (when they are lazily held).
@@ -410,6 +437,21 @@ impl Element {
             attrs: self.attrs.iter().map(|a| a.gather(idx)).collect(),
         }
     }
+}
+
+/// The scalar names that would make the 3-vector `name` in PLY (`x y z`
+/// for `P`, `nx ny nz` for `N`, `A_x`, `A_r`) and in OpenEXR (`A.x`,
+/// `A.R`, `A.r`).
+fn component_candidates(name: &str) -> Vec<String> {
+    let mut v: Vec<String> = match name {
+        "P" => ["x", "y", "z"].map(String::from).to_vec(),
+        "N" => ["nx", "ny", "nz"].map(String::from).to_vec(),
+        _ => vec![],
+    };
+    for (sep, comps) in [('_', "xyzrgb"), ('.', "xyzXYZRGBrgb")] {
+        v.extend(comps.chars().map(|c| format!("{name}{sep}{c}")));
+    }
+    v
 }
 
 /// A detail attribute's value.

@@ -99,11 +99,24 @@ impl Error {
         })
     }
 
-    /// This error, about the input called `name`.
+    /// This error, about the input called `name` (a bad parameter stays
+    /// as it is: it is not about a file).
     pub fn about(self, name: &str) -> Self {
-        Error::In {
-            name: name.to_string(),
-            inner: Box::new(self),
+        match self {
+            Error::Param { .. } => self,
+            _ => Error::In {
+                name: name.to_string(),
+                inner: Box::new(self),
+            },
+        }
+    }
+
+    /// True when the error is a bad parameter (also about an input).
+    pub fn is_param(&self) -> bool {
+        match self {
+            Error::Param { .. } => true,
+            Error::In { inner, .. } => inner.is_param(),
+            _ => false,
         }
     }
 

@@ -213,9 +213,14 @@ pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera>
 }
 
 /// Reads a mesh (a file with faces) as triangles; errors name the file.
+/// A mesh whose every face has zero area is refused: light cannot enter
+/// it nor be blocked by it, and that is a wrong file, not a scene.
 pub fn read_mesh(path: &Path) -> anyhow::Result<crate::geom::mesh::TriMesh> {
+    let name = path.display().to_string();
     let cloud = read_input(Some(path), &Select::only(&["P"]))?;
-    crate::geom::mesh::TriMesh::from_cloud(&cloud).map_err(at(&path.display().to_string()))
+    let mesh = crate::geom::mesh::TriMesh::from_cloud(&cloud).map_err(at(&name))?;
+    mesh.require_area().map_err(at(&name))?;
+    Ok(mesh)
 }
 
 /// Messages to stderr, prefixed with the stage name.
@@ -278,7 +283,7 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
 pub fn is_param_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
         c.downcast_ref::<crate::Error>()
-            .is_some_and(|e| matches!(e, crate::Error::Param { .. }))
+            .is_some_and(crate::Error::is_param)
     })
 }
 
@@ -303,7 +308,8 @@ pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCo
 /// ([`crate::Error::In`]) keeps that name.
 pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
     move |e| match e {
-        crate::Error::In { .. } => anyhow::Error::from(e),
+        // (A parameter is not about a file, and keeps its exit status 2.)
+        crate::Error::In { .. } | crate::Error::Param { .. } => anyhow::Error::from(e),
         e => anyhow::anyhow!("{name}: {e}"),
     }
 }
@@ -313,10 +319,25 @@ pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
 /// `--version` naming the binary; a usage error is one line on stderr,
 /// `stage: error: ... (see --help)`, exit status 2.
 pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
+    // A negative number is a value (`--cusp -1` reaches the parameter's
+    // own check, not "unexpected argument"), and so is a vector that
+    // starts with one (`--eye -3,2,4`).
     let cmd = T::command()
         .name(stage)
         .bin_name(stage)
-        .next_line_help(true);
+        .next_line_help(true)
+        .mut_args(|a| {
+            let vector = a
+                .get_value_names()
+                .is_some_and(|v| v.iter().any(|n| n.as_str().contains(',')));
+            if vector {
+                a.allow_hyphen_values(true)
+            } else if a.get_action().takes_values() {
+                a.allow_negative_numbers(true)
+            } else {
+                a
+            }
+        });
     let parsed = cmd
         .try_get_matches()
         .and_then(|mut m| T::from_arg_matches_mut(&mut m));

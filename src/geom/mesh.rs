@@ -170,6 +170,22 @@ impl TriMesh {
         out
     }
 
+    /// An error unless some triangle has a non-zero area: a mesh of only
+    /// degenerate faces can neither be seen nor let light in or block it,
+    /// and is a wrong file rather than a scene.
+    pub fn require_area(&self) -> Result<()> {
+        if self.tris.is_empty() {
+            return Err(Error::invalid("no faces: a mesh is needed"));
+        }
+        if !self.tri_areas().iter().any(|&a| a > 0.0) {
+            return Err(Error::invalid(format!(
+                "none of its {} faces has a non-zero area",
+                self.face_count()
+            )));
+        }
+        Ok(())
+    }
+
     /// The area of every triangle.
     pub fn tri_areas(&self) -> Vec<f64> {
         (0..self.tris.len())

@@ -174,7 +174,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         let uv = match (p.mode, pts.has("sourceuv")) {
             (Mode::Smooth, true) => Some(pts.vec3_f64("sourceuv")?),
             (Mode::Smooth, false) => {
-                return Err(Error::missing("point", "sourceuv"));
+                return Err(pts.missing("sourceuv"));
             }
             (Mode::Flat, _) => None,
         };
@@ -183,7 +183,16 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         None
     };
     let closest = match source {
-        None => ClosestPoint::new(mesh),
+        None => {
+            // The closest point of a non-finite position is no point.
+            if let Some(i) = pos.iter().position(|p| !DVec3::from_array(*p).is_finite()) {
+                return Err(Error::invalid(format!(
+                    "point {i}: P is {:?}, not finite (and it has no sourceprim to place it)",
+                    pos[i]
+                )));
+            }
+            ClosestPoint::new(mesh)
+        }
         Some(_) => None,
     };
     let normals: Vec<[f32; 3]> = (0..pos.len())

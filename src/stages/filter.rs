@@ -260,7 +260,7 @@ pub fn sources<'a>(
                 "ssS" => Error::invalid(
                     "no point attribute 'ssS' (made by sssingle): run sssingle, or give --single-mesh, --lights and the eye to compute it for the points read",
                 ),
-                _ => Error::missing("point", n),
+                _ => cloud.points().missing(n),
             })
         })
         .collect()
@@ -387,10 +387,13 @@ pub fn filter(
     }
     let sn: Option<Vec<DVec3>> = if p.facing {
         if !shade.points().has("N") {
-            return Err(Error::missing("shade point", "N"));
+            return Err(shade.points().missing_as("shade point", "N"));
         }
         if !cloud.points().has("N") {
-            return Err(Error::missing("cloud point", "N").about(cloud_name));
+            return Err(cloud
+                .points()
+                .missing_as("cloud point", "N")
+                .about(cloud_name));
         }
         let n: Vec<DVec3> = shade
             .points()

@@ -58,16 +58,7 @@ pub fn promote(
     let el = cloud
         .element(el_name)
         .ok_or_else(|| Error::invalid(format!("no {el_name} element to promote from")))?;
-    let a = el.attr(attr).ok_or_else(|| {
-        Error::missing(
-            if class == Class::Point {
-                "point"
-            } else {
-                "face"
-            },
-            attr,
-        )
-    })?;
+    let a = el.attr(attr).ok_or_else(|| el.missing(attr))?;
     let what = format!("{el_name} attribute '{attr}'");
     let value = match &a.data {
         AttrData::Scalar(v) => DetailValue::F64(reduce(&v.column().to_f64_vec(), method, &what)?),

@@ -175,9 +175,7 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
         &format!("a {} x {} image", cam.width, cam.height),
     )?;
     let m = TriMesh::from_cloud(mesh)?;
-    if m.tris.is_empty() {
-        return Err(Error::invalid("no faces: a mesh is needed"));
-    }
+    m.require_area()?;
     // Vertex normals (angle-weighted), as facet gives a mesh's vertices.
     let mut with_n = mesh.clone();
     facet::facet_mesh(&mut with_n, Weight::Angle)?;

@@ -340,7 +340,7 @@ fn requests_beyond_memory_are_refused_not_aborted() {
         &[&mesh, "-n", "2147483648", "-o", "s.ply"],
         20,
     );
-    assert!(one_line(&o, 1, "scatter -n").contains("--count"));
+    assert!(one_line(&o, 2, "scatter -n").contains("--count"));
     let cam = dir.path().join("cam.json");
     std::fs::write(
         &cam,
@@ -356,7 +356,11 @@ fn requests_beyond_memory_are_refused_not_aborted() {
         ],
         20,
     );
-    assert!(one_line(&o, 1, "huge camera").contains("--camera"));
+    let err = one_line(&o, 2, "huge camera");
+    assert!(
+        err.contains("--camera") && !err.contains("cube.obj"),
+        "{err}"
+    );
     // An 8 x 8 OpenEXR whose data window claims 8 x 1e9 pixels.
     let mut img = Cloud::with_points(4);
     img.points_mut()

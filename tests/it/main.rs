@@ -3,6 +3,7 @@
 
 mod util;
 
+mod bad_input_table;
 mod bvh;
 mod chain;
 mod cli;

@@ -120,7 +120,7 @@ pub(super) fn inputs(cloud: &Cloud, normals: bool) -> Result<Inputs<'_>> {
     let pts = cloud.points();
     for name in ["N", "ptarea", "illum"] {
         if !pts.has(name) {
-            return Err(Error::missing("point", name));
+            return Err(pts.missing(name));
         }
     }
     let v3 = |name: &str| -> Result<[ReadColumn; 3]> {

@@ -205,10 +205,17 @@ pub fn validate(p: &Params) -> Result<()> {
             ));
         }
     }
-    if !(p.sd.is_finite() && p.sd >= 0.0) {
+    // sd 0 is refused, not summed to 0: as sd -> 0 the normalised kernel
+    // tends to a delta and ssM to Rd * illum, which no sum over
+    // neighbours gives. (A channel's Rd of 0 is fine: ssM is 0 there, as
+    // its limit is.)
+    if !(p.sd.is_finite() && p.sd > 0.0) {
         return Err(Error::param(
             "--sd",
-            format!("{:?} is not a finite number >= 0", p.sd),
+            format!(
+                "{:?} is not a finite distance > 0 (as sd -> 0, ssM tends to Rd * illum, which the kernel sum cannot give)",
+                p.sd
+            ),
         ));
     }
     if !(p.bounce.is_finite() && (0.0..=1.0).contains(&p.bounce)) {

@@ -223,7 +223,7 @@ pub fn sssingle_values(
     validate(p)?;
     let pts = cloud.points();
     if !pts.has("N") {
-        return Err(Error::missing("point", "N"));
+        return Err(pts.missing("N"));
     }
     let pos = pts.vec3_f64("P")?;
     let nrm = pts.vec3_f64("N")?;

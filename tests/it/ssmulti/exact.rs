@@ -254,8 +254,9 @@ fn the_scene_decides_the_work() {
     )
     .unwrap();
     assert_eq!(rep.sources, 2000);
-    // All distances zero: nothing to do, zeros out.
-    let rep = ssmulti::ssmulti(
+    // A distance of zero has no kernel (the limit sd -> 0 is Rd * illum,
+    // not the 0 an empty sum gives): refused, naming --sd.
+    let e = ssmulti::ssmulti(
         &mut copy,
         &Params {
             sd: 0.0,
@@ -263,12 +264,6 @@ fn the_scene_decides_the_work() {
         },
         &Progress::hidden(),
     )
-    .unwrap();
-    assert_eq!(rep.pairs, 0);
-    assert!(copy
-        .points()
-        .vec3_f64("ssM")
-        .unwrap()
-        .iter()
-        .all(|v| *v == [0.0; 3]));
+    .unwrap_err();
+    assert!(e.is_param() && e.to_string().contains("--sd"), "{e}");
 }
