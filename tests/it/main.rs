@@ -10,6 +10,7 @@ mod cli;
 mod exr_format;
 mod facet;
 mod filter_render;
+mod fuzz_replay;
 mod hostile;
 mod illum;
 mod measure;

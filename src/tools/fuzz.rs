@@ -1,0 +1,84 @@
+//! What the fuzz targets (`fuzz/`, `cargo fuzz`, nightly) run on each
+//! input, kept here so that `make test` replays the corpus and every input
+//! that once crashed (`fixtures/fuzz/`) on stable with the very same code.
+//! Each function may return early on an error; it must never panic, hang
+//! or allocate beyond what its input holds.
+
+use glam::DVec3;
+
+use crate::formats::{self, Format, Select};
+use crate::geom::mesh::TriMesh;
+
+/// A PLY file (any encoding): read whole and with one attribute decoded;
+/// what reads is written in two encodings and read back, and its faces
+/// triangulated and measured.
+pub fn ply(data: &[u8]) {
+    let _ = formats::read_cloud(data, &Select::only(&["P"]));
+    let Ok(cloud) = formats::read_cloud(data, &Select::All) else {
+        return;
+    };
+    round_trip(&cloud, Format::DEFAULT);
+    round_trip(&cloud, Format::Ply(formats::Encoding::Ascii));
+    mesh(&cloud);
+}
+
+/// An OpenEXR file: read; what reads is written and read back.
+pub fn exr(data: &[u8]) {
+    let Ok(cloud) = formats::read_cloud(data, &Select::All) else {
+        return;
+    };
+    round_trip(&cloud, Format::Exr);
+}
+
+/// An OBJ file: read, triangulated, measured.
+pub fn obj(data: &[u8]) {
+    if let Ok(cloud) = formats::obj::read_obj(data) {
+        round_trip(&cloud, Format::DEFAULT);
+        mesh(&cloud);
+    }
+}
+
+/// A lights file (parsed, masked, its light at a point) or a camera file
+/// (parsed, a ray made).
+pub fn json(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(lights) = crate::lights::parse(text, "fuzz") {
+        for mask in ["*", "{a,b}", "^x", "\"a b\",c"] {
+            let _ = crate::lights::mask(&lights, mask);
+        }
+        let mut out = Vec::new();
+        for l in &lights {
+            l.arrivals(DVec3::ZERO, DVec3::Z, 0.5, 0.5, &mut out);
+            l.emissions(DVec3::new(0.1, 0.2, 0.3), 0.5, 0.5, &mut out);
+        }
+    }
+    if let Ok(cam) = crate::stages::render::Camera::parse(text, "fuzz") {
+        let _ = cam.ray(0, 0);
+        let _ = cam.ray(cam.width - 1, cam.height - 1);
+    }
+}
+
+/// Writes `cloud` as `format`; what writes must read back.
+fn round_trip(cloud: &crate::Cloud, format: Format) {
+    let mut bytes = Vec::new();
+    if formats::write_cloud(&mut bytes, cloud, format).is_ok() {
+        if let Err(e) = formats::read_cloud(&bytes[..], &Select::All) {
+            panic!("a cloud written as {format:?} does not read back: {e}");
+        }
+    }
+}
+
+/// Triangulates and measures a cloud with faces.
+fn mesh(cloud: &crate::Cloud) {
+    if cloud.faces().is_none_or(|f| f.is_empty()) {
+        return;
+    }
+    if let Ok(m) = TriMesh::from_cloud(cloud) {
+        let _ = m.tri_areas();
+        let _ = m.face_normals();
+        let mut c = cloud.clone();
+        let _ = crate::stages::measure::measure(&mut c);
+    }
+}
