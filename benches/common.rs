@@ -244,6 +244,7 @@ pub fn points_on(mesh: &pcsss::Cloud, n: usize) -> pcsss::Cloud {
             seed: 1,
             ptarea: pcsss::stages::scatter::PtareaMode::Prim,
             relax: 0,
+            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
         },
     )
     .unwrap();

@@ -53,6 +53,7 @@ fn sphere_cloud(mesh: &Cloud, n: usize, relax: u32, ptarea: PtareaMode) -> Cloud
             seed: 11,
             ptarea,
             relax,
+            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
         },
     )
     .unwrap();

@@ -214,6 +214,111 @@ impl TriMesh {
     }
 }
 
+/// No triangle across this edge (an open edge, or one that more than two
+/// triangles share).
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
+/// Each triangle's neighbours across its three edges: `adj[t][k]` shares
+/// the edge opposite corner `k` of `t` (or is `NO_TRIANGLE`). Vertices at
+/// the same position count as one, so a mesh split along its UV seams is
+/// still walked across them; triangles of no area have no neighbours and
+/// are nobody's.
+pub struct Adjacency {
+    adj: Vec<[u32; 3]>,
+}
+
+impl Adjacency {
+    /// The adjacency of `mesh`'s triangles.
+    pub fn new(mesh: &TriMesh) -> Adjacency {
+        use rayon::prelude::*;
+        // One id per distinct position.
+        let mut by_pos: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+        let bits = |v: u32| {
+            mesh.positions[v as usize]
+                .to_array()
+                .map(|x| (x + 0.0).to_bits())
+        };
+        by_pos.par_sort_unstable_by_key(|&v| (bits(v), v));
+        let mut weld = vec![0u32; mesh.positions.len()];
+        let mut id = 0u32;
+        for (k, &v) in by_pos.iter().enumerate() {
+            if k > 0 && bits(v) != bits(by_pos[k - 1]) {
+                id += 1;
+            }
+            weld[v as usize] = id;
+        }
+        // Every edge as (low vertex, high vertex, triangle * 3 + corner),
+        // sorted: the triangles sharing an edge sit together.
+        // Triangles of no area are left out: a walk never enters one.
+        let mut edges: Vec<(u32, u32, u32)> = (0..mesh.tris.len())
+            .into_par_iter()
+            .filter(|&t| {
+                let [a, b, c] = mesh.tri(t);
+                geom::tri_cross(a, b, c) != DVec3::ZERO
+            })
+            .flat_map_iter(|t| {
+                let v = mesh.tris[t].map(|c| weld[mesh.vertex(c)]);
+                (0..3).map(move |k| {
+                    let (a, b) = (v[(k + 1) % 3], v[(k + 2) % 3]);
+                    (a.min(b), a.max(b), (t * 3 + k) as u32)
+                })
+            })
+            .collect();
+        edges.par_sort_unstable();
+        let mut adj = vec![[NO_TRIANGLE; 3]; mesh.tris.len()];
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i + 1;
+            while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
+                j += 1;
+            }
+            // A degenerate edge (both ends at one position) leads nowhere.
+            if j - i == 2 && edges[i].0 != edges[i].1 {
+                let (e, f) = (edges[i].2 as usize, edges[i + 1].2 as usize);
+                adj[e / 3][e % 3] = (f / 3) as u32;
+                adj[f / 3][f % 3] = (e / 3) as u32;
+            }
+            i = j;
+        }
+        Adjacency { adj }
+    }
+
+    /// The neighbours of triangle `t` across its edges.
+    pub fn of(&self, t: usize) -> [u32; 3] {
+        self.adj[t]
+    }
+
+    /// Moves a point of triangle `t` to `q` along the surface: `q` is put
+    /// in the plane of `t`; while it falls outside `t` across an edge with
+    /// a triangle beyond, the walk steps there and puts it in that plane.
+    /// Where no triangle lies beyond (an open edge), or the walk would go
+    /// back where it came from (a fold), or after `MAX_WALK` steps, the
+    /// answer is the point of the current triangle closest to `q`. Meant
+    /// for moves of a few triangles; a far move ends where the walk stops.
+    pub fn walk(&self, mesh: &TriMesh, mut t: usize, q: DVec3) -> (usize, [f64; 3]) {
+        const MAX_WALK: usize = 64;
+        let mut from = NO_TRIANGLE as usize;
+        for _ in 0..MAX_WALK {
+            let [a, b, c] = mesh.tri(t);
+            let Some(w) = geom::barycentric_in_plane(q, a, b, c) else {
+                break;
+            };
+            let k = (0..3).min_by(|&i, &j| w[i].total_cmp(&w[j])).unwrap_or(0);
+            if w[k] >= 0.0 {
+                return (t, w);
+            }
+            let next = self.adj[t][k] as usize;
+            if next == NO_TRIANGLE as usize || next == from {
+                break;
+            }
+            from = t;
+            t = next;
+        }
+        let [a, b, c] = mesh.tri(t);
+        (t, geom::closest_on_triangle(q, a, b, c))
+    }
+}
+
 /// Closest-point queries on a mesh's triangles: a k-d tree of triangle
 /// centroids, searched outwards until no unvisited triangle can be closer
 /// (a triangle lies within its bounding radius of its centroid).

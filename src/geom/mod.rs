@@ -7,6 +7,7 @@
 //! vertex before crossing, so results hold at large coordinates.
 
 pub mod bvh;
+pub mod grid;
 pub mod kdtree;
 pub mod mesh;
 
@@ -249,6 +250,22 @@ pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
     }
     let (v, w) = (vb / denom, vc / denom);
     [1.0 - v - w, v, w]
+}
+
+/// The barycentric weights of `q`'s projection onto the plane of triangle
+/// `abc` (negative outside it); `None` for a degenerate triangle.
+#[inline]
+pub fn barycentric_in_plane(q: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<[f64; 3]> {
+    let (ab, ac, aq) = (b - a, c - a, q - a);
+    let (d00, d01, d11) = (ab.dot(ab), ab.dot(ac), ac.dot(ac));
+    let (d20, d21) = (aq.dot(ab), aq.dot(ac));
+    let den = d00 * d11 - d01 * d01;
+    if !(den > 0.0 && den.is_finite()) {
+        return None;
+    }
+    let v = (d11 * d20 - d01 * d21) / den;
+    let w = (d00 * d21 - d01 * d20) / den;
+    Some([1.0 - v - w, v, w])
 }
 
 /// Two unit vectors that make an orthonormal basis with the unit `n`

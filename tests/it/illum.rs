@@ -90,6 +90,7 @@ fn points_on(mesh: &Cloud, n: usize) -> Cloud {
             seed: 7,
             ptarea: PtareaMode::Prim,
             relax: 0,
+            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
         },
     )
     .unwrap();

@@ -4,6 +4,7 @@
 mod util;
 
 mod bad_input_table;
+mod blue_noise;
 mod bvh;
 mod chain;
 mod cli;

@@ -528,7 +528,7 @@ proptest! {
         k in -20i32..20,
     ) {
         let mesh = moved(&cube(), DVec3::ZERO, 1.0);
-        let p = scatter::Params { amount: Amount::Count(n), seed, ptarea: mode, relax };
+        let p = scatter::Params { amount: Amount::Count(n), seed, ptarea: mode, relax, ..scatter::Params::new(Amount::Count(n)) };
         let one = on_threads(1, || scatter::scatter(&mesh, &p).unwrap());
         let two = on_threads(2, || scatter::scatter(&mesh, &p).unwrap());
         prop_assert!(one == two, "thread count changes the points");

@@ -357,6 +357,7 @@ pub fn scatter_relaxed(mesh: &Cloud, n: usize, seed: u64, mode: PtareaMode, rela
             seed,
             ptarea: mode,
             relax,
+            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
         },
     )
     .unwrap()

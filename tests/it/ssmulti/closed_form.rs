@@ -169,6 +169,7 @@ fn the_lit_pole_of_a_sphere_matches_the_continuous_integral() {
             seed: 4,
             ptarea: pcsss::stages::scatter::PtareaMode::Voronoi,
             relax: 5,
+            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
         },
     )
     .unwrap();

@@ -32,6 +32,12 @@
 //!   with `prim`, 0.0035 with `voronoi`, 0.0006 with `voronoi` after 10
 //!   relax iterations (`relax_with_voronoi_weights_cuts_the_kernel_error`).
 
+mod blue;
+mod relax;
+mod voronoi;
+
+pub use voronoi::voronoi_areas;
+
 use crate::maths::uniform53;
 use glam::DVec3;
 use rand_pcg::Pcg32;
@@ -41,7 +47,7 @@ use crate::cloud::{Cloud, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
 use crate::geom::kdtree::PointTree;
-use crate::geom::mesh::{ClosestPoint, TriMesh};
+use crate::geom::mesh::TriMesh;
 use crate::geom::{self, Sum};
 use crate::progress::Progress;
 
@@ -66,8 +72,41 @@ pub struct Params {
     pub seed: u64,
     /// `ptarea` estimate.
     pub ptarea: PtareaMode,
-    /// Relaxation iterations (0: plain stratified random points).
+    /// Relaxation iterations (0: none).
     pub relax: u32,
+    /// Blue noise: weighted sample elimination (see `blue`) from
+    /// `candidates` times the points asked for, then `BLUE_RELAX`
+    /// relaxation iterations (or `relax` when not 0) and close pairs
+    /// pushed apart (`SEPARATE`); `false`: stratified random points.
+    pub blue: bool,
+    /// Candidates per point kept, for `blue`.
+    pub candidates: f64,
+}
+
+/// The default candidates per point of `--blue`: see `blue` for what
+/// more or fewer buy (benches/results/blue_noise.txt).
+pub const CANDIDATES: f64 = 3.0;
+/// Relaxation iterations of `--blue` (unless `--relax` says otherwise).
+pub const BLUE_RELAX: u32 = 4;
+/// `--blue` pushes apart pairs closer than this many hexagonal
+/// spacings, in `SEPARATE_ROUNDS` rounds.
+pub const SEPARATE: f64 = 0.8;
+pub const SEPARATE_ROUNDS: u32 = 8;
+/// The range of `--candidates`.
+pub const CANDIDATES_RANGE: (f64, f64) = (1.5, 64.0);
+
+impl Params {
+    /// `amount` points, seed 0, `prim` areas, no relaxation, random.
+    pub fn new(amount: Amount) -> Params {
+        Params {
+            amount,
+            seed: 0,
+            ptarea: PtareaMode::Prim,
+            relax: 0,
+            blue: false,
+            candidates: CANDIDATES,
+        }
+    }
 }
 
 /// The most points one run makes.
@@ -143,38 +182,50 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     } else {
         "--count"
     };
-    crate::memory::check_available(200 * n as u64, flag, &format!("{n} points"))?;
-    let mut tri_of = Vec::with_capacity(n);
-    let last = areas
-        .iter()
-        .rposition(|&a| a > 0.0)
-        .expect("total area > 0");
-    let mut t = 0usize;
-    for k in 0..n {
-        let target = (k as f64 + u0) / n as f64;
-        while t < last && (cdf[t] <= target || areas[t] == 0.0) {
-            t += 1;
-        }
-        tri_of.push(t as u32);
+    let (lo, hi) = CANDIDATES_RANGE;
+    if p.blue && !(p.candidates >= lo && p.candidates <= hi) {
+        return Err(Error::param(
+            "--candidates",
+            format!("{:?} is not a number from {lo} to {hi}", p.candidates),
+        ));
     }
-    let mut samples: Vec<Sample> = (0..n)
-        .into_par_iter()
-        .map(|k| {
-            let mut r = Pcg32::new(p.seed, k as u64);
-            let w = geom::sample_triangle(uniform53(&mut r), uniform53(&mut r));
-            let t = tri_of[k];
-            let [a, b, c] = m.tri(t as usize);
-            Sample {
-                p: geom::blend(w, a, b, c),
-                tri: t,
-                w,
-            }
-        })
-        .collect();
-    if p.relax > 0 && n > 1 {
-        progress.start("relaxing", p.relax as u64);
-        relax(&m, &mut samples, p.relax, p.seed, total, progress);
+    // Candidates for blue noise: at least one more than the points kept.
+    let cands = if p.blue && n > 0 {
+        ((n as f64 * p.candidates).ceil() as usize).max(n + 1)
+    } else {
+        n
+    };
+    // About 200 bytes a point at the peak (samples, areas, the columns
+    // written, Voronoi's temporaries) and 100 a candidate (the sample, the
+    // grid); asked for before the work.
+    crate::memory::check_available(
+        200 * n as u64 + if cands > n { 100 * cands as u64 } else { 0 },
+        flag,
+        &format!("{n} points"),
+    )?;
+    let mut ph = progress.phases("scatter");
+    let mut samples = stratified(&m, &cdf, &areas, cands, u0, p.seed);
+    ph.mark("candidates");
+    if cands > n {
+        let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
+        let keep = blue::eliminate(&pos, n, total, flag, progress)?;
+        samples = keep.iter().map(|&k| samples[k as usize]).collect();
+        ph.mark("eliminate");
+    }
+    let relax_iters = if p.blue && p.relax == 0 {
+        BLUE_RELAX
+    } else {
+        p.relax
+    };
+    if relax_iters > 0 && n > 1 {
+        progress.start("relaxing", relax_iters as u64);
+        relax::relax(&m, &mut samples, relax_iters, p.seed, total, progress);
         progress.finish();
+        ph.mark("relax");
+    }
+    if p.blue && n > 1 {
+        relax::separate(&m, &mut samples, SEPARATE, SEPARATE_ROUNDS, total);
+        ph.mark("separate");
     }
     let ptarea: Vec<f32> = match p.ptarea {
         PtareaMode::Prim => prim_area(&m, &areas, &samples),
@@ -219,6 +270,46 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         .collect();
     pts.set_vec3("sourceuv", Role::Vector, &uv)?;
     Ok(cloud)
+}
+
+/// `n` points stratified along the cumulative area `cdf` (sample `k` at
+/// `(k + u0) / n` of it), each uniform in its triangle from its own
+/// stream `Pcg32(seed, k)`.
+fn stratified(
+    m: &TriMesh,
+    cdf: &[f64],
+    areas: &[f64],
+    n: usize,
+    u0: f64,
+    seed: u64,
+) -> Vec<Sample> {
+    let mut tri_of = Vec::with_capacity(n);
+    let last = areas
+        .iter()
+        .rposition(|&a| a > 0.0)
+        .expect("total area > 0");
+    let mut t = 0usize;
+    for k in 0..n {
+        let target = (k as f64 + u0) / n as f64;
+        while t < last && (cdf[t] <= target || areas[t] == 0.0) {
+            t += 1;
+        }
+        tri_of.push(t as u32);
+    }
+    (0..n)
+        .into_par_iter()
+        .map(|k| {
+            let mut r = Pcg32::new(seed, k as u64);
+            let w = geom::sample_triangle(uniform53(&mut r), uniform53(&mut r));
+            let t = tri_of[k];
+            let [a, b, c] = m.tri(t as usize);
+            Sample {
+                p: geom::blend(w, a, b, c),
+                tri: t,
+                w,
+            }
+        })
+        .collect()
 }
 
 /// `pi r_k^2 / k` per point (k = 8 other points; fewer when the cloud is
@@ -279,167 +370,55 @@ fn prim_area(m: &TriMesh, areas: &[f64], samples: &[Sample]) -> Vec<f32> {
     acc.into_iter().map(|a| a as f32).collect()
 }
 
-/// Spacing of `n` points on `area` in a hexagonal lattice.
-fn hex_spacing(area: f64, n: usize) -> f64 {
+/// Spacing of `n` points on `area` in a hexagonal lattice: the largest
+/// distance `n` points on that area can all keep from each other.
+pub fn hex_spacing(area: f64, n: usize) -> f64 {
     (2.0 * area / (3f64.sqrt() * n as f64)).sqrt()
 }
 
-/// Relaxation (the Scatter SOP's relax iterations, Turk's re-tiling by
-/// repulsion): every iteration moves each point away from its neighbours
-/// closer than `R = 1.5 * spacing` within its triangle's plane, by at most
-/// half the spacing, then puts it back on the mesh at the closest point.
-/// Moves are computed from the previous iteration's positions only
-/// (Jacobi), so the result does not depend on the thread count.
-fn relax(
-    m: &TriMesh,
-    samples: &mut Vec<Sample>,
-    iters: u32,
-    seed: u64,
-    total: f64,
-    progress: &Progress,
-) {
-    let Some(cp) = ClosestPoint::new(m) else {
-        return;
-    };
-    let normals: Vec<DVec3> = (0..m.tris.len())
-        .map(|t| {
-            let [a, b, c] = m.tri(t);
-            geom::unit_or_zero(geom::tri_cross(a, b, c))
-        })
-        .collect();
-    let n = samples.len();
-    let d = hex_spacing(total, n);
-    // Measured on a sphere (tests/it/geometry.rs): reach 1.5 and gain 0.5
-    // converge fastest; gains from 0.7 up oscillate.
-    let reach = 1.5 * d;
-    let gain = 0.5;
-    let max_step = 0.5 * d;
-    let k = 13.min(n);
-    let o = samples[0].p;
-    for it in 0..iters {
-        let rel: Vec<[f64; 3]> = samples.iter().map(|s| (s.p - o).to_array()).collect();
-        let tree = PointTree::from_relative(&rel);
-        let next: Vec<Sample> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let s = samples[i];
-                let q = DVec3::from_array(rel[i]);
-                let mut f = DVec3::ZERO;
-                for nb in tree.nearest(q, k) {
-                    let j = nb.item as usize;
-                    if j == i {
-                        continue;
-                    }
-                    let r = nb.distance.sqrt();
-                    if r >= reach {
-                        continue;
-                    }
-                    let dir = if r > 1e-9 * d {
-                        (q - DVec3::from_array(rel[j])) / r
-                    } else {
-                        // Coincident points (pushed onto the same edge or
-                        // corner): apart along a direction of their own.
-                        let mut g = Pcg32::new(seed ^ (it as u64) << 32, i as u64);
-                        DVec3::new(uniform53(&mut g), uniform53(&mut g), uniform53(&mut g)) - 0.5
-                    };
-                    let x = 1.0 - r / reach;
-                    f += dir * (x * x);
-                }
-                let nrm = normals[s.tri as usize];
-                f -= nrm * f.dot(nrm);
-                let mut step = f * (gain * reach);
-                let len = step.length();
-                if len > max_step {
-                    step *= max_step / len;
-                }
-                if step == DVec3::ZERO {
-                    return s;
-                }
-                let hit = cp.query(s.p + step);
-                let [a, b, c] = m.tri(hit.tri);
-                Sample {
-                    p: geom::blend(hit.bary, a, b, c),
-                    tri: hit.tri as u32,
-                    w: hit.bary,
-                }
-            })
-            .collect();
-        *samples = next;
-        progress.inc(1);
-    }
+/// How evenly points are spread: each point's distance to its nearest
+/// other point, over the hexagonal spacing of as many points on `area`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spacing {
+    /// Mean (1 in a hexagonal lattice, about 0.5 for random points).
+    pub mean: f64,
+    /// Smallest (0.75 and more for a good Poisson-disk set).
+    pub min: f64,
+    /// Coefficient of variation: standard deviation over mean.
+    pub cv: f64,
 }
 
-/// Neighbours a Voronoi cell is first cut by; doubled (up to
-/// `VORONOI_KMAX`) until the cell is provably closed.
-const VORONOI_K: usize = 16;
-const VORONOI_KMAX: usize = 128;
-
-/// The area of each point's Voronoi cell in its tangent plane: the
-/// nearest `k` other points (16 at first), projected onto the plane through
-/// the point with normal `normals[i]` (any unit vector when zero), cut a
-/// square of half-width the 16th one's distance by their bisectors; while
-/// a corner of the cell lies farther than half the k-th distance (a
-/// farther point could still cut it) `k` doubles, up to 128. Random clouds
-/// need this: next to an empty patch the 16 nearest points all lie on one
-/// side (at 1M random points on a sphere, 16 left cells 4 times too
-/// large, 0.05% on the total). Exact for points on a plane away from its
-/// edges; on a smooth surface the error is of the order of the cell's size
-/// over the radius of curvature. Cells at an open boundary stop at the
-/// square and come out too large (`promote --normalize` rescales the
-/// total). A lone point gets `lone`.
-pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], lone: f64) -> Vec<f32> {
+/// The nearest-neighbour statistics of `positions` on a surface of area
+/// `area` (at least two points).
+pub fn spacing(positions: &[DVec3], area: f64) -> Spacing {
     let n = positions.len();
-    let k = VORONOI_K.min(n.saturating_sub(1));
-    if k == 0 {
-        return vec![lone as f32; n];
+    if n < 2 {
+        return Spacing {
+            mean: f64::NAN,
+            min: f64::NAN,
+            cv: f64::NAN,
+        };
     }
-    let o = positions[0];
-    let rel: Vec<[f64; 3]> = positions.iter().map(|p| (*p - o).to_array()).collect();
-    let tree = PointTree::from_relative(&rel);
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let nrm = geom::unit_or_zero(normals[i]);
-            let (t1, t2) = geom::tangent_basis(if nrm == DVec3::ZERO { DVec3::Z } else { nrm });
-            let q = DVec3::from_array(rel[i]);
-            let mut kk = k;
-            let mut h = 0.0;
-            let mut cell = Vec::with_capacity(32);
-            let mut tmp = Vec::with_capacity(32);
-            loop {
-                let near = tree.nearest(q, kk + 1);
-                let far = near.last().map_or(0.0, |nb| nb.distance.sqrt());
-                if h == 0.0 {
-                    // The cell never reaches past the first ring's
-                    // farthest point: bounds it at an open edge.
-                    h = far;
-                }
-                cell.clear();
-                cell.extend([[-h, -h], [h, -h], [h, h], [-h, h]]);
-                for nb in &near {
-                    if nb.item as usize == i {
-                        continue;
-                    }
-                    let d = DVec3::from_array(rel[nb.item as usize]) - q;
-                    let v = [d.dot(t1), d.dot(t2)];
-                    let c = 0.5 * (v[0] * v[0] + v[1] * v[1]);
-                    if c > 0.0 {
-                        geom::clip_half_plane(&cell, v, c, &mut tmp);
-                        std::mem::swap(&mut cell, &mut tmp);
-                    }
-                }
-                // Closed for sure when no farther point's bisector can cut
-                // it: its farthest corner within half the k-th distance.
-                let reach = cell
-                    .iter()
-                    .map(|v| (v[0] * v[0] + v[1] * v[1]).sqrt())
-                    .fold(0.0, f64::max);
-                if 2.0 * reach <= far || kk >= n - 1 || kk >= VORONOI_KMAX {
-                    break;
-                }
-                kk = (2 * kk).min(n - 1);
-            }
-            geom::polygon_area_2d(&cell) as f32
+    let tree = PointTree::new(positions.iter().copied(), positions[0]);
+    let d: Vec<f64> = positions
+        .par_iter()
+        .map(|&q| {
+            tree.nearest(q, 2)
+                .last()
+                .map_or(0.0, |nb| nb.distance.sqrt())
         })
-        .collect()
+        .collect();
+    let h = hex_spacing(area, n);
+    let mean = d.iter().copied().collect::<Sum>().value() / n as f64;
+    let var = d
+        .iter()
+        .map(|x| (x - mean) * (x - mean))
+        .collect::<Sum>()
+        .value()
+        / n as f64;
+    Spacing {
+        mean: mean / h,
+        min: d.iter().copied().fold(f64::INFINITY, f64::min) / h,
+        cv: var.sqrt() / mean,
+    }
 }

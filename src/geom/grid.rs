@@ -1,0 +1,459 @@
+//! A uniform grid over points, for neighbours within a fixed radius when
+//! the points are about evenly spread (scatter's candidates, blue noise):
+//! a cell of the radius's size holds a handful of points, and a query
+//! reads the 27 cells around it, where a k-d tree would descend from its
+//! root for every point.
+//!
+//! Points are sorted by cell (a stable order: cell key, then index, so the
+//! grid is the same on any thread count) and kept in that order relative
+//! to the box's lower corner; a hash table maps an occupied cell's key to
+//! its run of points. Empty cells cost nothing, so a surface in a large
+//! box costs what its points cost.
+
+use std::ops::Range;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+
+/// Bits of a cell coordinate in a key.
+const BITS: u32 = 21;
+/// Cells along an axis at most: the cell grows for a box that would
+/// need more.
+const MAX_CELLS: f64 = ((1u64 << BITS) - 4) as f64;
+
+/// Where `runs27` found each neighbour last.
+pub struct Cursor([usize; 27]);
+
+impl Cursor {
+    /// No neighbour found yet.
+    pub fn new() -> Cursor {
+        Cursor([usize::MAX; 27])
+    }
+}
+
+impl Default for Cursor {
+    fn default() -> Self {
+        Cursor::new()
+    }
+}
+
+/// Points sorted into cubic cells.
+pub struct PointGrid {
+    lo: DVec3,
+    inv: f64,
+    cell: f64,
+    /// The caller's index of each point, in cell order.
+    order: Vec<u32>,
+    /// Positions relative to `lo`, in cell order.
+    rel: Vec<DVec3>,
+    /// Each occupied cell's key, ascending.
+    keys: Vec<u64>,
+    /// Cell `c` holds sorted points `start[c]..start[c + 1]`.
+    start: Vec<u32>,
+    map: FxHashMap<u64, u32>,
+}
+
+/// Spreads the low 21 bits of `x` to every third bit.
+fn spread(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f00000000ffff;
+    x = (x | x << 16) & 0x1f0000ff0000ff;
+    x = (x | x << 8) & 0x100f00f00f00f00f;
+    x = (x | x << 4) & 0x10c30c30c30c30c3;
+    (x | x << 2) & 0x1249249249249249
+}
+
+/// The inverse of `spread`.
+fn compact(x: u64) -> u64 {
+    let mut x = x & 0x1249249249249249;
+    x = (x | x >> 2) & 0x10c30c30c30c30c3;
+    x = (x | x >> 4) & 0x100f00f00f00f00f;
+    x = (x | x >> 8) & 0x1f0000ff0000ff;
+    x = (x | x >> 16) & 0x1f00000000ffff;
+    (x | x >> 32) & 0x1f_ffff
+}
+
+/// A cell's key: its coordinates interleaved (Morton order), so that
+/// cells near in space are mostly near in the sorted points, and so are
+/// the memory a neighbourhood's work touches.
+fn key(c: [u64; 3]) -> u64 {
+    spread(c[0]) << 2 | spread(c[1]) << 1 | spread(c[2])
+}
+
+fn coords(k: u64) -> [u64; 3] {
+    [compact(k >> 2), compact(k >> 1), compact(k)]
+}
+
+impl PointGrid {
+    /// The grid of `points` (finite, fewer than 2^32) with cells of side
+    /// at least `cell` (larger when the box would need more than 2^21
+    /// cells along an axis).
+    pub fn new(points: &[DVec3], cell: f64) -> PointGrid {
+        let (lo, hi) = points.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let extent = if points.is_empty() {
+            0.0
+        } else {
+            (hi - lo).max_element()
+        };
+        let mut cell = if cell.is_finite() && cell > 0.0 {
+            cell
+        } else {
+            1.0
+        };
+        if extent / cell > MAX_CELLS {
+            cell = extent / MAX_CELLS;
+        }
+        let lo = if points.is_empty() { DVec3::ZERO } else { lo };
+        let inv = 1.0 / cell;
+        let cell_of = |p: DVec3| -> u64 {
+            let c = ((p - lo) * inv).floor();
+            let clamp = |x: f64| x.clamp(0.0, MAX_CELLS) as u64;
+            key([clamp(c.x), clamp(c.y), clamp(c.z)])
+        };
+        let mut sorted: Vec<(u64, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| (cell_of(*p), i as u32))
+            .collect();
+        sorted.par_sort_unstable();
+        let mut keys = Vec::new();
+        let mut start = Vec::new();
+        for (s, &(k, _)) in sorted.iter().enumerate() {
+            if keys.last() != Some(&k) {
+                keys.push(k);
+                start.push(s as u32);
+            }
+        }
+        start.push(sorted.len() as u32);
+        let mut map = FxHashMap::default();
+        map.reserve(keys.len());
+        for (c, &k) in keys.iter().enumerate() {
+            map.insert(k, c as u32);
+        }
+        let rel = sorted
+            .par_iter()
+            .map(|&(_, i)| points[i as usize] - lo)
+            .collect();
+        PointGrid {
+            lo,
+            inv,
+            cell,
+            order: sorted.into_iter().map(|(_, i)| i).collect(),
+            rel,
+            keys,
+            start,
+            map,
+        }
+    }
+
+    /// The number of points.
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// True without points.
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// The side of a cell.
+    pub fn cell(&self) -> f64 {
+        self.cell
+    }
+
+    /// The caller's index of each point, in cell order (sorted indices
+    /// below index this).
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// Positions in cell order, relative to the grid's corner.
+    pub fn rel(&self) -> &[DVec3] {
+        &self.rel
+    }
+
+    /// `p` in the grid's frame (what `rel` holds).
+    pub fn to_rel(&self, p: DVec3) -> DVec3 {
+        p - self.lo
+    }
+
+    /// The number of occupied cells.
+    pub fn cells(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// The sorted points of cell `c`.
+    pub fn cell_points(&self, c: usize) -> Range<usize> {
+        self.start[c] as usize..self.start[c + 1] as usize
+    }
+
+    /// The sorted points' runs of every occupied cell within `ring` cells
+    /// of cell `c` along each axis (`ring` 1: the 27 around it), into
+    /// `out` (cleared first); runs that follow each other are merged.
+    pub fn around_cell(&self, c: usize, ring: u64, out: &mut Vec<Range<usize>>) {
+        self.around(coords(self.keys[c]), ring, out);
+    }
+
+    /// The runs of the 27 cells around cell `c` (empty for an unoccupied
+    /// one), indexed by `9 (dx + 1) + 3 (dy + 1) + (dz + 1)`. `cursor`
+    /// keeps where each neighbour was found (start with `Cursor::new`):
+    /// cells visited in order find their neighbours a few keys from the
+    /// last ones, where a hash table's slot would be a cache miss.
+    pub fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
+        let at = coords(self.keys[c]);
+        let top = (1u64 << BITS) - 1;
+        let cur = &mut cursor.0;
+        std::array::from_fn(|k| {
+            let d = [k / 9, k / 3 % 3, k % 3].map(|x| x as u64);
+            let mut q = [0u64; 3];
+            for a in 0..3 {
+                let x = at[a] + d[a];
+                if x == 0 || x - 1 > top {
+                    return 0..0;
+                }
+                q[a] = x - 1;
+            }
+            let from = if cur[k] == usize::MAX { c } else { cur[k] };
+            match self.find_from(from, key(q)) {
+                Ok(i) => {
+                    cur[k] = i;
+                    self.cell_points(i)
+                }
+                Err(i) => {
+                    cur[k] = i.min(self.keys.len() - 1);
+                    0..0
+                }
+            }
+        })
+    }
+
+    /// The cell of key `k`, or where it would be, searched outwards from
+    /// cell `from` (galloping, then binary search).
+    fn find_from(&self, from: usize, k: u64) -> std::result::Result<usize, usize> {
+        let keys = &self.keys;
+        if keys[from] == k {
+            Ok(from)
+        } else if keys[from] < k {
+            let mut step = 1;
+            while from + step < keys.len() && keys[from + step] < k {
+                step *= 2;
+            }
+            let lo = from + step / 2;
+            let hi = (from + step + 1).min(keys.len());
+            keys[lo..hi]
+                .binary_search(&k)
+                .map(|i| lo + i)
+                .map_err(|i| lo + i)
+        } else {
+            let mut step = 1;
+            while step <= from && keys[from - step] > k {
+                step *= 2;
+            }
+            let lo = from.saturating_sub(step);
+            let hi = from - step / 2 + 1;
+            keys[lo..hi]
+                .binary_search(&k)
+                .map(|i| lo + i)
+                .map_err(|i| lo + i)
+        }
+    }
+
+    /// The lower corner of cell `c` in the grid's frame.
+    pub fn cell_corner(&self, c: usize) -> DVec3 {
+        let [x, y, z] = coords(self.keys[c]);
+        DVec3::new(x as f64, y as f64, z as f64) * self.cell
+    }
+
+    /// As `around_cell`, for the cell holding `rel` (a position in the
+    /// grid's frame; outside the box it is the nearest cell).
+    pub fn around_point(&self, rel: DVec3, ring: u64, out: &mut Vec<Range<usize>>) {
+        let c = (rel * self.inv).floor();
+        let clamp = |x: f64| x.clamp(0.0, MAX_CELLS) as u64;
+        self.around([clamp(c.x), clamp(c.y), clamp(c.z)], ring, out);
+    }
+
+    fn around(&self, at: [u64; 3], ring: u64, out: &mut Vec<Range<usize>>) {
+        out.clear();
+        let top = (1u64 << BITS) - 1;
+        let span = |x: u64| x.saturating_sub(ring)..=(x + ring).min(top);
+        for x in span(at[0]) {
+            for y in span(at[1]) {
+                for z in span(at[2]) {
+                    if let Some(&c) = self.map.get(&key([x, y, z])) {
+                        let r = self.cell_points(c as usize);
+                        match out.last_mut() {
+                            Some(last) if last.end == r.start => last.end = r.end,
+                            _ => out.push(r),
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `f(s, near)` for every point `s` (sorted index), where `near` holds
+    /// the other points within `r` (at most half a cell) as (sorted index,
+    /// squared distance), in grid order; the results in grid order. Work
+    /// goes cell by cell: a cell's 27 neighbours are looked up once for
+    /// all its points, and each point reads the 8 cells on its side of its
+    /// cell's middle.
+    pub fn map_near<T: Send>(
+        &self,
+        r: f64,
+        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Vec<T> {
+        assert!(
+            r <= 0.5 * self.cell,
+            "map_near's radius is at most half a cell"
+        );
+        let r2 = r * r;
+        let half = 0.5 * self.cell;
+        let cells = self.cells();
+        let tasks: Vec<Range<usize>> = (0..cells)
+            .step_by(64)
+            .map(|c| c..(c + 64).min(cells))
+            .collect();
+        let parts: Vec<Vec<T>> = tasks
+            .par_iter()
+            .map(|cs| {
+                let mut out = Vec::new();
+                let mut near = Vec::with_capacity(32);
+                let mut cursor = Cursor::new();
+                for c in cs.clone() {
+                    let runs = self.runs27(c, &mut cursor);
+                    let mid = self.cell_corner(c) + half;
+                    for s in self.cell_points(c) {
+                        let q = self.rel[s];
+                        let side = |x: f64, m: f64| if x < m { [0, 1] } else { [1, 2] };
+                        let (sx, sy, sz) = (side(q.x, mid.x), side(q.y, mid.y), side(q.z, mid.z));
+                        near.clear();
+                        for dx in sx {
+                            for dy in sy {
+                                for dz in sz {
+                                    for t in runs[9 * dx + 3 * dy + dz].clone() {
+                                        let d2 = (self.rel[t] - q).length_squared();
+                                        if d2 <= r2 && t != s {
+                                            near.push((t as u32, d2));
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                        out.push(f(s, &near));
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut all = Vec::with_capacity(self.len());
+        for p in parts {
+            all.extend(p);
+        }
+        all
+    }
+
+    /// Calls `f(sorted index, squared distance)` for every point within
+    /// `r` of `rel` (grid frame), in cell order.
+    pub fn for_each_within(&self, rel: DVec3, r: f64, mut f: impl FnMut(usize, f64)) {
+        let ring = (r * self.inv).ceil().max(1.0) as u64;
+        let mut runs = Vec::with_capacity(16);
+        self.around_point(rel, ring, &mut runs);
+        let r2 = r * r;
+        for run in runs {
+            for s in run {
+                let d2 = (self.rel[s] - rel).length_squared();
+                if d2 <= r2 {
+                    f(s, d2);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::RngCore;
+    use rand_pcg::Pcg32;
+
+    #[test]
+    fn within_finds_what_brute_force_finds() {
+        let mut g = Pcg32::new(7, 1);
+        let mut u = || g.next_u32() as f64 / u32::MAX as f64;
+        let pts: Vec<DVec3> = (0..3000)
+            .map(|_| DVec3::new(u(), u() * 0.3, u() * 2.0) + 1e6)
+            .collect();
+        for cell in [0.05, 0.13, 1.0, 10.0] {
+            let grid = PointGrid::new(&pts, cell);
+            assert_eq!(grid.len(), pts.len());
+            for (i, &q) in pts.iter().enumerate().step_by(97) {
+                for r in [0.02, 0.1, 0.31] {
+                    let mut got: Vec<u32> = Vec::new();
+                    grid.for_each_within(grid.to_rel(q), r, |s, _| got.push(grid.order()[s]));
+                    got.sort_unstable();
+                    let want: Vec<u32> = (0..pts.len() as u32)
+                        .filter(|&j| (grid.to_rel(pts[j as usize]) - grid.to_rel(q)).length() <= r)
+                        .collect();
+                    assert_eq!(got, want, "cell {cell} r {r} point {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn map_near_finds_what_within_finds() {
+        let mut g = Pcg32::new(9, 2);
+        let mut u = || g.next_u32() as f64 / u32::MAX as f64;
+        let pts: Vec<DVec3> = (0..4000).map(|_| DVec3::new(u(), u(), u() * 0.1)).collect();
+        let r = 0.04;
+        let grid = PointGrid::new(&pts, 2.0 * r);
+        let got = grid.map_near(r, |_, near| {
+            let mut v: Vec<u32> = near.iter().map(|&(t, _)| t).collect();
+            v.sort_unstable();
+            v
+        });
+        for (s, got) in got.iter().enumerate() {
+            let mut want = Vec::new();
+            grid.for_each_within(grid.rel()[s], r, |t, _| {
+                if t != s {
+                    want.push(t as u32)
+                }
+            });
+            want.sort_unstable();
+            assert_eq!(got, &want, "point {s}");
+        }
+    }
+
+    #[test]
+    fn morton_keys_round_trip() {
+        for c in [
+            [0, 0, 0],
+            [1, 2, 3],
+            [(1 << 21) - 1, 5, (1 << 21) - 1],
+            [123_456, 7, 1_999_999],
+        ] {
+            assert_eq!(coords(key(c)), c);
+        }
+    }
+
+    #[test]
+    fn empty_and_huge_boxes_are_fine() {
+        let g = PointGrid::new(&[], 1.0);
+        assert!(g.is_empty());
+        let mut n = 0;
+        g.for_each_within(DVec3::ZERO, 1.0, |_, _| n += 1);
+        assert_eq!(n, 0);
+        // 1e30 across with cells of 1: the cell grows to fit the keys.
+        let pts = [DVec3::ZERO, DVec3::splat(1e30), DVec3::new(1.0, 0.0, 0.0)];
+        let g = PointGrid::new(&pts, 1.0);
+        assert!(g.cell() > 1e23);
+        let mut got = Vec::new();
+        g.for_each_within(g.to_rel(DVec3::ZERO), 2.0, |s, _| got.push(g.order()[s]));
+        got.sort_unstable();
+        assert_eq!(got, vec![0, 2]);
+    }
+}
