@@ -46,14 +46,19 @@ use pcsss::{Cloud, Role};
 /// `n` points on the unit sphere: radial normals, `illum = max(0, z)`,
 /// `ptarea` summing to 4 pi.
 fn sphere_cloud(mesh: &Cloud, n: usize, relax: u32, ptarea: PtareaMode) -> Cloud {
+    sphere_cloud_with(mesh, n, relax, ptarea, false)
+}
+
+/// `sphere_cloud`, blue noise (`scatter --blue`) when `blue`.
+fn sphere_cloud_with(mesh: &Cloud, n: usize, relax: u32, ptarea: PtareaMode, blue: bool) -> Cloud {
     let mut c = scatter::scatter(
         mesh,
         &scatter::Params {
-            amount: Amount::Count(n),
             seed: 11,
             ptarea,
             relax,
-            ..pcsss::stages::scatter::Params::new(pcsss::stages::scatter::Amount::Count(0))
+            blue,
+            ..scatter::Params::new(Amount::Count(n))
         },
     )
     .unwrap();
@@ -329,6 +334,10 @@ fn main() {
         variants(&mesh);
         return;
     }
+    if std::env::var_os("BENCH_ACCURACY").is_some() {
+        accuracy(&mesh);
+        return;
+    }
     if let Ok(case) = std::env::var("BENCH_CASE") {
         let v: Vec<f64> = case.split(',').map(|x| x.parse().unwrap()).collect();
         let (n, nb) = (v[0] as usize, v[1] as usize);
@@ -481,7 +490,13 @@ fn main() {
         _ => println!("plot failed (matplotlib missing? run `make bench`)"),
     }
 
-    // Accuracy against the continuous integral.
+    accuracy(&mesh);
+    variants(&mesh);
+}
+
+/// Accuracy against the continuous integral (ssmulti_accuracy.txt; alone
+/// with BENCH_ACCURACY=1).
+fn accuracy(mesh: &Cloud) {
     let rd = [1.0, 0.5, 0.25];
     let ld1 = 0.3;
     use rayon::prelude::*;
@@ -510,14 +525,19 @@ fn main() {
         let (a, b, c, d) = (y(k - 1), y(k), y(k + 1), y(k + 2));
         b + 0.5 * t * (c - a + t * (2.0 * a - 5.0 * b + 4.0 * c - d + t * (3.0 * (b - c) + d - a)))
     };
-    let acc_sizes: &[usize] = &[100_000, 1_000_000];
+    let sizes: Vec<usize> = std::env::var("BENCH_ACCURACY_SIZES")
+        .map_or(vec![100_000, 1_000_000], |v| {
+            v.split(',').map(|x| x.parse().unwrap()).collect()
+        });
+    let acc_sizes: &[usize] = &sizes;
     for &n in acc_sizes {
-        for (relax, ptarea, what) in [
-            (0u32, PtareaMode::Prim, "random"),
-            (0, PtareaMode::Voronoi, "random"),
-            (10, PtareaMode::Voronoi, "blue noise (relax 10)"),
+        for (relax, ptarea, blue, what) in [
+            (0u32, PtareaMode::Prim, false, "random"),
+            (0, PtareaMode::Voronoi, false, "random"),
+            (10, PtareaMode::Voronoi, false, "relax 10"),
+            (0, PtareaMode::Voronoi, true, "--blue"),
         ] {
-            let cloud = sphere_cloud(&mesh, n, relax, ptarea);
+            let cloud = sphere_cloud_with(mesh, n, relax, ptarea, blue);
             let (v, _, _) = run(
                 &cloud,
                 &Params {
@@ -550,5 +570,4 @@ fn main() {
         }
     }
     acc.save("ssmulti_accuracy.txt");
-    variants(&mesh);
 }

@@ -389,6 +389,87 @@ impl Occluder {
         best
     }
 
+    /// The closest point of `mesh` (the mesh this was built from) to `p`,
+    /// among its triangles of non-zero area: (triangle, barycentric
+    /// weights, distance); `None` without such triangles. Children are
+    /// visited nearest box first, and a box farther than the best so far
+    /// is skipped; triangles are measured in f64 against the mesh itself,
+    /// boxes (f32, in the unit frame) with a margin for their rounding.
+    pub fn closest_point(&self, mesh: &TriMesh, p: DVec3) -> Option<(usize, [f64; 3], f64)> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let q = (p - self.centre) * self.inv_scale;
+        // The boxes hold the f32-rounded triangles: a few ulps of the unit
+        // frame may lie outside them.
+        const MARGIN: f64 = 1e-6;
+        let box_d2 = |node: &Node, k: usize| -> f64 {
+            let mut d2 = 0.0;
+            for a in 0..3 {
+                let lo = node.lo[a][k] as f64 - MARGIN;
+                let hi = node.hi[a][k] as f64 + MARGIN;
+                let x = q[a];
+                let e = if x < lo {
+                    lo - x
+                } else if x > hi {
+                    x - hi
+                } else {
+                    0.0
+                };
+                d2 += e * e;
+            }
+            d2
+        };
+        let to_local2 = self.inv_scale * self.inv_scale;
+        let mut best: Option<(usize, [f64; 3], f64)> = None;
+        let mut best_d2 = f64::INFINITY; // in the unit frame
+        let mut stack: Vec<(f64, u32)> = Vec::with_capacity(STACK);
+        stack.push((0.0, 0));
+        while let Some((enter, at)) = stack.pop() {
+            if enter > best_d2 {
+                continue;
+            }
+            let node = &self.nodes[at as usize];
+            let mut kids = [(0f64, 0u32); W];
+            let mut nk = 0;
+            for k in 0..W {
+                let (child, count) = (node.child[k], node.count[k]);
+                if count == EMPTY {
+                    continue;
+                }
+                let d2 = box_d2(node, k);
+                if d2 > best_d2 {
+                    continue;
+                }
+                if count == 0 {
+                    // Farthest first on the stack.
+                    let mut j = nk;
+                    while j > 0 && kids[j - 1].0 < d2 {
+                        kids[j] = kids[j - 1];
+                        j -= 1;
+                    }
+                    kids[j] = (d2, child);
+                    nk += 1;
+                } else {
+                    for j in child..child + count {
+                        let t = self.ids[j as usize] as usize;
+                        let [a, b, c] = mesh.tri(t);
+                        let w = crate::geom::closest_on_triangle(p, a, b, c);
+                        let d = (crate::geom::blend(w, a, b, c) - p).length();
+                        let d2 = d * d * to_local2;
+                        // Nearest first; equal distances: lowest index.
+                        if d2 < best_d2 || (d2 == best_d2 && best.is_some_and(|b| t < b.0)) {
+                            best_d2 = d2;
+                            best = Some((t, w, d));
+                        }
+                    }
+                }
+            }
+            stack.extend_from_slice(&kids[..nk]);
+        }
+        best
+    }
+
     /// The triangles in the unit frame, in leaf order (for comparisons with
     /// other ray tracers on the same rays).
     pub fn triangles(&self) -> &[Triangle] {

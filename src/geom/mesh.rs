@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use crate::cloud::{Cloud, ListColumn};
 use crate::error::{Error, Result};
-use crate::geom::{self, kdtree::PointTree};
+use crate::geom;
 
 /// A cloud's faces as polygons over its points.
 #[derive(Clone, Debug, PartialEq)]
@@ -319,13 +319,15 @@ impl Adjacency {
     }
 }
 
-/// Closest-point queries on a mesh's triangles: a k-d tree of triangle
-/// centroids, searched outwards until no unvisited triangle can be closer
-/// (a triangle lies within its bounding radius of its centroid).
+/// Closest-point queries on a mesh's triangles, through the ray tracer's
+/// BVH (`geom::bvh`): boxes nearest first, pruned by the best distance so
+/// far. (A k-d tree of triangle centroids, searched outwards until no
+/// triangle could be closer, degrades when huge triangles sit among tiny
+/// ones: every centroid within the huge one's radius is a candidate.)
+/// Triangles of no area are never the answer.
 pub struct ClosestPoint<'a> {
     mesh: &'a TriMesh,
-    tree: PointTree,
-    radius: f64,
+    bvh: crate::geom::bvh::Occluder,
 }
 
 /// A closest-point answer.
@@ -340,59 +342,22 @@ pub struct Hit {
 }
 
 impl<'a> ClosestPoint<'a> {
-    /// Builds the index; `None` for a mesh without triangles.
+    /// Builds the index; `None` for a mesh without triangles of non-zero
+    /// area.
     pub fn new(mesh: &'a TriMesh) -> Option<Self> {
-        if mesh.tris.is_empty() {
+        let bvh = crate::geom::bvh::Occluder::new(mesh);
+        if bvh.triangle_count() == 0 {
             return None;
         }
-        let mut radius: f64 = 0.0;
-        let centroids: Vec<DVec3> = (0..mesh.tris.len())
-            .map(|t| {
-                let [a, b, c] = mesh.tri(t);
-                let m = (a + b + c) / 3.0;
-                radius = radius
-                    .max((a - m).length())
-                    .max((b - m).length())
-                    .max((c - m).length());
-                m
-            })
-            .collect();
-        Some(ClosestPoint {
-            mesh,
-            tree: PointTree::new(centroids, DVec3::ZERO),
-            radius,
-        })
+        Some(ClosestPoint { mesh, bvh })
     }
 
     /// The closest point of the mesh to `p`.
     pub fn query(&self, p: DVec3) -> Hit {
-        let n = self.mesh.tris.len();
-        let mut k = 8.min(n);
-        loop {
-            let near = self.tree.nearest(p, k);
-            let mut best = Hit {
-                tri: 0,
-                bary: [1.0, 0.0, 0.0],
-                dist: f64::INFINITY,
-            };
-            for nb in &near {
-                let t = nb.item as usize;
-                let [a, b, c] = self.mesh.tri(t);
-                let w = geom::closest_on_triangle(p, a, b, c);
-                let d = (geom::blend(w, a, b, c) - p).length();
-                if d < best.dist || (d == best.dist && t < best.tri) {
-                    best = Hit {
-                        tri: t,
-                        bary: w,
-                        dist: d,
-                    };
-                }
-            }
-            let reach = near.last().map_or(0.0, |nb| nb.distance.sqrt()) - self.radius;
-            if k >= n || reach > best.dist {
-                return best;
-            }
-            k = (k * 4).min(n);
-        }
+        let (tri, bary, dist) = self
+            .bvh
+            .closest_point(self.mesh, p)
+            .expect("a BVH with triangles has a closest one");
+        Hit { tri, bary, dist }
     }
 }

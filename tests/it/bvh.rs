@@ -141,3 +141,66 @@ fn thousands_of_coincident_triangles_are_traced_whole() {
     assert!(!occ.occluded(DVec3::new(0.2, 0.2, -1.0), -up, up, 0.5));
     assert!(!occ.occluded(DVec3::new(0.8, 0.8, -1.0), -up, up, f64::INFINITY));
 }
+
+#[test]
+fn closest_points_through_the_bvh_match_brute_force_on_mixed_triangle_sizes() {
+    // One huge triangle (1e3 across) beside a strip of 2,000 tiny ones
+    // (1e-3 across), 1e6 from the origin, and a few of no area: the case
+    // where a k-d tree of centroids has to visit every tiny centroid
+    // within the huge triangle's radius.
+    let o = [1e6, -1e6, 1e6];
+    let mut p = vec![
+        [o[0], o[1], o[2]],
+        [o[0] + 1e3, o[1], o[2]],
+        [o[0], o[1] + 1e3, o[2] + 10.0],
+    ];
+    let mut faces = vec![vec![0, 1, 2]];
+    let mut r = Pcg32::new(4, 4);
+    for k in 0..2000 {
+        let b = p.len() as i32;
+        let x = o[0] + 1.0 + k as f64 * 1e-3;
+        let z = o[2] - 0.5 + unit(&mut r) * 1e-3;
+        p.extend([
+            [x, o[1] - 0.5, z],
+            [x + 1e-3, o[1] - 0.5, z],
+            [x, o[1] - 0.5 + 1e-3, z + 1e-4],
+        ]);
+        faces.push(vec![b, b + 1, b + 2]);
+    }
+    let b = p.len() as i32;
+    p.extend([
+        [o[0] + 5.0, o[1] - 0.5, o[2]],
+        [o[0] + 6.0, o[1] - 0.5, o[2]],
+    ]);
+    faces.push(vec![b, b + 1, b + 1]);
+    let cloud = mesh_from(&p, &faces);
+    let mesh = TriMesh::from_cloud(&cloud).unwrap();
+    let cp = pcsss::geom::mesh::ClosestPoint::new(&mesh).unwrap();
+    let area = |t: usize| {
+        let [a, b, c] = mesh.tri(t);
+        pcsss::geom::tri_area(a, b, c)
+    };
+    for _ in 0..2000 {
+        let q = DVec3::from_array(o)
+            + DVec3::new(
+                unit(&mut r) * 4.0 - 1.0,
+                unit(&mut r) * 2.0 - 1.5,
+                unit(&mut r) * 2.0 - 1.0,
+            );
+        let hit = cp.query(q);
+        let best = (0..mesh.tris.len())
+            .filter(|&t| area(t) > 0.0)
+            .map(|t| {
+                let [a, b, c] = mesh.tri(t);
+                let w = pcsss::geom::closest_on_triangle(q, a, b, c);
+                (pcsss::geom::blend(w, a, b, c) - q).length()
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (hit.dist - best).abs() <= 1e-9 * (1.0 + best),
+            "{q:?}: {} against {best}",
+            hit.dist
+        );
+        assert!(area(hit.tri) > 0.0, "a triangle of no area");
+    }
+}
