@@ -308,8 +308,20 @@ impl PointGrid {
         r: f64,
         f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
     ) -> Vec<T> {
+        self.map_near_with(r, || (), |_, s, near| f(s, near))
+    }
+
+    /// `map_near` with a workspace: `init` makes one per task of cells,
+    /// `f` borrows it.
+    pub fn map_near_with<W, T: Send>(
+        &self,
+        r: f64,
+        init: impl Fn() -> W + Sync,
+        f: impl Fn(&mut W, usize, &[(u32, f64)]) -> T + Sync,
+    ) -> Vec<T> {
         let parts = self.per_task(r, |cs, near, out: &mut Vec<T>| {
-            self.scan(cs, r, near, |s, near| out.push(f(s, near)));
+            let mut w = init();
+            self.scan(cs, r, near, |s, near| out.push(f(&mut w, s, near)));
         });
         let mut all = Vec::with_capacity(self.len());
         for p in parts {

@@ -172,7 +172,8 @@ pub fn eliminate(
         buckets[level(w)].push(s as u32);
     }
     ph.mark("queue");
-    let mut alive = vec![true; m];
+    // A removed candidate's crowding is DEAD: one array read tells both.
+    const DEAD: f64 = f64::NEG_INFINITY;
     let mut left = m;
     let mut top = BUCKETS - 1;
     while left > n {
@@ -186,18 +187,16 @@ pub fn eliminate(
             buckets[b].push(s as u32);
             continue;
         }
-        alive[s] = false;
+        crowd[s] = DEAD;
         left -= 1;
         for p in &pairs[offsets[s]..offsets[s + 1]] {
-            let t = p.other as usize;
-            if alive[t] {
-                crowd[t] -= p.w as f64;
-            }
+            // DEAD stays DEAD.
+            crowd[p.other as usize] -= p.w as f64;
         }
     }
     ph.mark("eliminate");
     let mut kept: Vec<u32> = (0..m)
-        .filter(|&s| alive[s])
+        .filter(|&s| crowd[s] != DEAD)
         .map(|s| grid.order()[s])
         .collect();
     kept.sort_unstable();

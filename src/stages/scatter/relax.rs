@@ -19,9 +19,9 @@
 //!   it without moving the points that have room.
 //!
 //! Neighbours come from Verlet lists: every point's neighbours within the
-//! reach plus a skin of 0.3 spacings, found on a grid (`geom::grid`) and
-//! kept until some point has moved half the skin since (then no pair can
-//! have come within the reach unseen). Points are kept in the grid's
+//! reach plus a skin (0.3 spacings for relaxation, 0.5 for separation),
+//! found on a grid (`geom::grid`) and kept until some point has moved half
+//! the skin since (then no pair can have come within the reach unseen). Points are kept in the grid's
 //! (Morton) order, so a point's neighbours sit near it in memory.
 
 use glam::DVec3;
@@ -42,8 +42,12 @@ const REACH: f64 = 1.5;
 const GAIN: f64 = 0.5;
 /// The longest step, in spacings.
 const MAX_STEP: f64 = 0.5;
-/// The Verlet lists' skin, in spacings.
+/// The Verlet lists' skin, in spacings: relaxation moves points up to
+/// half a spacing a round, so its lists last a round or two whatever the
+/// skin; separation moves them a few hundredths, and a wider skin lets
+/// its lists last several rounds.
 const SKIN: f64 = 0.3;
+const SEPARATE_SKIN: f64 = 0.5;
 
 /// Neighbour lists of points in their own order: point `i`'s are
 /// `other[start[i]..start[i + 1]]`.
@@ -95,19 +99,23 @@ pub(super) fn polish(
         })
         .collect();
     let d = hex_spacing(total, n);
-    let skin = SKIN * d;
     let mut list: Option<(Lists, f64)> = None;
     for round in 0..relax + separate {
         let relaxing = round < relax;
-        let reach = if relaxing { REACH * d } else { tau * d };
-        // Lists of a reach at least this one's, whose points have not
-        // moved half the skin since.
+        let (reach, skin) = if relaxing {
+            (REACH * d, SKIN * d)
+        } else {
+            (tau * d, SEPARATE_SKIN * d)
+        };
+        // Lists that reach past this round's reach by twice as far as any
+        // point has moved since they were made.
         let fresh = list.as_ref().is_some_and(|(l, r)| {
-            *r >= reach + skin
+            let slack = 0.5 * (*r - reach);
+            slack > 0.0
                 && samples
                     .par_iter()
                     .zip(&l.at)
-                    .all(|(s, a)| (s.p - *a).length_squared() <= 0.25 * skin * skin)
+                    .all(|(s, a)| (s.p - *a).length_squared() <= slack * slack)
         });
         if !fresh {
             list = Some((lists(samples, reach + skin), reach + skin));

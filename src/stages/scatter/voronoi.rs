@@ -6,20 +6,22 @@
 //! by the bisectors of the other points within `R`, projected onto the
 //! plane through the point with its normal, nearest first. It is closed
 //! for sure once its farthest corner lies within half the distance of
-//! every point not yet used; until then points up to `3 R` are used (the
-//! square's corner bounds the cell, so none farther can cut it), at most
-//! the 256 nearest (a surface folded onto itself many times). Exact for
+//! every point not yet used; a cell not closed by the points within `R`
+//! (next to an empty patch, or at an open edge) is cut by those up to
+//! twice its farthest corner (at most `2 sqrt 2 R`: the square bounds
+//! it), at most the 256 nearest (a surface folded onto itself many
+//! times). Exact for
 //! points on a plane away from its edges; on a smooth surface the error is
 //! of the order of the cell's size over the radius of curvature. Cells at
 //! an open boundary stop at the square and come out too large (`promote
 //! --normalize` rescales the total).
 //!
-//! Neighbours come from a grid of `R` cells (`geom::grid`); each point's
-//! cell depends only on the positions, so the result does not depend on
-//! the thread count.
+//! The points within `R` come cell by cell from a grid of `2 R` cells
+//! (`geom::grid`), the rare second round from a query of its own; each
+//! point's cell depends only on the positions, so the result does not
+//! depend on the thread count.
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use super::hex_spacing;
 use crate::geom::grid::PointGrid;
@@ -51,8 +53,10 @@ impl<'a> Cells<'a> {
     }
 
     /// The cell of sorted point `s` in the plane of `nrm` (any unit
-    /// vector when zero), in `self.cell`, in the basis returned.
-    fn cell(&mut self, s: usize, nrm: DVec3) -> (DVec3, DVec3) {
+    /// vector when zero), in `self.cell`, in the basis returned; `first`
+    /// holds the other points within the reach (sorted index, squared
+    /// distance).
+    fn cell(&mut self, s: usize, nrm: DVec3, first: &[(u32, f64)]) -> (DVec3, DVec3) {
         let nrm = geom::unit_or_zero(nrm);
         let (t1, t2) = geom::tangent_basis(if nrm == DVec3::ZERO { DVec3::Z } else { nrm });
         let rel = self.grid.rel();
@@ -60,17 +64,27 @@ impl<'a> Cells<'a> {
         let h = self.reach;
         self.cell.clear();
         self.cell.extend([[-h, -h], [h, -h], [h, h], [-h, h]]);
-        // The square bounds the cell: no point farther than twice its
-        // corner (2 sqrt 2 h) can cut it, so two rounds always close it.
+        // The points within `h`, then (when the cell is not closed yet)
+        // those up to twice its farthest corner: after them no point can
+        // cut it, and the square bounds that corner at sqrt 2 h.
         let mut used = 0;
-        for (lo, hi) in [(0.0, h), (h, 3.0 * h)] {
+        for round in 0..2 {
             self.near.clear();
             let near = &mut self.near;
-            self.grid.for_each_within(q, hi, |t, d2| {
-                if t != s && d2 > lo * lo {
-                    near.push((d2, t));
-                }
-            });
+            let hi = if round == 0 {
+                near.extend(first.iter().map(|&(t, d2)| (d2, t as usize)));
+                h
+            } else {
+                // Next to an empty patch or an open edge: the points that
+                // can still cut it, up to twice its farthest corner.
+                let hi = 2.0 * corner2(&self.cell).sqrt();
+                self.grid.for_each_within(q, hi, |t, d2| {
+                    if t != s && d2 > h * h {
+                        near.push((d2, t));
+                    }
+                });
+                hi
+            };
             // Nearest first (ties in grid order): the far ones then rarely
             // cut, and the loop stops as soon as none can.
             near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -111,19 +125,17 @@ pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f
         return vec![area as f32; n];
     }
     let reach = first_reach(positions, area);
-    let grid = PointGrid::new(positions, reach);
+    let grid = PointGrid::new(positions, 2.0 * reach);
     let order = grid.order();
     let mut out = vec![0f32; n];
-    let by_sorted: Vec<f32> = (0..n)
-        .into_par_iter()
-        .map_init(
-            || Cells::new(&grid, reach),
-            |cells, s| {
-                cells.cell(s, normals[order[s] as usize]);
-                geom::polygon_area_2d(&cells.cell) as f32
-            },
-        )
-        .collect();
+    let by_sorted: Vec<f32> = grid.map_near_with(
+        reach,
+        || Cells::new(&grid, reach),
+        |cells, s, first| {
+            cells.cell(s, normals[order[s] as usize], first);
+            geom::polygon_area_2d(&cells.cell) as f32
+        },
+    );
     for (s, a) in by_sorted.into_iter().enumerate() {
         out[order[s] as usize] = a;
     }
