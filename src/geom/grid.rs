@@ -8,7 +8,7 @@
 //! grid is the same on any thread count) and kept in that order relative
 //! to the box's lower corner. Cells visited in order find their
 //! neighbours by galloping search from where the last ones were (a few
-//! keys away, in cache); a hash table of the keys answers single queries.
+//! keys away, in cache); single queries search the keys from scratch.
 //! Empty cells cost nothing, so a surface in a large box costs what its
 //! points cost.
 
@@ -16,7 +16,6 @@ use std::ops::Range;
 
 use glam::DVec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashMap;
 
 /// Bits of a cell coordinate in a key.
 const BITS: u32 = 21;
@@ -53,7 +52,6 @@ pub struct PointGrid {
     keys: Vec<u64>,
     /// Cell `c` holds sorted points `start[c]..start[c + 1]`.
     start: Vec<u32>,
-    map: FxHashMap<u64, u32>,
 }
 
 /// Spreads the low 21 bits of `x` to every third bit.
@@ -131,11 +129,6 @@ impl PointGrid {
             }
         }
         start.push(sorted.len() as u32);
-        let mut map = FxHashMap::default();
-        map.reserve(keys.len());
-        for (c, &k) in keys.iter().enumerate() {
-            map.insert(k, c as u32);
-        }
         let rel = sorted
             .par_iter()
             .map(|&(_, i)| points[i as usize] - lo)
@@ -148,7 +141,6 @@ impl PointGrid {
             rel,
             keys,
             start,
-            map,
         }
     }
 
@@ -191,13 +183,6 @@ impl PointGrid {
     /// The sorted points of cell `c`.
     pub fn cell_points(&self, c: usize) -> Range<usize> {
         self.start[c] as usize..self.start[c + 1] as usize
-    }
-
-    /// The sorted points' runs of every occupied cell within `ring` cells
-    /// of cell `c` along each axis (`ring` 1: the 27 around it), into
-    /// `out` (cleared first); runs that follow each other are merged.
-    pub fn around_cell(&self, c: usize, ring: u64, out: &mut Vec<Range<usize>>) {
-        self.around(coords(self.keys[c]), ring, out);
     }
 
     /// The runs of the 27 cells around cell `c` (empty for an unoccupied
@@ -270,9 +255,11 @@ impl PointGrid {
         DVec3::new(x as f64, y as f64, z as f64) * self.cell
     }
 
-    /// As `around_cell`, for the cell holding `rel` (a position in the
-    /// grid's frame; outside the box it is the nearest cell).
-    pub fn around_point(&self, rel: DVec3, ring: u64, out: &mut Vec<Range<usize>>) {
+    /// The sorted points' runs of every occupied cell within `ring` cells
+    /// along each axis of the cell holding `rel` (a position in the grid's
+    /// frame; outside the box it is the nearest cell), into `out` (cleared
+    /// first); runs that follow each other are merged.
+    fn around_point(&self, rel: DVec3, ring: u64, out: &mut Vec<Range<usize>>) {
         let c = (rel * self.inv).floor();
         let clamp = |x: f64| x.clamp(0.0, MAX_CELLS) as u64;
         self.around([clamp(c.x), clamp(c.y), clamp(c.z)], ring, out);
@@ -285,8 +272,8 @@ impl PointGrid {
         for x in span(at[0]) {
             for y in span(at[1]) {
                 for z in span(at[2]) {
-                    if let Some(&c) = self.map.get(&key([x, y, z])) {
-                        let r = self.cell_points(c as usize);
+                    if let Ok(c) = self.keys.binary_search(&key([x, y, z])) {
+                        let r = self.cell_points(c);
                         match out.last_mut() {
                             Some(last) if last.end == r.start => last.end = r.end,
                             _ => out.push(r),

@@ -28,7 +28,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::geom::grid::{Cursor, PointGrid};
+use crate::geom::grid::PointGrid;
 
 /// The crowding exponent (the paper's alpha).
 const ALPHA: i32 = 8;
@@ -67,19 +67,13 @@ pub fn eliminate(
     }
     let d_max = super::hex_spacing(area, n);
     let d_min = d_max * BETA * (1.0 - (n as f64 / m as f64).powf(GAMMA));
-    // Cells of twice the reach: a candidate's neighbours lie in the 2 x 2
-    // x 2 block of cells on its side of its own cell's middle, so a cell
-    // costs 27 lookups for all its candidates, and a candidate reads 8
-    // cells.
+    // Cells of twice the reach (`PointGrid::scan`).
     let grid = PointGrid::new(cand, 2.0 * d_max);
     ph.mark("grid");
-    let rel = grid.rel();
     let tasks: Vec<Range<usize>> = (0..grid.cells())
         .step_by(CELLS_PER_TASK)
         .map(|c| c..(c + CELLS_PER_TASK).min(grid.cells()))
         .collect();
-    let r2 = d_max * d_max;
-    let half = grid.cell() * 0.5;
     // Each task's pairs, candidate by candidate in grid order, and how
     // many each candidate has. Grown with `try_reserve`: a surface folded
     // onto itself many times has far more pairs than the usual few per
@@ -89,40 +83,23 @@ pub fn eliminate(
         .map(|cells| {
             let mut counts = Vec::new();
             let mut out: Vec<Pair> = Vec::new();
-            let mut cursor = Cursor::new();
-            for c in cells.clone() {
-                let runs = grid.runs27(c, &mut cursor);
-                let mid = grid.cell_corner(c) + half;
-                for s in grid.cell_points(c) {
-                    let q = rel[s];
-                    let side = |x: f64, m: f64| if x < m { [0, 1] } else { [1, 2] };
-                    let (sx, sy, sz) = (side(q.x, mid.x), side(q.y, mid.y), side(q.z, mid.z));
-                    let before = out.len();
-                    for dx in sx {
-                        for dy in sy {
-                            for dz in sz {
-                                for t in runs[9 * dx + 3 * dy + dz].clone() {
-                                    let d2 = (rel[t] - q).length_squared();
-                                    if d2 < r2 && t != s {
-                                        if out.len() == out.capacity()
-                                            && out.try_reserve(out.len().max(1024)).is_err()
-                                        {
-                                            return None;
-                                        }
-                                        let d = d2.sqrt().max(d_min);
-                                        out.push(Pair {
-                                            other: t as u32,
-                                            w: (1.0 - d / d_max).powi(ALPHA) as f32,
-                                        });
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    counts.push((out.len() - before) as u32);
+            let mut near = Vec::with_capacity(64);
+            let mut full = false;
+            grid.scan(cells.clone(), d_max, &mut near, |_, near| {
+                if full || out.try_reserve(near.len()).is_err() {
+                    full = true;
+                    return;
                 }
-            }
-            Some((counts, out))
+                out.extend(near.iter().map(|&(t, d2)| {
+                    let d = d2.sqrt().max(d_min);
+                    Pair {
+                        other: t,
+                        w: (1.0 - d / d_max).powi(ALPHA) as f32,
+                    }
+                }));
+                counts.push(near.len() as u32);
+            });
+            (!full).then_some((counts, out))
         })
         .collect();
     let too_big = || {
