@@ -184,8 +184,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         Amount::Count(n) => n,
         Amount::Density(d) => count_for_density(d, total)?,
     };
-    // About 200 bytes a point at the peak (samples, areas, the columns
-    // written, Voronoi's temporaries): asked for before the work.
+    // The option that set the count, for errors about it.
     let flag = if matches!(p.amount, Amount::Density(_)) {
         "--density"
     } else {
