@@ -423,8 +423,8 @@ impl Occluder {
         let to_local2 = self.inv_scale * self.inv_scale;
         let mut best: Option<(usize, [f64; 3], f64)> = None;
         let mut best_d2 = f64::INFINITY; // in the unit frame
-        let mut stack: Vec<(f64, u32)> = Vec::with_capacity(STACK);
-        stack.push((0.0, 0));
+                                         // On the machine stack unless the tree is deep: one query a point.
+        let mut stack: smallvec::SmallVec<[(f64, u32); STACK]> = smallvec::smallvec![(0.0, 0)];
         while let Some((enter, at)) = stack.pop() {
             if enter > best_d2 {
                 continue;

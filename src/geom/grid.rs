@@ -24,29 +24,22 @@ const BITS: u32 = 21;
 const MAX_CELLS: f64 = ((1u64 << BITS) - 4) as f64;
 
 /// Where `runs27` found each neighbour last.
-pub struct Cursor([usize; 27]);
+struct Cursor([usize; 27]);
 
 impl Cursor {
     /// No neighbour found yet.
-    pub fn new() -> Cursor {
+    fn new() -> Cursor {
         Cursor([usize::MAX; 27])
-    }
-}
-
-impl Default for Cursor {
-    fn default() -> Self {
-        Cursor::new()
     }
 }
 
 /// Points sorted into cubic cells.
 pub struct PointGrid {
-    lo: DVec3,
     inv: f64,
     cell: f64,
     /// The caller's index of each point, in cell order.
     order: Vec<u32>,
-    /// Positions relative to `lo`, in cell order.
+    /// Positions relative to the box's lower corner, in cell order.
     rel: Vec<DVec3>,
     /// Each occupied cell's key, ascending.
     keys: Vec<u64>,
@@ -134,7 +127,6 @@ impl PointGrid {
             .map(|&(_, i)| points[i as usize] - lo)
             .collect();
         PointGrid {
-            lo,
             inv,
             cell,
             order: sorted.into_iter().map(|(_, i)| i).collect(),
@@ -155,7 +147,8 @@ impl PointGrid {
     }
 
     /// The side of a cell.
-    pub fn cell(&self) -> f64 {
+    #[cfg(test)]
+    fn cell(&self) -> f64 {
         self.cell
     }
 
@@ -170,18 +163,13 @@ impl PointGrid {
         &self.rel
     }
 
-    /// `p` in the grid's frame (what `rel` holds).
-    pub fn to_rel(&self, p: DVec3) -> DVec3 {
-        p - self.lo
-    }
-
     /// The number of occupied cells.
     pub fn cells(&self) -> usize {
         self.keys.len()
     }
 
     /// The sorted points of cell `c`.
-    pub fn cell_points(&self, c: usize) -> Range<usize> {
+    fn cell_points(&self, c: usize) -> Range<usize> {
         self.start[c] as usize..self.start[c + 1] as usize
     }
 
@@ -190,7 +178,7 @@ impl PointGrid {
     /// keeps where each neighbour was found (start with `Cursor::new`):
     /// cells visited in order find their neighbours a few keys from the
     /// last ones, where a hash table's slot would be a cache miss.
-    pub fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
+    fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
         let at = coords(self.keys[c]);
         let top = (1u64 << BITS) - 1;
         let cur = &mut cursor.0;
@@ -250,7 +238,7 @@ impl PointGrid {
     }
 
     /// The lower corner of cell `c` in the grid's frame.
-    pub fn cell_corner(&self, c: usize) -> DVec3 {
+    fn cell_corner(&self, c: usize) -> DVec3 {
         let [x, y, z] = coords(self.keys[c]);
         DVec3::new(x as f64, y as f64, z as f64) * self.cell
     }
@@ -284,23 +272,12 @@ impl PointGrid {
         }
     }
 
-    /// `f(s, near)` for every point `s` (sorted index), where `near` holds
-    /// the other points within `r` (at most half a cell) as (sorted index,
-    /// squared distance), in grid order; the results in grid order. Work
-    /// goes cell by cell: a cell's 27 neighbours are looked up once for
-    /// all its points, and each point reads the 8 cells on its side of its
-    /// cell's middle.
-    pub fn map_near<T: Send>(
-        &self,
-        r: f64,
-        f: impl Fn(usize, &[(u32, f64)]) -> T + Sync,
-    ) -> Vec<T> {
-        self.map_near_with(r, || (), |_, s, near| f(s, near))
-    }
-
-    /// `map_near` with a workspace: `init` makes one per task of cells,
-    /// `f` borrows it.
-    pub fn map_near_with<W, T: Send>(
+    /// `f(w, s, near)` for every point `s` (sorted index), where `near`
+    /// holds the other points within `r` (at most half a cell) as (sorted
+    /// index, squared distance), in grid order, and `w` is a workspace
+    /// `init` makes once per task of cells; the results in grid order.
+    /// Work goes cell by cell (`scan`).
+    pub fn map_near<W, T: Send>(
         &self,
         r: f64,
         init: impl Fn() -> W + Sync,
@@ -429,6 +406,13 @@ mod tests {
     use rand_core::RngCore;
     use rand_pcg::Pcg32;
 
+    /// `p` in the grid's frame: from the points' lower corner.
+    fn to_rel(pts: &[DVec3], p: DVec3) -> DVec3 {
+        p - pts
+            .iter()
+            .fold(DVec3::splat(f64::INFINITY), |lo, q| lo.min(*q))
+    }
+
     #[test]
     fn within_finds_what_brute_force_finds() {
         let mut g = Pcg32::new(7, 1);
@@ -442,10 +426,12 @@ mod tests {
             for (i, &q) in pts.iter().enumerate().step_by(97) {
                 for r in [0.02, 0.1, 0.31] {
                     let mut got: Vec<u32> = Vec::new();
-                    grid.for_each_within(grid.to_rel(q), r, |s, _| got.push(grid.order()[s]));
+                    grid.for_each_within(to_rel(&pts, q), r, |s, _| got.push(grid.order()[s]));
                     got.sort_unstable();
                     let want: Vec<u32> = (0..pts.len() as u32)
-                        .filter(|&j| (grid.to_rel(pts[j as usize]) - grid.to_rel(q)).length() <= r)
+                        .filter(|&j| {
+                            (to_rel(&pts, pts[j as usize]) - to_rel(&pts, q)).length() <= r
+                        })
                         .collect();
                     assert_eq!(got, want, "cell {cell} r {r} point {i}");
                 }
@@ -460,11 +446,15 @@ mod tests {
         let pts: Vec<DVec3> = (0..4000).map(|_| DVec3::new(u(), u(), u() * 0.1)).collect();
         let r = 0.04;
         let grid = PointGrid::new(&pts, 2.0 * r);
-        let got = grid.map_near(r, |_, near| {
-            let mut v: Vec<u32> = near.iter().map(|&(t, _)| t).collect();
-            v.sort_unstable();
-            v
-        });
+        let got = grid.map_near(
+            r,
+            || (),
+            |_, _, near| {
+                let mut v: Vec<u32> = near.iter().map(|&(t, _)| t).collect();
+                v.sort_unstable();
+                v
+            },
+        );
         for (s, got) in got.iter().enumerate() {
             let mut want = Vec::new();
             grid.for_each_within(grid.rel()[s], r, |t, _| {
@@ -501,7 +491,9 @@ mod tests {
         let g = PointGrid::new(&pts, 1.0);
         assert!(g.cell() > 1e23);
         let mut got = Vec::new();
-        g.for_each_within(g.to_rel(DVec3::ZERO), 2.0, |s, _| got.push(g.order()[s]));
+        g.for_each_within(to_rel(&pts, DVec3::ZERO), 2.0, |s, _| {
+            got.push(g.order()[s])
+        });
         got.sort_unstable();
         assert_eq!(got, vec![0, 2]);
     }

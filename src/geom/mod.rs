@@ -70,22 +70,9 @@ pub fn triangulate(pts: &[DVec3], out: &mut Vec<[usize; 3]>) {
         out.push([0, 1, 2]);
         return;
     }
-    let nrm = newell(pts);
-    let ax = nrm.abs().max_position();
-    if nrm[ax] == 0.0 {
+    let Some(p2) = project_2d(pts) else {
         return fan(n, out);
-    }
-    // Project dropping the dominant axis; keep counter-clockwise order.
-    let (u, v) = match ax {
-        0 => (1, 2),
-        1 => (2, 0),
-        _ => (0, 1),
     };
-    let flip = nrm[ax] < 0.0;
-    let p2: Vec<[f64; 2]> = pts
-        .iter()
-        .map(|p| if flip { [p[v], p[u]] } else { [p[u], p[v]] })
-        .collect();
     let cross2 = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
     };
@@ -165,10 +152,17 @@ fn convex_2d(p: &[[f64; 2]], slack: bool) -> bool {
 /// Is the polygon (in 3D, projected on its plane) convex, up to the
 /// rounding of its coordinates?
 pub fn is_convex(pts: &[DVec3]) -> bool {
+    pts.len() >= 3 && project_2d(pts).is_some_and(|p2| convex_2d(&p2, true))
+}
+
+/// The polygon in 2D, dropping the dominant axis of its Newell normal,
+/// counter-clockwise when seen along the normal; `None` when the normal
+/// is zero (a degenerate polygon).
+fn project_2d(pts: &[DVec3]) -> Option<Vec<[f64; 2]>> {
     let nrm = newell(pts);
     let ax = nrm.abs().max_position();
-    if pts.len() < 3 || nrm[ax] == 0.0 {
-        return false;
+    if nrm[ax] == 0.0 {
+        return None;
     }
     let (u, v) = match ax {
         0 => (1, 2),
@@ -176,11 +170,11 @@ pub fn is_convex(pts: &[DVec3]) -> bool {
         _ => (0, 1),
     };
     let flip = nrm[ax] < 0.0;
-    let p2: Vec<[f64; 2]> = pts
-        .iter()
-        .map(|p| if flip { [p[v], p[u]] } else { [p[u], p[v]] })
-        .collect();
-    convex_2d(&p2, true)
+    Some(
+        pts.iter()
+            .map(|p| if flip { [p[v], p[u]] } else { [p[u], p[v]] })
+            .collect(),
+    )
 }
 
 /// The most corners of a face that is not convex: ear clipping takes time

@@ -187,22 +187,26 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
     let n = 8000;
     // About 60 neighbours within D, as in a real ssmulti run.
     let d = 2.0 * (60.0 / n as f64).sqrt();
-    let err = |mode, relax| sphere_kernel_error(&scatter_relaxed(&sphere, n, 1, mode, relax), d);
-    let prim = err(PtareaMode::Prim, 0);
-    let voronoi = err(PtareaMode::Voronoi, 0);
-    let relaxed = err(PtareaMode::Voronoi, 10);
-    let mut p = scatter::Params::new(scatter::Amount::Count(n));
-    p.seed = 1;
-    p.ptarea = PtareaMode::Voronoi;
-    p.blue = true;
-    let blue = sphere_kernel_error(&scatter::scatter(&sphere, &p).unwrap(), d);
-    p.relax = 10;
-    let blue_relaxed = sphere_kernel_error(&scatter::scatter(&sphere, &p).unwrap(), d);
-    eprintln!("kernel-sum RMS error: prim {prim:.2e}, voronoi {voronoi:.2e}, voronoi + relax 10 {relaxed:.2e}, voronoi + blue {blue:.2e}, voronoi + blue + relax 10 {blue_relaxed:.2e}");
+    // The kernel error, and the coefficient of variation of the areas.
+    let measure = |ptarea, relax, blue| {
+        let mut p = scatter::Params::new(scatter::Amount::Count(n));
+        (p.seed, p.ptarea, p.relax, p.blue) = (1, ptarea, relax, blue);
+        let c = scatter::scatter(&sphere, &p).unwrap();
+        let a = c.points().scalar_f64("ptarea").unwrap();
+        let mean = a.iter().sum::<f64>() / a.len() as f64;
+        let sd = (a.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / a.len() as f64).sqrt();
+        let e = sphere_kernel_error(&c, d);
+        eprintln!("ptarea {ptarea:?}, relax {relax}, blue {blue}: kernel-sum RMS error {e:.2e}, area cv {:.3}", sd / mean);
+        e
+    };
+    let prim = measure(PtareaMode::Prim, 0, false);
+    let voronoi = measure(PtareaMode::Voronoi, 0, false);
+    let relaxed = measure(PtareaMode::Voronoi, 10, false);
+    let blue = measure(PtareaMode::Voronoi, 0, true);
+    let blue_relaxed = measure(PtareaMode::Voronoi, 10, true);
     // Measured: 0.0087, 0.0035, 0.00063, 0.0021, 0.00069. At ~60
-    // neighbours the error follows how even the cells' areas are (their
-    // coefficient of variation: 0.051 after relax 10, 0.093 after --blue's
-    // 2 relaxation iterations, 0.057 with 10).
+    // neighbours the error follows how even the Voronoi areas are (their
+    // coefficient of variation, printed).
     assert!(prim < 0.012, "{prim}");
     assert!(voronoi < prim / 2.0, "{voronoi} vs {prim}");
     assert!(

@@ -128,7 +128,7 @@ pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f
     let grid = PointGrid::new(positions, 2.0 * reach);
     let order = grid.order();
     let mut out = vec![0f32; n];
-    let by_sorted: Vec<f32> = grid.map_near_with(
+    let by_sorted: Vec<f32> = grid.map_near(
         reach,
         || Cells::new(&grid, reach),
         |cells, s, first| {
