@@ -536,6 +536,7 @@ fn accuracy(mesh: &Cloud) {
             (0, PtareaMode::Voronoi, false, "random"),
             (10, PtareaMode::Voronoi, false, "relax 10"),
             (0, PtareaMode::Voronoi, true, "--blue"),
+            (10, PtareaMode::Voronoi, true, "--blue --relax 10"),
         ] {
             let cloud = sphere_cloud_with(mesh, n, relax, ptarea, blue);
             let (v, _, _) = run(

@@ -102,34 +102,58 @@ impl PointGrid {
         }
         let lo = if points.is_empty() { DVec3::ZERO } else { lo };
         let inv = 1.0 / cell;
-        let cell_of = |p: DVec3| -> u64 {
+        let coord = |p: DVec3| -> [u64; 3] {
             let c = ((p - lo) * inv).floor();
             let clamp = |x: f64| x.clamp(0.0, MAX_CELLS) as u64;
-            key([clamp(c.x), clamp(c.y), clamp(c.z)])
+            [clamp(c.x), clamp(c.y), clamp(c.z)]
         };
-        let mut sorted: Vec<(u64, u32)> = points
-            .par_iter()
-            .enumerate()
-            .map(|(i, p)| (cell_of(*p), i as u32))
-            .collect();
-        sorted.par_sort_unstable();
+        // Keys `cell << index_bits | index`, radix-sorted by the cell's
+        // bits only (the indices are in order already) when both fit in
+        // 64 bits, as they do unless the box spans more than about
+        // 2^((64 - index bits) / 3) cells; else a comparison sort.
+        let index_bits = (usize::BITS - points.len().leading_zeros()).max(1);
+        let top = coord(hi.max(lo));
+        let axis_bits = top
+            .iter()
+            .map(|&x| u64::BITS - x.leading_zeros())
+            .max()
+            .unwrap_or(0)
+            .max(1);
+        let (keys_of, order): (Vec<u64>, Vec<u32>) = if 3 * axis_bits + index_bits <= 64 {
+            let mut packed: Vec<u64> = points
+                .par_iter()
+                .enumerate()
+                .map(|(i, p)| key(coord(*p)) << index_bits | i as u64)
+                .collect();
+            crate::radix::sort_bits(&mut packed, index_bits, index_bits + 3 * axis_bits);
+            let mask = (1u64 << index_bits) - 1;
+            packed
+                .par_iter()
+                .map(|&k| (k >> index_bits, (k & mask) as u32))
+                .unzip()
+        } else {
+            let mut sorted: Vec<(u64, u32)> = points
+                .par_iter()
+                .enumerate()
+                .map(|(i, p)| (key(coord(*p)), i as u32))
+                .collect();
+            sorted.par_sort_unstable();
+            sorted.into_par_iter().unzip()
+        };
         let mut keys = Vec::new();
         let mut start = Vec::new();
-        for (s, &(k, _)) in sorted.iter().enumerate() {
+        for (s, &k) in keys_of.iter().enumerate() {
             if keys.last() != Some(&k) {
                 keys.push(k);
                 start.push(s as u32);
             }
         }
-        start.push(sorted.len() as u32);
-        let rel = sorted
-            .par_iter()
-            .map(|&(_, i)| points[i as usize] - lo)
-            .collect();
+        start.push(order.len() as u32);
+        let rel = order.par_iter().map(|&i| points[i as usize] - lo).collect();
         PointGrid {
             inv,
             cell,
-            order: sorted.into_iter().map(|(_, i)| i).collect(),
+            order,
             rel,
             keys,
             start,
@@ -166,6 +190,45 @@ impl PointGrid {
     /// The number of occupied cells.
     pub fn cells(&self) -> usize {
         self.keys.len()
+    }
+
+    /// The grid's occupied cells grouped into aligned cubes of `2^k`
+    /// cells a side, `k` the smallest that puts at least `per_block`
+    /// points in a block on average: each block's run of sorted points
+    /// (Morton order keeps an aligned cube's cells together) and its
+    /// colour, the parities of its coordinates (0..8). Blocks of one
+    /// colour are a block apart or more, so with cells at least twice a
+    /// radius no point of one is within the radius of a point of another.
+    pub fn blocks(&self, per_block: usize) -> Vec<(Range<usize>, u8)> {
+        let mut shift = 0;
+        while shift < 3 * BITS {
+            let mut count = 0usize;
+            let mut last = u64::MAX;
+            for &k in &self.keys {
+                if k >> shift != last {
+                    last = k >> shift;
+                    count += 1;
+                }
+            }
+            if self.len() >= per_block * count || count <= 1 {
+                break;
+            }
+            shift += 3;
+        }
+        let mut out: Vec<(Range<usize>, u8)> = Vec::new();
+        let mut last = u64::MAX;
+        for (c, &k) in self.keys.iter().enumerate() {
+            let run = self.cell_points(c);
+            if k >> shift == last {
+                out.last_mut().expect("a block is open").0.end = run.end;
+            } else {
+                last = k >> shift;
+                // The block's key: its coordinates' low bits are
+                // bits 0, 1, 2 of the shifted key (z, y, x).
+                out.push((run, (last & 7) as u8));
+            }
+        }
+        out
     }
 
     /// The sorted points of cell `c`.
@@ -364,20 +427,25 @@ impl PointGrid {
                 let q = self.rel[s];
                 let side = |x: f64, m: f64| if x < m { [0, 1] } else { [1, 2] };
                 let (sx, sy, sz) = (side(q.x, mid.x), side(q.y, mid.y), side(q.z, mid.z));
-                near.clear();
+                // Every point of the runs is written and only those
+                // within `r` are counted: no branch to mispredict.
+                let mut len = 0;
                 for dx in sx {
                     for dy in sy {
                         for dz in sz {
-                            for t in runs[9 * dx + 3 * dy + dz].clone() {
+                            let run = runs[9 * dx + 3 * dy + dz].clone();
+                            if near.len() < len + run.len() {
+                                near.resize(len + run.len(), (0, 0.0));
+                            }
+                            for t in run {
                                 let d2 = (self.rel[t] - q).length_squared();
-                                if d2 <= r2 && t != s {
-                                    near.push((t as u32, d2));
-                                }
+                                near[len] = (t as u32, d2);
+                                len += (d2 <= r2 && t != s) as usize;
                             }
                         }
                     }
                 }
-                f(s, near);
+                f(s, &near[..len]);
             }
         }
     }
@@ -464,6 +532,58 @@ mod tests {
             });
             want.sort_unstable();
             assert_eq!(got, &want, "point {s}");
+        }
+    }
+
+    #[test]
+    fn blocks_cover_the_points_in_order_and_a_colour_keeps_apart() {
+        // Points on two crossing planes and a sphere: surfaces, as scatter
+        // gives.
+        let mut g = Pcg32::new(11, 3);
+        let mut u = || g.next_u32() as f64 / u32::MAX as f64;
+        let mut pts: Vec<DVec3> = Vec::new();
+        for _ in 0..3000 {
+            pts.push(DVec3::new(u(), u(), 0.5));
+            pts.push(DVec3::new(0.5, u(), u()));
+            let d = DVec3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize_or_zero();
+            pts.push(DVec3::splat(0.5) + 0.4 * d);
+        }
+        let r = 0.01;
+        let grid = PointGrid::new(&pts, 2.0 * r);
+        for per in [1, 50, 400, 100_000] {
+            let blocks = grid.blocks(per);
+            let mut next = 0;
+            for (b, _) in &blocks {
+                assert_eq!(b.start, next, "blocks follow each other");
+                assert!(!b.is_empty());
+                next = b.end;
+            }
+            assert_eq!(next, grid.len());
+            if per > 1 && per < 100_000 {
+                assert!(
+                    grid.len() >= per * blocks.len() / 2,
+                    "{per}: {} blocks",
+                    blocks.len()
+                );
+            }
+            // No point is within the reach of a point of another block of
+            // its colour.
+            let mut block_of = vec![0usize; grid.len()];
+            for (k, (b, _)) in blocks.iter().enumerate() {
+                for s in b.clone() {
+                    block_of[s] = k;
+                }
+            }
+            for s in 0..grid.len() {
+                let (k, c) = (block_of[s], blocks[block_of[s]].1);
+                grid.for_each_within(grid.rel()[s], r, |t, _| {
+                    let j = block_of[t];
+                    assert!(
+                        j == k || blocks[j].1 != c,
+                        "{per}: point {s} of block {k} reaches block {j}, both colour {c}"
+                    );
+                });
+            }
         }
     }
 
