@@ -55,6 +55,8 @@ const BLOCK: usize = 4096;
 /// its share, in colour order (reversed on odd passes), so no block's
 /// neighbours are always a pass ahead of it.
 const PASSES: usize = 2;
+/// Levels of a block's bucket queue.
+const BLOCK_LEVELS: usize = 1 << 12;
 /// The part of each block's removals made block by block.
 const BLOCK_SHARE: f64 = 0.9;
 /// Grid cells handled by one task.
@@ -196,6 +198,13 @@ fn eliminate_blocks(
         .map(|(&s, &q)| ((s - q) as f64 * BLOCK_SHARE) as usize)
         .collect();
     let mut alive = sizes.clone();
+    let wmax = crowd.iter().copied().fold(0.0, f64::max);
+    let scale = if wmax > 0.0 {
+        (BLOCK_LEVELS - 1) as f64 / wmax
+    } else {
+        0.0
+    };
+    let level = |w: f64| ((w * scale) as usize).min(BLOCK_LEVELS - 1);
     for pass in 0..PASSES {
         for step in 0..8u8 {
             let colour = if pass % 2 == 0 { step } else { 7 - step };
@@ -219,24 +228,11 @@ fn eliminate_blocks(
                     if left <= goal {
                         return (b, left, deltas);
                     }
-                    // Largest crowding first, the later candidate on a tie;
-                    // an entry above its candidate's crowding now is
-                    // stale and goes back in.
-                    let key = |w: f64| w.max(0.0).to_bits();
-                    let mut heap: std::collections::BinaryHeap<(u64, u32)> = cr
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, w)| **w != DEAD)
-                        .map(|(i, &w)| (key(w), i as u32))
-                        .collect();
+                    let mut queue = Buckets::new(BLOCK_LEVELS, cr, level);
                     while left > goal {
-                        let Some((k, i)) = heap.pop() else { break };
-                        let i = i as usize;
-                        let now = key(cr[i]);
-                        if now < k {
-                            heap.push((now, i as u32));
-                            continue;
-                        }
+                        let Some(i) = queue.pop_most(cr, level) else {
+                            break;
+                        };
                         cr[i] = DEAD;
                         left -= 1;
                         let s = range.start + i;
@@ -264,11 +260,8 @@ fn eliminate_blocks(
 }
 
 /// The rest of the elimination, serial: from `left` candidates alive to
-/// `n`, the most crowded first over all of them, on a bucket queue
-/// (crowding quantised to BUCKETS levels of the largest, each level a
-/// stack). Crowding only falls, so an entry found above its candidate's
-/// level is stale: it moves down and the search goes on; the top level
-/// never rises.
+/// `n`, the most crowded first over all of them, on a bucket queue with
+/// crowding quantised to BUCKETS levels of the largest.
 fn eliminate_serial(
     crowd: &mut [f64],
     pairs: &[Pair],
@@ -286,29 +279,77 @@ fn eliminate_serial(
         0.0
     };
     let level = |w: f64| ((w * scale) as usize).min(BUCKETS - 1);
-    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); BUCKETS];
-    for (s, &w) in crowd.iter().enumerate() {
-        if w != DEAD {
-            buckets[level(w)].push(s as u32);
-        }
-    }
-    let mut top = BUCKETS - 1;
+    let mut queue = Buckets::new(BUCKETS, crowd, level);
     while left > n {
-        let Some(s) = buckets[top].pop() else {
-            top -= 1;
-            continue;
+        let Some(s) = queue.pop_most(crowd, level) else {
+            break;
         };
-        let s = s as usize;
-        let b = level(crowd[s]);
-        if b < top {
-            buckets[b].push(s as u32);
-            continue;
-        }
         crowd[s] = DEAD;
         left -= 1;
         for p in &pairs[offsets[s]..offsets[s + 1]] {
             // DEAD stays DEAD.
             crowd[p.other as usize] -= p.w as f64;
+        }
+    }
+}
+
+/// A bucket queue of candidates by crowding level: each level a stack
+/// linked through `next`, so filling it allocates twice, not once a
+/// level.
+struct Buckets {
+    heads: Vec<u32>,
+    next: Vec<u32>,
+    top: usize,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl Buckets {
+    /// The live candidates of `crowd` (indices into it) in `levels`
+    /// levels by `level`; within a level the later candidate comes out
+    /// first.
+    fn new(levels: usize, crowd: &[f64], level: impl Fn(f64) -> usize) -> Buckets {
+        let mut q = Buckets {
+            heads: vec![NONE; levels],
+            next: vec![NONE; crowd.len()],
+            top: 0,
+        };
+        for (i, &w) in crowd.iter().enumerate() {
+            if w != DEAD {
+                q.push(i, level(w));
+            }
+        }
+        q
+    }
+
+    fn push(&mut self, i: usize, l: usize) {
+        self.next[i] = self.heads[l];
+        self.heads[l] = i as u32;
+        self.top = self.top.max(l);
+    }
+
+    /// The most crowded candidate (by its crowding now), taken out; None
+    /// when none is left. Crowding only falls, so an entry found above
+    /// its candidate's level now is stale: it moves down and the search
+    /// goes on, and the top level never rises.
+    fn pop_most(&mut self, crowd: &[f64], level: impl Fn(f64) -> usize) -> Option<usize> {
+        loop {
+            let i = self.heads[self.top];
+            if i == NONE {
+                if self.top == 0 {
+                    return None;
+                }
+                self.top -= 1;
+                continue;
+            }
+            let i = i as usize;
+            self.heads[self.top] = self.next[i];
+            let l = level(crowd[i]);
+            if l < self.top {
+                self.push(i, l);
+                continue;
+            }
+            return Some(i);
         }
     }
 }
