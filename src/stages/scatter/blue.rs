@@ -206,13 +206,7 @@ fn eliminate_blocks(
         .map(|(&s, &q)| ((s - q) as f64 * BLOCK_SHARE) as usize)
         .collect();
     let mut alive = sizes.clone();
-    let wmax = crowd.iter().copied().fold(0.0, f64::max);
-    let scale = if wmax > 0.0 {
-        (BLOCK_LEVELS - 1) as f64 / wmax
-    } else {
-        0.0
-    };
-    let level = |w: f64| ((w * scale) as usize).min(BLOCK_LEVELS - 1);
+    let level = levels(crowd, BLOCK_LEVELS);
     for pass in 0..PASSES {
         for step in 0..8u8 {
             let colour = if pass % 2 == 0 { step } else { 7 - step };
@@ -280,13 +274,7 @@ fn eliminate_serial(
     if left <= n {
         return;
     }
-    let wmax = crowd.iter().copied().fold(0.0, f64::max);
-    let scale = if wmax > 0.0 {
-        (BUCKETS - 1) as f64 / wmax
-    } else {
-        0.0
-    };
-    let level = |w: f64| ((w * scale) as usize).min(BUCKETS - 1);
+    let level = levels(crowd, BUCKETS);
     let mut queue = Buckets::new(BUCKETS, crowd, level);
     while left > n {
         let Some(s) = queue.pop_most(crowd, level) else {
@@ -299,6 +287,18 @@ fn eliminate_serial(
             crowd[p.other as usize] -= p.w as f64;
         }
     }
+}
+
+/// Crowding quantised to `count` levels of the largest in `crowd`
+/// (crowding only falls, so no value later is above the top level).
+fn levels(crowd: &[f64], count: usize) -> impl Fn(f64) -> usize + Copy + Sync {
+    let wmax = crowd.iter().copied().fold(0.0, f64::max);
+    let scale = if wmax > 0.0 {
+        (count - 1) as f64 / wmax
+    } else {
+        0.0
+    };
+    move |w: f64| ((w * scale) as usize).min(count - 1)
 }
 
 /// A bucket queue of candidates by crowding level: each level a stack
