@@ -71,20 +71,15 @@ fn blue_noise_counts_are_exact_and_seeds_reproduce_on_any_thread_count() {
     )
     .unwrap();
     let run = |threads: &str, seed: &str, n: &str| {
-        let out = std::process::Command::new(bin("scatter"))
-            .args([
+        run_env(
+            d.path(),
+            "scatter",
+            &[
                 "s.ply", "-n", n, "--seed", seed, "--blue", "--ptarea", "voronoi",
-            ])
-            .env("RAYON_NUM_THREADS", threads)
-            .current_dir(d.path())
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        out.stdout
+            ],
+            &[("RAYON_NUM_THREADS", threads)],
+            None,
+        )
     };
     let a = run("1", "42", "20000");
     assert_eq!(a, run("2", "42", "20000"));

@@ -475,15 +475,13 @@ fn illum_runs_in_a_pipe_and_bad_input_is_a_clear_error() {
     // Equal bytes on one and two threads, from stdin to stdout.
     let mut outs = Vec::new();
     for threads in ["1", "2"] {
-        let out = std::process::Command::new(bin("illum"))
-            .args(["--lights", lights, "--mesh", "mesh.ply"])
-            .env("RAYON_NUM_THREADS", threads)
-            .current_dir(d.path())
-            .stdin(std::fs::File::open(d.path().join("cloud.ply")).unwrap())
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        outs.push(out.stdout);
+        outs.push(run_env(
+            d.path(),
+            "illum",
+            &["--lights", lights, "--mesh", "mesh.ply"],
+            &[("RAYON_NUM_THREADS", threads)],
+            Some("cloud.ply"),
+        ));
     }
     assert_eq!(outs[0], outs[1]);
     let c = from_bytes(&outs[0]);

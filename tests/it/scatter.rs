@@ -76,15 +76,15 @@ fn equal_seeds_give_equal_clouds_on_any_thread_count() {
     .unwrap();
     let mut outs = Vec::new();
     for threads in ["1", "2"] {
-        let out = std::process::Command::new(bin("scatter"))
-            .args(["s.ply", "-n", "20000", "--seed", "42", "--ptarea", "knn"])
-            .args(["--relax", "3"])
-            .env("RAYON_NUM_THREADS", threads)
-            .current_dir(d.path())
-            .output()
-            .unwrap();
-        assert!(out.status.success());
-        outs.push(out.stdout);
+        outs.push(run_env(
+            d.path(),
+            "scatter",
+            &[
+                "s.ply", "-n", "20000", "--seed", "42", "--ptarea", "knn", "--relax", "3",
+            ],
+            &[("RAYON_NUM_THREADS", threads)],
+            None,
+        ));
     }
     assert_eq!(outs[0], outs[1]);
     let other = run_in(

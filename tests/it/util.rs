@@ -44,6 +44,31 @@ pub fn run_in(dir: Option<&Path>, name: &str, args: &[&str], stdin: &[u8]) -> Ou
     out
 }
 
+/// Runs `name args` in `dir` with the environment variables `env` added
+/// and standard input from the file `stdin` of `dir` (none: empty); asserts that
+/// it succeeded, showing its stderr if not, and returns its stdout.
+pub fn run_env(
+    dir: &Path,
+    name: &str,
+    args: &[&str],
+    env: &[(&str, &str)],
+    stdin: Option<&str>,
+) -> Vec<u8> {
+    let mut cmd = Command::new(bin(name));
+    cmd.args(args).current_dir(dir).envs(env.iter().copied());
+    cmd.stdin(match stdin {
+        Some(f) => Stdio::from(std::fs::File::open(dir.join(f)).expect("stdin file")),
+        None => Stdio::null(),
+    });
+    let out = cmd.output().expect("run binary");
+    assert!(
+        out.status.success(),
+        "{name} {args:?} {env:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
 /// Stderr as text.
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -12,8 +12,10 @@ fn ssmulti_in_a_pipe_same_bits_on_any_thread_count_and_bad_input() {
     write("c.ply", &c);
     let mut outs = Vec::new();
     for threads in ["1", "2"] {
-        let out = std::process::Command::new(bin("ssmulti"))
-            .args([
+        outs.push(run_env(
+            d.path(),
+            "ssmulti",
+            &[
                 "--rd",
                 "0.9,0.5,0.3",
                 "--sd",
@@ -21,20 +23,19 @@ fn ssmulti_in_a_pipe_same_bits_on_any_thread_count_and_bad_input() {
                 "--bounce",
                 "0.5",
                 "--rgb",
-            ])
-            .env("RAYON_NUM_THREADS", threads)
-            .stdin(std::fs::File::open(d.path().join("c.ply")).unwrap())
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        outs.push(out.stdout);
+            ],
+            &[("RAYON_NUM_THREADS", threads)],
+            Some("c.ply"),
+        ));
     }
     assert_eq!(outs[0], outs[1]);
     let back = from_bytes(&outs[0]);
     assert!(back.points().has("ssM") && back.points().has("illum"));
     // Without AVX2/FMA (the baseline loop): the same sums to rounding.
-    let plain = std::process::Command::new(bin("ssmulti"))
-        .args([
+    let plain = run_env(
+        d.path(),
+        "ssmulti",
+        &[
             "--rd",
             "0.9,0.5,0.3",
             "--sd",
@@ -42,14 +43,12 @@ fn ssmulti_in_a_pipe_same_bits_on_any_thread_count_and_bad_input() {
             "--bounce",
             "0.5",
             "--rgb",
-        ])
-        .env("PCSSS_NO_AVX2", "1")
-        .stdin(std::fs::File::open(d.path().join("c.ply")).unwrap())
-        .output()
-        .unwrap();
-    assert!(plain.status.success());
+        ],
+        &[("PCSSS_NO_AVX2", "1")],
+        Some("c.ply"),
+    );
     let a = back.points().vec3_f64("ssM").unwrap();
-    let b = from_bytes(&plain.stdout).points().vec3_f64("ssM").unwrap();
+    let b = from_bytes(&plain).points().vec3_f64("ssM").unwrap();
     for (x, y) in a.iter().zip(&b) {
         for ch in 0..3 {
             assert!(
