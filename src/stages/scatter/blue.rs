@@ -20,9 +20,10 @@
 //!
 //! Cost: the pairs are found once on a grid (about `2 M / N` a
 //! candidate), in parallel, each from its earlier candidate in grid
-//! order only (`PointGrid::scan_forward`: half the distance tests; 0.5 s
-//! at 1M on the bunny where finding each pair from both ends took 0.8),
-//! then spread to both candidates' lists. The elimination works on blocks of about
+//! order only (`PointGrid::scan_forward`: half the distance tests), then
+//! spread to both candidates' lists: at 1M on the bunny 0.5 s and 0.25 s,
+//! where finding each pair from both ends took 0.8 s in all. The
+//! elimination works on blocks of about
 //! 4,000 candidates (aligned cubes of grid cells, `PointGrid::blocks`)
 //! in colour phases, the blocks of a colour in parallel, each with its
 //! data in cache, down to 90% of the way to its share of `N`; the last

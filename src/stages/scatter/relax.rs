@@ -53,8 +53,9 @@ const MAX_STEP: f64 = 0.5;
 const SKIN: f64 = 0.3;
 const SEPARATE_SKIN: f64 = 0.5;
 /// A separation round moves each point of a close pair this part of the
-/// pair's shortfall (0.5 would close an isolated pair's in one round;
-/// a little more settles a crowd of pairs in fewer rounds).
+/// pair's shortfall: 0.5 closes an isolated pair's in one round. (0.7
+/// moved fewer points by the last round at 1M on the bunny, with the
+/// same closest pair, 0.755 spacings against 0.759; not measured wider.)
 const SEPARATE_PUSH: f64 = 0.5;
 /// A shortfall under this many spacings is not pushed.
 const SEPARATE_TOL: f64 = 1e-3;
