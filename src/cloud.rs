@@ -439,6 +439,74 @@ impl Element {
     }
 }
 
+impl Element {
+    /// The attributes' names and types, in order: elements of one schema
+    /// can be gathered from together ([`Element::gather_from`]).
+    pub fn schema(&self) -> Vec<(String, String)> {
+        self.attrs
+            .iter()
+            .map(|a| (a.name.clone(), a.type_name()))
+            .collect()
+    }
+
+    /// Rows taken from several elements of one schema (the first's name
+    /// and attributes): row `k` is row `idx[k].1` of `parts[idx[k].0]`.
+    /// Panics when the schemas differ: compare [`Element::schema`] first.
+    pub fn gather_from(parts: &[&Element], idx: &[(u32, u32)]) -> Element {
+        let first = parts[0];
+        let attrs = first
+            .attrs
+            .iter()
+            .enumerate()
+            .map(|(k, a)| {
+                let of = |c: usize| -> Values {
+                    let cols: Vec<&Column> = parts
+                        .iter()
+                        .map(|p| p.attrs[k].components()[c].column())
+                        .collect();
+                    Values::owned(Column::gather_from(&cols, idx))
+                };
+                let data = match &a.data {
+                    AttrData::Scalar(_) => AttrData::Scalar(of(0)),
+                    AttrData::Vec3(r, _) => AttrData::Vec3(*r, Box::new([of(0), of(1), of(2)])),
+                    AttrData::List(l) => {
+                        let lists: Vec<&ListColumn> = parts
+                            .iter()
+                            .map(|p| match &p.attrs[k].data {
+                                AttrData::List(l) => l,
+                                _ => panic!("elements of one schema"),
+                            })
+                            .collect();
+                        let mut offsets = Vec::with_capacity(idx.len() + 1);
+                        offsets.push(0);
+                        let mut items = Vec::new();
+                        for &(p, r) in idx {
+                            items
+                                .extend(lists[p as usize].range(r as usize).map(|i| (p, i as u32)));
+                            offsets.push(items.len());
+                        }
+                        let cols: Vec<&Column> = lists.iter().map(|l| &l.items).collect();
+                        AttrData::List(ListColumn {
+                            count_ty: l.count_ty,
+                            offsets,
+                            items: Column::gather_from(&cols, &items),
+                        })
+                    }
+                };
+                Attribute {
+                    name: a.name.clone(),
+                    data,
+                }
+            })
+            .collect();
+        Element {
+            name: first.name.clone(),
+            len: idx.len(),
+            attrs,
+        }
+    }
+}
+
 /// The scalar names that would make the 3-vector `name` in PLY (`x y z`
 /// for `P`, `nx ny nz` for `N`, `A_x`, `A_r`) and in OpenEXR (`A.x`,
 /// `A.R`, `A.r`).

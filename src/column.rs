@@ -353,6 +353,33 @@ impl Column {
         with_column!(self, v => Scalar::wrap(idx.iter().map(|&i| v[i]).collect()))
     }
 
+    /// Values taken from several columns of this one's type: value `k`
+    /// is value `idx[k].1` of `cols[idx[k].0]`. Panics when a column is
+    /// of another type (callers compare the element's schemas first).
+    pub fn gather_from(cols: &[&Column], idx: &[(u32, u32)]) -> Column {
+        fn g<T: Scalar>(cols: &[&Column], idx: &[(u32, u32)]) -> Column {
+            let s: Vec<&[T]> = cols
+                .iter()
+                .map(|c| c.as_slice::<T>().expect("columns of one type"))
+                .collect();
+            T::wrap(
+                idx.iter()
+                    .map(|&(p, r)| s[p as usize][r as usize])
+                    .collect(),
+            )
+        }
+        match cols[0].ty() {
+            ScalarType::I8 => g::<i8>(cols, idx),
+            ScalarType::U8 => g::<u8>(cols, idx),
+            ScalarType::I16 => g::<i16>(cols, idx),
+            ScalarType::U16 => g::<u16>(cols, idx),
+            ScalarType::I32 => g::<i32>(cols, idx),
+            ScalarType::U32 => g::<u32>(cols, idx),
+            ScalarType::F32 => g::<f32>(cols, idx),
+            ScalarType::F64 => g::<f64>(cols, idx),
+        }
+    }
+
     /// Typed slice access.
     pub fn as_slice<T: Scalar>(&self) -> Option<&[T]> {
         T::slice(self)

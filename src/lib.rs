@@ -37,6 +37,7 @@ pub mod memory;
 pub mod progress;
 pub mod radix;
 pub mod stages;
+pub mod tiles;
 pub mod tools;
 
 pub use cloud::{AttrData, Attribute, Cloud, Detail, DetailValue, Element, ListColumn, Role};

@@ -127,6 +127,20 @@ impl Staged {
         path: &Path,
         body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
     ) -> anyhow::Result<Staged> {
+        let staged = Staged::create(path)?;
+        {
+            let mut w = BufWriter::with_capacity(1 << 16, staged.file());
+            body(&mut w)
+                .and_then(|()| Ok(w.flush()?))
+                .with_context(|| path.display().to_string())?;
+        }
+        Ok(staged)
+    }
+
+    /// An empty temp file beside `path`, written through
+    /// [`Staged::file`] (by a writer that keeps many files open, such as
+    /// `pctile split`'s one a tile).
+    pub fn create(path: &Path) -> anyhow::Result<Staged> {
         let name = path.display().to_string();
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
@@ -138,12 +152,6 @@ impl Staged {
             .tempfile_in(dir)
             .with_context(|| name.clone())?;
         let in_flight = InFlight::new(tmp.path());
-        {
-            let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file());
-            body(&mut w)
-                .and_then(|()| Ok(w.flush()?))
-                .with_context(|| name.clone())?;
-        }
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
@@ -156,6 +164,11 @@ impl Staged {
             path: path.to_path_buf(),
             _in_flight: in_flight,
         })
+    }
+
+    /// The temp file.
+    pub fn file(&self) -> &std::fs::File {
+        self.tmp.as_file()
     }
 
     /// Renames the temp file into place.

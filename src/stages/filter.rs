@@ -414,12 +414,41 @@ pub fn filter(
         None
     };
     let about_cloud = |e: Error| e.about(cloud_name);
+    // Tiles of `pctile split`: a cloud tile's halo must hold every source
+    // a shade point reads (and, computed lazily, every source of those);
+    // a shade tile's halo points are not computed (0).
+    let reach = match p.reach {
+        Reach::Radius(r) => Some(
+            r + sources
+                .iter()
+                .map(|s| match s {
+                    Source::Multi(sp) => crate::tiles::reach::ssmulti_reach(sp),
+                    _ => 0.0,
+                })
+                .fold(0.0, f64::max),
+        ),
+        Reach::Nearest(_) => None,
+    };
+    crate::tiles::halo_mask(
+        cloud,
+        reach,
+        "filter's reach (radius, plus ssmulti's when computed lazily)",
+    )
+    .map_err(about_cloud)?;
+    let own = match shade.points().has(crate::tiles::HALO) {
+        true => Some(shade.points().scalar_f64(crate::tiles::HALO)?),
+        false => None,
+    };
+    let owns = |i: usize| own.as_ref().is_none_or(|h| h[i] == 0.0);
     let index = CloudIndex::new(cloud, p.facing).map_err(about_cloud)?;
     progress.start("finding neighbours", sp.len() as u64);
     let nbs: Vec<Vec<(u32, f64)>> = sp
         .par_iter()
         .enumerate()
         .map(|(i, q)| {
+            if !owns(i) {
+                return Vec::new();
+            }
             let r = index.neighbours(DVec3::from_array(*q), sn.as_ref().map(|n| n[i]), p.reach);
             progress.inc(1);
             r
@@ -473,11 +502,14 @@ pub fn filter(
             .unwrap_or(Role::Color);
         shade.points_mut().set_vec3(source.name(), role, &out)?;
     }
-    report.empty = nbs.iter().filter(|nb| nb.is_empty()).count();
-    report.mean_used = if nbs.is_empty() {
+    let receivers = (0..nbs.len()).filter(|&i| owns(i)).count();
+    report.empty = (0..nbs.len())
+        .filter(|&i| owns(i) && nbs[i].is_empty())
+        .count();
+    report.mean_used = if receivers == 0 {
         0.0
     } else {
-        nbs.iter().map(|nb| nb.len()).sum::<usize>() as f64 / nbs.len() as f64
+        nbs.iter().map(|nb| nb.len()).sum::<usize>() as f64 / receivers as f64
     };
     Ok(report)
 }

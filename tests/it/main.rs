@@ -25,3 +25,4 @@ mod python_interop;
 mod scatter;
 mod ssmulti;
 mod sssingle;
+mod tiles;

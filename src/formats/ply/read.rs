@@ -148,11 +148,17 @@ pub fn read_ply_from<R: Source>(mut r: R, select: &Select) -> Result<Cloud> {
         }
         let lay = layout(def, &roles);
         let el = match (h.encoding, def.fixed_stride()) {
-            (Encoding::Ascii, _) => read_ascii(&mut r, &mut tokens, def, &lay)?,
-            (enc, Some(stride)) if stride > 0 => {
-                read_fixed(&mut r, def, &lay, stride, enc == Encoding::BinaryBe, select)?
-            }
-            (enc, _) => read_rows(&mut r, def, &lay, enc == Encoding::BinaryBe)?,
+            (Encoding::Ascii, _) => read_ascii(&mut r, &mut tokens, def, 0..def.count, &lay)?,
+            (enc, Some(stride)) if stride > 0 => read_fixed(
+                &mut r,
+                def,
+                0..def.count,
+                &lay,
+                stride,
+                enc == Encoding::BinaryBe,
+                select,
+            )?,
+            (enc, _) => read_rows(&mut r, def, 0..def.count, &lay, enc == Encoding::BinaryBe)?,
         };
         cloud.elements.push(el);
     }
@@ -245,10 +251,11 @@ fn truncated(def: &ElementDef, row: u64) -> Error {
     ))
 }
 
-/// The fast path: a binary element of fixed-size rows.
+/// The fast path: rows `rows` of a binary element of fixed-size rows.
 fn read_fixed<R: Source>(
     r: &mut R,
     def: &ElementDef,
+    rows: std::ops::Range<u64>,
     lay: &[Layout],
     stride: usize,
     big: bool,
@@ -278,7 +285,8 @@ fn read_fixed<R: Source>(
     let mut cols: Vec<Option<Column>> = (0..def.props.len())
         .map(|i| wanted[i].then(|| Column::empty(ty(i))))
         .collect();
-    let total = def.count.checked_mul(stride as u64).ok_or_else(|| {
+    let count = rows.end - rows.start;
+    let total = count.checked_mul(stride as u64).ok_or_else(|| {
         Error::invalid(format!(
             "element '{}': {} rows overflow",
             def.name, def.count
@@ -296,12 +304,12 @@ fn read_fixed<R: Source>(
         // Mapped: check the length, decode in place, keep a range.
         let avail = (map.len() - pos) as u64;
         if avail < total {
-            return Err(truncated(def, avail / stride as u64));
+            return Err(truncated(def, rows.start + avail / stride as u64));
         }
         let total = total as usize;
         // The bytes are there: the count can be trusted now.
         for c in cols.iter_mut().flatten() {
-            c.reserve(def.count as usize);
+            c.reserve(count as usize);
         }
         for rows in map[pos..pos + total].chunks(chunk_rows as usize * stride) {
             decode(&mut cols, rows);
@@ -316,8 +324,8 @@ fn read_fixed<R: Source>(
         // Streamed: read 1 MiB chunks, growing only with what arrives.
         let mut raw: Vec<u8> = Vec::new();
         let mut done = 0u64;
-        while done < def.count {
-            let n = chunk_rows.min(def.count - done);
+        while done < count {
+            let n = chunk_rows.min(count - done);
             let want = n as usize * stride;
             if !keep_raw {
                 raw.clear();
@@ -326,7 +334,7 @@ fn read_fixed<R: Source>(
             raw.reserve(want);
             let got = r.by_ref().take(want as u64).read_to_end(&mut raw)?;
             if got < want {
-                return Err(truncated(def, done + (got / stride) as u64));
+                return Err(truncated(def, rows.start + done + (got / stride) as u64));
             }
             decode(&mut cols, &raw[start..]);
             done += n;
@@ -356,7 +364,7 @@ fn read_fixed<R: Source>(
             }))
         })
         .collect();
-    Ok(assemble(def, lay, props, def.count as usize))
+    Ok(assemble(def, lay, props, count as usize))
 }
 
 fn empty_props(def: &ElementDef) -> Vec<PropData> {
@@ -385,6 +393,7 @@ fn count_value(c: &Column) -> i64 {
 fn read_rows<R: BufRead>(
     r: &mut R,
     def: &ElementDef,
+    rows: std::ops::Range<u64>,
     lay: &[Layout],
     big: bool,
 ) -> Result<Element> {
@@ -398,7 +407,7 @@ fn read_rows<R: BufRead>(
             Error::Io(e)
         }
     };
-    for row in 0..def.count {
+    for row in rows.clone() {
         for (pd, p) in def.props.iter().zip(props.iter_mut()) {
             match pd.kind {
                 PropKind::Scalar(t) => {
@@ -433,13 +442,110 @@ fn read_rows<R: BufRead>(
             }
         }
     }
-    let len = def.count as usize;
+    let len = (rows.end - rows.start) as usize;
     Ok(assemble(
         def,
         lay,
         props.into_iter().map(Some).collect(),
         len,
     ))
+}
+
+/// A PLY file read a chunk of rows at a time, every property decoded:
+/// memory is bounded by the chunk whatever the file's size (`pctile`
+/// splits and merges clouds larger than memory this way). The checks are
+/// those of [`read_ply`]: a short body is "truncated" at its row, and
+/// bytes after the last element are refused when the end is reached.
+pub struct PlyChunks<R: BufRead> {
+    r: Stream<R>,
+    header: Header,
+    roles: super::header::Roles,
+    tokens: Tokens,
+    /// The element being read, and how many of its rows have been.
+    el: usize,
+    row: u64,
+    ended: bool,
+}
+
+impl<R: BufRead> PlyChunks<R> {
+    /// Reads the header of `r`.
+    pub fn new(r: R) -> Result<Self> {
+        let mut r = Stream(r);
+        let header = read_header(&mut r)?;
+        let roles = roles(&header);
+        Ok(PlyChunks {
+            r,
+            header,
+            roles,
+            tokens: Tokens::new(),
+            el: 0,
+            row: 0,
+            ended: false,
+        })
+    }
+
+    /// The file's header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// Element `i` of the header with no rows: its attributes' names and
+    /// types, as reading would group them.
+    pub fn schema_of(&self, i: usize) -> Result<Element> {
+        let def = &self.header.elements[i];
+        let lay = layout(def, &self.roles);
+        read_rows(&mut &[][..], def, 0..0, &lay, false)
+    }
+
+    /// The next rows, at most `max` (at least 1), of the first element
+    /// with rows left: its index in the header and the rows. `None` once
+    /// every element has been read and nothing follows.
+    pub fn next_chunk(&mut self, max: usize) -> Result<Option<(usize, Element)>> {
+        let max = max.max(1) as u64;
+        loop {
+            let Some(def) = self.header.elements.get(self.el) else {
+                if !self.ended {
+                    check_end(&mut self.r, &self.header, &mut self.tokens)?;
+                    self.ended = true;
+                }
+                return Ok(None);
+            };
+            if self.row >= def.count {
+                self.el += 1;
+                self.row = 0;
+                continue;
+            }
+            let el = self.el;
+            if def.props.is_empty() {
+                if def.count > MAX_EMPTY_ROWS {
+                    return Err(Error::invalid(format!(
+                        "element '{}' declares {} rows but no properties (at most {MAX_EMPTY_ROWS})",
+                        def.name, def.count
+                    )));
+                }
+                self.row = def.count;
+                return Ok(Some((el, Element::new(&def.name, def.count as usize))));
+            }
+            let rows = self.row..(self.row + max).min(def.count);
+            let lay = layout(def, &self.roles);
+            let r = &mut self.r;
+            let part = match (self.header.encoding, def.fixed_stride()) {
+                (Encoding::Ascii, _) => read_ascii(r, &mut self.tokens, def, rows.clone(), &lay)?,
+                (enc, Some(stride)) if stride > 0 => read_fixed(
+                    r,
+                    def,
+                    rows.clone(),
+                    &lay,
+                    stride,
+                    enc == Encoding::BinaryBe,
+                    &Select::All,
+                )?,
+                (enc, _) => read_rows(r, def, rows.clone(), &lay, enc == Encoding::BinaryBe)?,
+            };
+            self.row = rows.end;
+            return Ok(Some((el, part)));
+        }
+    }
 }
 
 /// Whitespace-separated tokens of an ASCII body, with line numbers.
@@ -497,10 +603,11 @@ fn read_ascii<R: BufRead>(
     r: &mut R,
     tok: &mut Tokens,
     def: &ElementDef,
+    rows: std::ops::Range<u64>,
     lay: &[Layout],
 ) -> Result<Element> {
     let mut props = empty_props(def);
-    for row in 0..def.count {
+    for row in rows.clone() {
         for (pd, p) in def.props.iter().zip(props.iter_mut()) {
             let bad = |t: &str, ty: ScalarType, line: usize| {
                 Error::invalid(format!(
@@ -547,7 +654,7 @@ fn read_ascii<R: BufRead>(
             }
         }
     }
-    let len = def.count as usize;
+    let len = (rows.end - rows.start) as usize;
     Ok(assemble(
         def,
         lay,

@@ -18,19 +18,26 @@ use crate::error::{Error, Result};
 /// Writes `cloud` as PLY with body encoding `enc`.
 pub fn write_ply<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, enc: Encoding) -> Result<()> {
     w.write_all(header_text(cloud, enc)?.as_bytes())?;
-    let big = enc == Encoding::BinaryBe;
     for el in &cloud.elements {
-        let has_lists = el
-            .attrs()
-            .iter()
-            .any(|a| matches!(a.data, AttrData::List(_)));
-        match enc {
-            Encoding::Ascii => write_rows(w, el, None)?,
-            _ if has_lists => write_rows(w, el, Some(big))?,
-            _ => write_fixed(w, el, big)?,
-        }
+        write_body(w, el, enc)?;
     }
     Ok(())
+}
+
+/// Writes the rows of `el` in encoding `enc`: a whole element's body, or
+/// (called again with the next rows) part of one, for a writer that
+/// streams rows under a header written with [`header_text_with`].
+pub fn write_body<W: Write + ?Sized>(w: &mut W, el: &Element, enc: Encoding) -> Result<()> {
+    let big = enc == Encoding::BinaryBe;
+    let has_lists = el
+        .attrs()
+        .iter()
+        .any(|a| matches!(a.data, AttrData::List(_)));
+    match enc {
+        Encoding::Ascii => write_rows(w, el, None),
+        _ if has_lists => write_rows(w, el, Some(big)),
+        _ => write_fixed(w, el, big),
+    }
 }
 
 fn check_name(what: &str, s: &str) -> Result<()> {
@@ -53,6 +60,17 @@ fn check_line(what: &str, s: &str) -> Result<()> {
 
 /// The header text, `ply` to `end_header\n` inclusive.
 pub fn header_text(cloud: &Cloud, enc: Encoding) -> Result<String> {
+    header_text_with(cloud, enc, |_, el| el.len() as u64)
+}
+
+/// The header text, element `i`'s row count `rows(i, element)`: for a
+/// writer that streams the rows afterwards (the cloud's elements then
+/// hold no rows, only the attributes' names and types).
+pub fn header_text_with(
+    cloud: &Cloud,
+    enc: Encoding,
+    rows: impl Fn(usize, &Element) -> u64,
+) -> Result<String> {
     let mut h = format!("ply\nformat {} 1.0\n", enc.keyword());
     for c in &cloud.comments {
         check_line("comment", c)?;
@@ -85,9 +103,9 @@ pub fn header_text(cloud: &Cloud, enc: Encoding) -> Result<String> {
         check_name("detail attribute", &d.name)?;
         h += &format!("comment {}\n", detail_comment(d));
     }
-    for el in &cloud.elements {
+    for (i, el) in cloud.elements.iter().enumerate() {
         check_name("element", &el.name)?;
-        h += &format!("element {} {}\n", el.name, el.len());
+        h += &format!("element {} {}\n", el.name, rows(i, el));
         for a in el.attrs() {
             check_name("attribute", &a.name)?;
             match &a.data {

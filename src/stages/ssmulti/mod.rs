@@ -263,8 +263,23 @@ pub fn validate(p: &Params) -> Result<()> {
 }
 
 /// Adds `ssM` to `cloud`.
+///
+/// On a tile of `pctile split` (points with `pctile_halo`), only the
+/// tile's own points are computed: halo points are sources, and get 0.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
-    let (out, report) = ssmulti_columns(cloud, p, None, progress)?;
+    validate(p)?;
+    let reach = crate::tiles::reach::ssmulti_reach(p);
+    let own = crate::tiles::halo_mask(cloud, Some(reach), "ssmulti's reach")?;
+    let (mut out, report) = ssmulti_columns(cloud, p, own.as_deref(), progress)?;
+    if let Some(own) = &own {
+        for c in out.iter_mut() {
+            for (x, &o) in c.iter_mut().zip(own) {
+                if !o {
+                    *x = 0.0;
+                }
+            }
+        }
+    }
     let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
     cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));

@@ -192,7 +192,10 @@ pub fn sssingle(
     p: &Params,
     progress: &Progress,
 ) -> Result<Report> {
-    let (out, report) = sssingle_values(cloud, mesh, lights, p, None, progress)?;
+    // On a tile, the tile's own points: a point's ssS needs only the
+    // mesh and the lights, so any halo will do; halo points get 0.
+    let own = crate::tiles::halo_mask(cloud, Some(0.0), "sssingle")?;
+    let (out, report) = sssingle_values(cloud, mesh, lights, p, own.as_deref(), progress)?;
     cloud.points_mut().set_vec3("ssS", Role::Color, &out)?;
     cloud.set_detail("sssingle_eye", DetailValue::V3D(p.eye.to_array()));
     cloud.set_detail(

@@ -103,7 +103,7 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
 /// A wavy sheet folded into a half-tube: neighbours facing many ways
 /// (bounce matters), f64 positions around `offset`, random areas and
 /// light, some points unlit.
-pub(super) fn wavy(n: usize, offset: DVec3, scale: f64, seed: u64) -> Cloud {
+pub(crate) fn wavy(n: usize, offset: DVec3, scale: f64, seed: u64) -> Cloud {
     let mut r = Pcg32::new(seed, 0);
     let (mut p, mut nn, mut a, mut e) = (vec![], vec![], vec![], vec![]);
     for k in 0..n {

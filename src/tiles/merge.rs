@@ -1,0 +1,359 @@
+//! `pctile merge`: the owned points of every tile back in the input's
+//! order, streaming: each tile's owned points come in increasing input
+//! index (the split wrote them so and the stages keep the order), so the
+//! output is a k-way merge that holds one chunk of each tile at a time.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{bail, Context};
+
+use super::split::CHUNK;
+use super::{Manifest, D_HALO, D_SPLIT, D_TILE, HALO, INDEX};
+use crate::cloud::{Cloud, Detail, DetailValue, Element, POINTS};
+use crate::formats::ply::read::PlyChunks;
+use crate::formats::ply::write::{header_text_with, write_body};
+use crate::formats::Encoding;
+use crate::progress::Progress;
+
+type Reader = PlyChunks<BufReader<File>>;
+
+fn open(path: &Path) -> anyhow::Result<Reader> {
+    let f = File::open(path)?;
+    Ok(PlyChunks::new(BufReader::with_capacity(1 << 18, f))?)
+}
+
+/// A tile being read: its current chunk and where in it.
+struct Cursor {
+    name: String,
+    r: Reader,
+    chunk: Option<Arc<Element>>,
+    halo: Vec<u8>,
+    index: Vec<u32>,
+    at: usize,
+    /// The last owned index taken (each must be larger).
+    last: Option<u32>,
+}
+
+impl Cursor {
+    /// The next row's (halo, index), reading a chunk when needed; `None`
+    /// at the tile's end.
+    fn peek(&mut self) -> anyhow::Result<Option<(bool, u32)>> {
+        while self.chunk.as_ref().is_none_or(|c| self.at >= c.len()) {
+            match self
+                .r
+                .next_chunk(CHUNK)
+                .with_context(|| self.name.clone())?
+            {
+                None => {
+                    self.chunk = None;
+                    return Ok(None);
+                }
+                Some((_, el)) => {
+                    self.halo = el
+                        .scalar_column(HALO)?
+                        .column()
+                        .as_slice::<u8>()
+                        .expect("checked uchar")
+                        .to_vec();
+                    self.index = el
+                        .scalar_column(INDEX)?
+                        .column()
+                        .as_slice::<u32>()
+                        .expect("checked uint")
+                        .to_vec();
+                    self.chunk = Some(Arc::new(el));
+                    self.at = 0;
+                }
+            }
+        }
+        Ok(Some((self.halo[self.at] != 0, self.index[self.at])))
+    }
+}
+
+fn tile_details(cloud_detail: &[Detail]) -> Vec<Detail> {
+    cloud_detail
+        .iter()
+        .filter(|d| ![D_SPLIT, D_TILE, D_HALO].contains(&d.name.as_str()))
+        .cloned()
+        .collect()
+}
+
+/// Merges the tiles of the split in `dir` (its manifest) into `out` as PLY
+/// of encoding `enc`: the tile files `files` (each says which tile it is),
+/// or, when empty, those the manifest lists in `dir`. Refuses a tile
+/// missing, given twice, from another split, or not matching the
+/// manifest, and tiles that disagree on their attributes or details.
+pub fn merge(
+    dir: &Path,
+    files: &[PathBuf],
+    out: &mut dyn Write,
+    enc: Encoding,
+    progress: &Progress,
+) -> anyhow::Result<Manifest> {
+    let m = Manifest::read(dir)?;
+    let files: Vec<PathBuf> = if files.is_empty() {
+        m.tiles.iter().map(|t| dir.join(&t.file)).collect()
+    } else {
+        files.to_vec()
+    };
+    let mut by_tile: Vec<Option<Cursor>> = (0..m.tiles.len()).map(|_| None).collect();
+    for path in &files {
+        let name = path.display().to_string();
+        let r = open(path).with_context(|| name.clone())?;
+        let h = r.header();
+        let detail = |n: &str| {
+            h.detail
+                .iter()
+                .find(|d| d.name == n)
+                .map(|d| d.value.clone())
+        };
+        let Some(DetailValue::Str(id)) = detail(D_SPLIT) else {
+            bail!("{name}: not a tile (no detail '{D_SPLIT}')");
+        };
+        if id != m.split {
+            bail!(
+                "{name}: a tile of another split ({id}; the manifest's is {})",
+                m.split
+            );
+        }
+        let t = match detail(D_TILE) {
+            Some(DetailValue::I32(t)) if t >= 0 && (t as usize) < m.tiles.len() => t as usize,
+            other => bail!("{name}: detail '{D_TILE}' is {other:?}, not a tile of the manifest"),
+        };
+        if let Some(c) = &by_tile[t] {
+            bail!("{name}: tile {t} again (also {})", c.name);
+        }
+        let Some(v) = h.elements.iter().position(|e| e.name == POINTS) else {
+            bail!("{name}: no '{POINTS}' element");
+        };
+        if let Some(e) = h.elements.iter().find(|e| e.name != POINTS) {
+            bail!(
+                "{name}: element '{}' in a tile (tiles hold points only)",
+                e.name
+            );
+        }
+        let want = m.tiles[t].owned + m.tiles[t].halo;
+        if h.elements[v].count != want {
+            bail!(
+                "{name}: {} points, but the manifest's tile {t} has {want} ({} owned, {} halo)",
+                h.elements[v].count,
+                m.tiles[t].owned,
+                m.tiles[t].halo
+            );
+        }
+        by_tile[t] = Some(Cursor {
+            name,
+            r,
+            chunk: None,
+            halo: Vec::new(),
+            index: Vec::new(),
+            at: 0,
+            last: None,
+        });
+    }
+    if let Some(t) = by_tile.iter().position(|c| c.is_none()) {
+        bail!(
+            "tile {t} is missing ({} in the manifest): {} of {} tiles given",
+            m.tiles[t].file,
+            by_tile.iter().flatten().count(),
+            m.tiles.len()
+        );
+    }
+    let mut tiles: Vec<Cursor> = by_tile.into_iter().flatten().collect();
+
+    // One schema and one set of details for all.
+    let schema0 = tiles[0].r.schema_of(0)?;
+    for (a, ty) in [(HALO, "uchar"), (INDEX, "uint")] {
+        match schema0.attr(a) {
+            Some(x) if x.type_name() == ty => {}
+            Some(x) => bail!("{}: '{a}' is {}, not {ty}", tiles[0].name, x.type_name()),
+            None => bail!("{}: no '{a}' (a stage dropped it?)", tiles[0].name),
+        }
+    }
+    let details0 = tile_details(&tiles[0].r.header().detail);
+    for c in &tiles[1..] {
+        let s = c.r.schema_of(0)?;
+        if s.schema() != schema0.schema() {
+            let diff = s
+                .schema()
+                .into_iter()
+                .zip(schema0.schema())
+                .find(|(a, b)| a != b)
+                .map(|(a, b)| {
+                    format!(
+                        "'{}' ({}) where {} has '{}' ({})",
+                        a.0, a.1, tiles[0].name, b.0, b.1
+                    )
+                })
+                .unwrap_or_else(|| {
+                    format!(
+                        "{} attributes where {} has {}",
+                        s.attrs().len(),
+                        tiles[0].name,
+                        schema0.attrs().len()
+                    )
+                });
+            bail!("{}: {diff}", c.name);
+        }
+        let d = tile_details(&c.r.header().detail);
+        if d != details0 {
+            let what = d
+                .iter()
+                .find(|x| !details0.contains(x))
+                .or_else(|| details0.iter().find(|x| !d.contains(x)))
+                .map_or("order".to_string(), |x| format!("'{}'", x.name));
+            bail!(
+                "{}: detail {what} differs from {}'s: tiles of one bake agree on their details",
+                c.name,
+                tiles[0].name
+            );
+        }
+    }
+
+    // The output's header: the elements in the input's order.
+    let mut vschema = schema0.clone();
+    vschema.remove(HALO);
+    vschema.remove(INDEX);
+    let mut rest = match &m.rest {
+        Some(f) => {
+            let path = dir.join(f);
+            Some(open(&path).with_context(|| path.display().to_string())?)
+        }
+        None => None,
+    };
+    let mut elements = Vec::with_capacity(m.elements.len());
+    let mut rest_k = 0;
+    for e in &m.elements {
+        if e.name == POINTS {
+            elements.push(vschema.gather(&[]));
+            continue;
+        }
+        let Some(r) = rest.as_ref() else {
+            bail!(
+                "{}: element '{}' but no rest file",
+                dir.join(super::MANIFEST).display(),
+                e.name
+            );
+        };
+        let def = r.header().elements.get(rest_k);
+        if def.is_none_or(|d| d.name != e.name || d.count != e.count) {
+            bail!(
+                "{}: does not hold element '{}' of {} rows",
+                m.rest.as_deref().unwrap_or(""),
+                e.name,
+                e.count
+            );
+        }
+        elements.push(r.schema_of(rest_k)?);
+        rest_k += 1;
+    }
+    let cloud = Cloud {
+        elements,
+        detail: details0,
+        comments: tiles[0].r.header().comments.clone(),
+        obj_info: tiles[0].r.header().obj_info.clone(),
+    };
+    let counts: Vec<u64> = m.elements.iter().map(|e| e.count).collect();
+    out.write_all(header_text_with(&cloud, enc, |i, _| counts[i])?.as_bytes())?;
+
+    progress.start("merge", m.points);
+    for e in &m.elements {
+        if e.name != POINTS {
+            let r = rest.as_mut().expect("checked above");
+            let mut done = 0;
+            while done < e.count {
+                let Some((_, el)) = r.next_chunk(CHUNK)? else {
+                    bail!(
+                        "{}: ends inside element '{}'",
+                        m.rest.as_deref().unwrap_or(""),
+                        e.name
+                    );
+                };
+                done += el.len() as u64;
+                write_body(out, &el, enc)?;
+            }
+            continue;
+        }
+        let mut next = 0u64;
+        while next < m.points {
+            let end = (next + CHUNK as u64).min(m.points);
+            let mut parts: Vec<Arc<Element>> = Vec::new();
+            let mut part_of: HashMap<(usize, usize), u32> = HashMap::new();
+            let mut rows: Vec<(u32, u32, u32)> = Vec::with_capacity((end - next) as usize);
+            for (t, c) in tiles.iter_mut().enumerate() {
+                while let Some((halo, idx)) = c.peek()? {
+                    if !halo {
+                        if (idx as u64) >= end {
+                            break;
+                        }
+                        if c.last.is_some_and(|l| idx <= l) {
+                            bail!(
+                                "{}: point index {idx} after {}: a tile's points must stay in the order the split wrote them",
+                                c.name,
+                                c.last.expect("checked")
+                            );
+                        }
+                        c.last = Some(idx);
+                        let chunk = c.chunk.as_ref().expect("peeked");
+                        let key = (t, Arc::as_ptr(chunk) as usize);
+                        let p = *part_of.entry(key).or_insert_with(|| {
+                            parts.push(chunk.clone());
+                            parts.len() as u32 - 1
+                        });
+                        rows.push((idx, p, c.at as u32));
+                    }
+                    c.at += 1;
+                }
+            }
+            rows.sort_unstable_by_key(|r| r.0);
+            for (k, r) in rows.iter().enumerate() {
+                if r.0 as u64 != next + k as u64 {
+                    bail!(
+                        "point {} is in no tile (or in two): the tiles do not match their manifest",
+                        next + k as u64
+                    );
+                }
+            }
+            if (rows.len() as u64) < end - next {
+                bail!(
+                    "point {} is in no tile: the tiles do not match their manifest",
+                    next + rows.len() as u64
+                );
+            }
+            let refs: Vec<&Element> = parts.iter().map(|p| p.as_ref()).collect();
+            let idx: Vec<(u32, u32)> = rows.iter().map(|r| (r.1, r.2)).collect();
+            let mut el = Element::gather_from(&refs, &idx);
+            el.remove(HALO);
+            el.remove(INDEX);
+            write_body(out, &el, enc)?;
+            progress.inc(el.len() as u64);
+            next = end;
+        }
+        for c in tiles.iter_mut() {
+            while let Some((halo, idx)) = c.peek()? {
+                if !halo {
+                    bail!(
+                        "{}: point index {idx}, but the input had {} points",
+                        c.name,
+                        m.points
+                    );
+                }
+                c.at += 1;
+            }
+        }
+    }
+    progress.finish();
+    if let Some(r) = rest.as_mut() {
+        if r.next_chunk(CHUNK)?.is_some() {
+            bail!(
+                "{}: more rows than the manifest says",
+                m.rest.as_deref().unwrap_or("")
+            );
+        }
+    }
+    Ok(m)
+}

@@ -1,0 +1,328 @@
+//! Spatial tiles of a cloud, for bakes past one machine (`pctile`).
+//!
+//! Every kernel of the chain is truncated at a known reach, so a cloud cut
+//! into tiles, each with a halo of the points within that reach of it,
+//! bakes tile by tile to what the whole cloud bakes to: a tile's own
+//! points see every source they would have seen. [`split`] cuts a PLY
+//! file into such tiles in three streaming passes (memory bounded by a
+//! chunk and a sample, whatever the file's size); a stage run on a tile
+//! computes its own points and treats the halo as sources only
+//! ([`halo_mask`]); [`merge`] puts the owned points of every tile back in
+//! the input's order, streaming too. The manifest, the tile files'
+//! attributes and the checks are written down in `formats/TILES.md`.
+//!
+//! Tiles are the leaves of a k-d split of the points' bounding box: each
+//! cut halves the tiles to make along the box's longest side, at the
+//! quantile of a sample of the points (every k-th, at most 2^20) that
+//! balances the counts. A point belongs to the leaf whose half-open box
+//! holds it (`x < cut` goes low), and is in the halo of every other leaf
+//! whose closed box is within the halo width of it.
+
+pub mod merge;
+pub mod reach;
+pub mod split;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::cloud::Cloud;
+use crate::error::{Error, Result};
+
+pub use merge::merge;
+pub use split::{split, SplitOptions};
+
+/// Per point: 1 for a halo point (a source, never a receiver), 0 for a
+/// point the tile owns (uchar).
+pub const HALO: &str = "pctile_halo";
+/// Per point: its row in the input (uint).
+pub const INDEX: &str = "pctile_index";
+/// Detail: the split's id (str), the manifest's checksum.
+pub const D_SPLIT: &str = "pctile_split";
+/// Detail: the tile's number (i32).
+pub const D_TILE: &str = "pctile_tile";
+/// Detail: the halo's width (f64).
+pub const D_HALO: &str = "pctile_halo_width";
+
+/// The manifest's `format` value.
+pub const FORMAT: &str = "pcsss-tiles 1";
+/// The manifest's file name in the tile directory.
+pub const MANIFEST: &str = "manifest.json";
+/// The most tiles a split makes (each is an open file while it is
+/// written).
+pub const MAX_TILES: usize = 4096;
+
+/// One tile of the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tile {
+    pub index: u32,
+    /// The file, relative to the manifest's directory.
+    pub file: String,
+    /// The tile's box (its owned points are inside, `hi` excluded on
+    /// inner cuts).
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    /// Points the tile owns, and halo points.
+    pub owned: u64,
+    pub halo: u64,
+}
+
+/// An input element other than `vertex`, kept aside in `rest` and put
+/// back in its place by the merge.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ElementEntry {
+    pub name: String,
+    pub count: u64,
+}
+
+/// The stage a halo was computed for (`pctile split --for`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForStage {
+    pub stage: String,
+    pub args: Vec<String>,
+    /// The stage's reach with those arguments.
+    pub reach: f64,
+}
+
+/// `manifest.json`: what a split made, checked by the merge.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    pub format: String,
+    /// The split's id: a checksum of everything else in the manifest,
+    /// also written into every tile file (detail `pctile_split`).
+    pub split: String,
+    /// The input's name as given, for people (not checked).
+    pub input: String,
+    /// Points in the input.
+    pub points: u64,
+    pub halo: f64,
+    #[serde(rename = "for")]
+    pub for_stage: Option<ForStage>,
+    /// The points' bounding box.
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    /// The input's elements in order (`vertex` among them).
+    pub elements: Vec<ElementEntry>,
+    /// The file holding the elements other than `vertex`, if any.
+    pub rest: Option<String>,
+    pub tiles: Vec<Tile>,
+}
+
+impl Manifest {
+    /// The checksum of everything but `split`: 64-bit FNV-1a of the
+    /// manifest's JSON with `split` empty, in hex.
+    pub fn checksum(&self) -> String {
+        let mut m = self.clone();
+        m.split = String::new();
+        let text = serde_json::to_string(&m).expect("a manifest serialises");
+        let mut h: u64 = 0xcbf29ce484222325;
+        for b in text.bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x100000001b3);
+        }
+        format!("{h:016x}")
+    }
+
+    /// Reads and checks `DIR/manifest.json`: its format, its checksum
+    /// (a manifest edited by hand is refused) and its tiles' numbering.
+    pub fn read(dir: &std::path::Path) -> anyhow::Result<Manifest> {
+        let path = dir.join(MANIFEST);
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(&path).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+        let m: Manifest =
+            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+        if m.format != FORMAT {
+            anyhow::bail!("{name}: format '{}', not '{FORMAT}'", m.format);
+        }
+        let sum = m.checksum();
+        if sum != m.split {
+            anyhow::bail!(
+                "{name}: its checksum is {sum} but it says split {}: the manifest was edited after the split (split again)",
+                m.split
+            );
+        }
+        for (i, t) in m.tiles.iter().enumerate() {
+            if t.index as usize != i {
+                anyhow::bail!("{name}: tile {i} is numbered {}", t.index);
+            }
+        }
+        let owned: u64 = m.tiles.iter().map(|t| t.owned).sum();
+        if owned != m.points {
+            anyhow::bail!(
+                "{name}: the tiles own {owned} points, the input had {}",
+                m.points
+            );
+        }
+        Ok(m)
+    }
+}
+
+/// A k-d split of a box into tiles.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    nodes: Vec<Node>,
+    /// Each tile's box.
+    pub boxes: Vec<(DVec3, DVec3)>,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Node {
+    Leaf(u32),
+    /// Points below `cut` on `axis` go to node `lo`, the others to node
+    /// `hi` (indices into `nodes`).
+    Cut {
+        axis: u8,
+        cut: f64,
+        lo: u32,
+        hi: u32,
+    },
+}
+
+impl Plan {
+    /// `tiles` tiles of the box `lo..hi`, cut at the quantiles of `sample`
+    /// (reordered) that balance the points among them.
+    pub fn new(sample: &mut [DVec3], lo: DVec3, hi: DVec3, tiles: usize) -> Plan {
+        let mut plan = Plan {
+            nodes: Vec::with_capacity(2 * tiles),
+            boxes: vec![(lo, hi); tiles],
+        };
+        plan.build(sample, lo, hi, 0, tiles.max(1));
+        plan
+    }
+
+    fn build(&mut self, sample: &mut [DVec3], lo: DVec3, hi: DVec3, first: usize, n: usize) -> u32 {
+        let me = self.nodes.len() as u32;
+        if n == 1 {
+            self.nodes.push(Node::Leaf(first as u32));
+            self.boxes[first] = (lo, hi);
+            return me;
+        }
+        self.nodes.push(Node::Leaf(0));
+        let left = n / 2;
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let cut = if sample.is_empty() {
+            0.5 * (lo[axis] + hi[axis])
+        } else {
+            let m = (sample.len() * left / n).min(sample.len() - 1);
+            sample.select_nth_unstable_by(m, |a, b| a[axis].total_cmp(&b[axis]));
+            sample[m][axis]
+        };
+        // The sample's points below the cut first, as the points go.
+        let mut k = 0;
+        for i in 0..sample.len() {
+            if sample[i][axis] < cut {
+                sample.swap(i, k);
+                k += 1;
+            }
+        }
+        let (a, b) = sample.split_at_mut(k);
+        let mut mid_hi = hi;
+        mid_hi[axis] = cut;
+        let mut mid_lo = lo;
+        mid_lo[axis] = cut;
+        let l = self.build(a, lo, mid_hi, first, left);
+        let h = self.build(b, mid_lo, hi, first + left, n - left);
+        self.nodes[me as usize] = Node::Cut {
+            axis: axis as u8,
+            cut,
+            lo: l,
+            hi: h,
+        };
+        me
+    }
+
+    /// The tile that owns `p`.
+    pub fn owner(&self, p: DVec3) -> u32 {
+        let mut at = 0;
+        loop {
+            match self.nodes[at] {
+                Node::Leaf(t) => return t,
+                Node::Cut { axis, cut, lo, hi } => {
+                    at = if p[axis as usize] < cut { lo } else { hi } as usize;
+                }
+            }
+        }
+    }
+
+    /// Calls `f` with every tile other than `owner` whose box is within
+    /// `h` of `p` (closed boxes: a point at the distance is in).
+    pub fn halo_of(&self, p: DVec3, owner: u32, h: f64, mut f: impl FnMut(u32)) {
+        let mut stack = vec![0u32];
+        while let Some(at) = stack.pop() {
+            match self.nodes[at as usize] {
+                Node::Leaf(t) => {
+                    if t != owner {
+                        let (lo, hi) = self.boxes[t as usize];
+                        let d = (lo - p).max(p - hi).max(DVec3::ZERO);
+                        if d.length_squared() <= h * h {
+                            f(t)
+                        }
+                    }
+                }
+                Node::Cut { axis, cut, lo, hi } => {
+                    let x = p[axis as usize];
+                    if x - cut <= h {
+                        stack.push(lo);
+                    }
+                    if cut - x <= h {
+                        stack.push(hi);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// For a stage run on a tile: which points it computes (the owned ones,
+/// `true`), or `None` for a cloud that is not a tile. Checks first that
+/// the tile's halo is at least `reach`, the farthest a source can be from
+/// a receiver in the stage (`what` says whose reach it is, for the error).
+pub fn halo_mask(cloud: &Cloud, reach: Option<f64>, what: &str) -> Result<Option<Vec<bool>>> {
+    let pts = cloud.points();
+    if !pts.has(HALO) {
+        return Ok(None);
+    }
+    let width = cloud.detail(D_HALO).and_then(|d| d.as_f64());
+    match (reach, width) {
+        (_, None) => {
+            return Err(Error::invalid(format!(
+                "the cloud has '{HALO}' but no detail '{D_HALO}': not a tile pctile split made"
+            )))
+        }
+        (None, Some(_)) => {
+            return Err(Error::invalid(format!(
+                "{what} has no bounded reach, so a tile's halo cannot hold its sources: run it on the whole cloud"
+            )))
+        }
+        (Some(r), Some(w)) if w < r => {
+            return Err(Error::invalid(format!(
+                "the tile's halo ({D_HALO} {w}) is narrower than {what} ({r}): split again with --halo {r} or more"
+            )))
+        }
+        _ => {}
+    }
+    let halo = pts.scalar_f64(HALO)?;
+    Ok(Some(halo.iter().map(|&h| h == 0.0).collect()))
+}
+
+/// Zeroes the rows of `rows` a tile does not own (`mask` false): a
+/// stage's value at a halo point is not computed, and the merge drops it.
+pub fn clear_halo(rows: &mut [[f32; 3]], mask: Option<&[bool]>) {
+    if let Some(m) = mask {
+        for (r, &own) in rows.iter_mut().zip(m) {
+            if !own {
+                *r = [0.0; 3];
+            }
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! `pctile split`: a PLY cloud into tiles with halos, in three streaming
+//! passes over the file (the box and a sample; the counts; the tiles), so
+//! memory holds a chunk of rows, the sample and one write buffer a tile,
+//! whatever the input's size.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::Path;
+
+use anyhow::{bail, Context};
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{ElementEntry, ForStage, Manifest, Plan, Tile, D_HALO, D_SPLIT, D_TILE, FORMAT};
+use super::{HALO, INDEX, MANIFEST, MAX_TILES};
+use crate::cli::output::Staged;
+use crate::cloud::{Attribute, Cloud, DetailValue, Element, POINTS};
+use crate::column::Column;
+use crate::formats::ply::read::PlyChunks;
+use crate::formats::ply::write::{header_text_with, write_body};
+use crate::formats::Encoding;
+use crate::progress::Progress;
+
+/// Rows read at a time.
+pub const CHUNK: usize = 1 << 16;
+/// The most points the box's quantiles are taken from.
+pub const SAMPLE: u64 = 1 << 20;
+
+/// How many tiles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TileCount {
+    /// This many.
+    Tiles(usize),
+    /// As many as hold about this many owned points each.
+    Size(u64),
+}
+
+/// What `split` is asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SplitOptions {
+    pub tiles: TileCount,
+    /// The halo's width: every point within it of a tile's box is in the
+    /// tile's file as a halo point.
+    pub halo: f64,
+    /// The stage the halo was computed for, recorded in the manifest.
+    pub for_stage: Option<ForStage>,
+}
+
+fn open(path: &Path) -> anyhow::Result<PlyChunks<BufReader<File>>> {
+    let f = File::open(path)?;
+    if f.metadata()?.is_dir() {
+        bail!("is a directory");
+    }
+    let mut r = BufReader::with_capacity(1 << 20, f);
+    let head = std::io::BufRead::fill_buf(&mut r)?;
+    match crate::formats::sniff(head) {
+        Some(crate::formats::Kind::Ply) => {}
+        Some(_) => bail!("pctile reads PLY only (convert with pcconvert first)"),
+        None if head.is_empty() => bail!("empty file"),
+        None => bail!("not a PLY file (unrecognised first bytes)"),
+    }
+    Ok(PlyChunks::new(r)?)
+}
+
+/// Positions of a chunk of points, checked finite (`base`: the chunk's
+/// first row in the file).
+fn positions(el: &Element, base: u64) -> anyhow::Result<Vec<DVec3>> {
+    let p = el.vec3_f64("P")?;
+    if let Some(i) = p.iter().position(|q| !q.iter().all(|x| x.is_finite())) {
+        bail!("point {}: P is {:?}, not finite", base + i as u64, p[i]);
+    }
+    Ok(p.into_iter().map(DVec3::from_array).collect())
+}
+
+/// An element with no rows and the attributes of `el`.
+fn schema(el: &Element) -> Element {
+    el.gather(&[])
+}
+
+/// Splits the PLY file at `input` (called `input_name` in messages and the
+/// manifest) into tiles in `dir` (made if missing): `tile_NNNN.ply` and
+/// `manifest.json`, and `rest.ply` for elements other than `vertex`. All
+/// files are written to temp files and renamed into place together at
+/// the end.
+pub fn split(
+    input: &Path,
+    input_name: &str,
+    dir: &Path,
+    opt: &SplitOptions,
+    progress: &Progress,
+) -> anyhow::Result<Manifest> {
+    if !(opt.halo.is_finite() && opt.halo >= 0.0) {
+        return Err(crate::Error::param(
+            "--halo",
+            format!("{}: must be a finite width >= 0", opt.halo),
+        )
+        .into());
+    }
+    let at = |e: anyhow::Error| e.context(input_name.to_string());
+    // Pass 1: the box and the sample.
+    let mut r = open(input).map_err(at)?;
+    let header = r.header().clone();
+    let Some(v) = header.elements.iter().position(|e| e.name == POINTS) else {
+        bail!("{input_name}: no '{POINTS}' element: nothing to tile");
+    };
+    let count = header.elements[v].count;
+    if count > u32::MAX as u64 {
+        bail!(
+            "{input_name}: {count} points; a split holds at most {} (its index is a uint)",
+            u32::MAX
+        );
+    }
+    if let Some(p) = header.elements[v]
+        .props
+        .iter()
+        .find(|p| p.name == HALO || p.name == INDEX)
+    {
+        bail!(
+            "{input_name}: already a tile (it has '{}'): merge it first",
+            p.name
+        );
+    }
+    let tiles = match opt.tiles {
+        TileCount::Tiles(n) => n,
+        TileCount::Size(0) => {
+            return Err(crate::Error::param("--tile-size", "must be at least 1 point").into())
+        }
+        TileCount::Size(s) => count.div_ceil(s).max(1) as usize,
+    };
+    if !(1..=MAX_TILES).contains(&tiles) {
+        let flag = match opt.tiles {
+            TileCount::Tiles(_) => "--tiles",
+            TileCount::Size(_) => "--tile-size",
+        };
+        return Err(crate::Error::param(
+            flag,
+            format!("{tiles} tiles: must make 1 to {MAX_TILES}"),
+        )
+        .into());
+    }
+    let stride = count.div_ceil(SAMPLE).max(1);
+    let mut sample = Vec::new();
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let mut seen = 0u64;
+    progress.start("split: the box", count);
+    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+        if el != v {
+            continue;
+        }
+        let pos = positions(&chunk, seen).map_err(at)?;
+        for (k, p) in pos.iter().enumerate() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+            if (seen + k as u64).is_multiple_of(stride) {
+                sample.push(*p);
+            }
+        }
+        seen += pos.len() as u64;
+        progress.inc(pos.len() as u64);
+    }
+    progress.finish();
+    if seen == 0 {
+        (lo, hi) = (DVec3::ZERO, DVec3::ZERO);
+    }
+    let plan = Plan::new(&mut sample, lo, hi, tiles);
+    drop(sample);
+
+    // Pass 2: the counts, for the headers and the manifest.
+    let h = opt.halo;
+    let mut r = open(input).map_err(at)?;
+    let mut counts = vec![[0u64; 2]; tiles];
+    let mut base = 0u64;
+    progress.start("split: counting", count);
+    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+        if el != v {
+            continue;
+        }
+        let pos = positions(&chunk, base).map_err(at)?;
+        let part = pos
+            .par_chunks(4096)
+            .fold(
+                || vec![[0u64; 2]; tiles],
+                |mut c, ps| {
+                    for &p in ps {
+                        let o = plan.owner(p);
+                        c[o as usize][0] += 1;
+                        plan.halo_of(p, o, h, |t| c[t as usize][1] += 1);
+                    }
+                    c
+                },
+            )
+            .reduce(
+                || vec![[0u64; 2]; tiles],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(&b) {
+                        x[0] += y[0];
+                        x[1] += y[1];
+                    }
+                    a
+                },
+            );
+        for (x, y) in counts.iter_mut().zip(&part) {
+            x[0] += y[0];
+            x[1] += y[1];
+        }
+        base += pos.len() as u64;
+        progress.inc(pos.len() as u64);
+    }
+    progress.finish();
+    if base != seen {
+        bail!("{input_name}: changed while it was split ({seen} points, then {base})");
+    }
+    let others: Vec<usize> = (0..header.elements.len()).filter(|&i| i != v).collect();
+    let mut manifest = Manifest {
+        format: FORMAT.to_string(),
+        split: String::new(),
+        input: input_name.to_string(),
+        points: count,
+        halo: h,
+        for_stage: opt.for_stage.clone(),
+        lo: lo.to_array(),
+        hi: hi.to_array(),
+        elements: header
+            .elements
+            .iter()
+            .map(|e| ElementEntry {
+                name: e.name.clone(),
+                count: e.count,
+            })
+            .collect(),
+        rest: (!others.is_empty()).then(|| "rest.ply".to_string()),
+        tiles: plan
+            .boxes
+            .iter()
+            .enumerate()
+            .map(|(i, (a, b))| Tile {
+                index: i as u32,
+                file: format!("tile_{i:04}.ply"),
+                lo: a.to_array(),
+                hi: b.to_array(),
+                owned: counts[i][0],
+                halo: counts[i][1],
+            })
+            .collect(),
+    };
+    manifest.split = manifest.checksum();
+
+    // Pass 3: the tiles.
+    std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
+    let mut r = open(input).map_err(at)?;
+    let vschema = {
+        let mut el = r.schema_of(v).map_err(|e| at(e.into()))?;
+        el.set(Attribute::scalar(HALO, Column::U8(Vec::new())))?;
+        el.set(Attribute::scalar(INDEX, Column::U32(Vec::new())))?;
+        el
+    };
+    let mut staged = Vec::with_capacity(tiles + 2);
+    let buf = ((64 << 20) / tiles).clamp(8 << 10, 1 << 20);
+    for (i, t) in manifest.tiles.iter().enumerate() {
+        let s = Staged::create(&dir.join(&t.file))?;
+        let mut cloud = Cloud {
+            elements: vec![schema(&vschema)],
+            detail: header.detail.clone(),
+            comments: header.comments.clone(),
+            obj_info: header.obj_info.clone(),
+        };
+        cloud.set_detail(D_SPLIT, DetailValue::Str(manifest.split.clone()));
+        cloud.set_detail(D_TILE, DetailValue::I32(i as i32));
+        cloud.set_detail(D_HALO, DetailValue::F64(h));
+        let text = header_text_with(&cloud, Encoding::BinaryLe, |_, _| t.owned + t.halo)?;
+        staged.push(s);
+        let mut w = BufWriter::with_capacity(buf, staged[i].file());
+        w.write_all(text.as_bytes())?;
+        w.flush()?;
+    }
+    let mut writers: Vec<BufWriter<&File>> = staged
+        .iter()
+        .map(|s| BufWriter::with_capacity(buf, s.file()))
+        .collect();
+    let rest_staged = match &manifest.rest {
+        Some(name) => {
+            let s = Staged::create(&dir.join(name))?;
+            let mut cloud = Cloud {
+                elements: Vec::new(),
+                detail: Vec::new(),
+                comments: Vec::new(),
+                obj_info: Vec::new(),
+            };
+            for &i in &others {
+                cloud
+                    .elements
+                    .push(r.schema_of(i).map_err(|e| at(e.into()))?);
+            }
+            let counts: Vec<u64> = others.iter().map(|&i| header.elements[i].count).collect();
+            let text = header_text_with(&cloud, Encoding::BinaryLe, |k, _| counts[k])?;
+            {
+                let mut w = BufWriter::new(s.file());
+                w.write_all(text.as_bytes())?;
+                w.flush()?;
+            }
+            Some(s)
+        }
+        None => None,
+    };
+    let mut rest_w = rest_staged
+        .as_ref()
+        .map(|s| BufWriter::with_capacity(1 << 20, s.file()));
+    let mut base = 0u64;
+    progress.start("split: writing tiles", count);
+    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+        if el != v {
+            let w = rest_w.as_mut().expect("a rest file for other elements");
+            write_body(w, &chunk, Encoding::BinaryLe)?;
+            continue;
+        }
+        let pos = positions(&chunk, base).map_err(at)?;
+        let assign: Vec<(u32, Vec<u32>)> = pos
+            .par_iter()
+            .map(|&p| {
+                let o = plan.owner(p);
+                let mut hs = Vec::new();
+                plan.halo_of(p, o, h, |t| hs.push(t));
+                hs.sort_unstable();
+                (o, hs)
+            })
+            .collect();
+        let mut rows: Vec<Vec<(usize, bool)>> = vec![Vec::new(); tiles];
+        for (k, (o, hs)) in assign.iter().enumerate() {
+            rows[*o as usize].push((k, false));
+            for &t in hs {
+                rows[t as usize].push((k, true));
+            }
+        }
+        for (t, rs) in rows.iter().enumerate().filter(|(_, rs)| !rs.is_empty()) {
+            let idx: Vec<usize> = rs.iter().map(|&(k, _)| k).collect();
+            let mut part = chunk.gather(&idx);
+            part.set(Attribute::scalar(
+                HALO,
+                Column::U8(rs.iter().map(|&(_, halo)| halo as u8).collect()),
+            ))?;
+            part.set(Attribute::scalar(
+                INDEX,
+                Column::U32(idx.iter().map(|&k| (base + k as u64) as u32).collect()),
+            ))?;
+            write_body(&mut writers[t], &part, Encoding::BinaryLe)?;
+        }
+        base += pos.len() as u64;
+        progress.inc(pos.len() as u64);
+    }
+    progress.finish();
+    if base != seen {
+        bail!("{input_name}: changed while it was split ({seen} points, then {base})");
+    }
+    for w in writers.iter_mut() {
+        w.flush()?;
+    }
+    drop(writers);
+    if let Some(w) = rest_w.as_mut() {
+        w.flush()?;
+    }
+    drop(rest_w);
+    let text = serde_json::to_string_pretty(&manifest)? + "\n";
+    let m = Staged::write(&dir.join(MANIFEST), |w| Ok(w.write_all(text.as_bytes())?))?;
+    for s in staged.into_iter().chain(rest_staged).chain([m]) {
+        s.commit()?;
+    }
+    Ok(manifest)
+}

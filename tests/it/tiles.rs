@@ -1,0 +1,610 @@
+//! `pctile`: split and merge give the input back; halos hold exactly the
+//! points within reach; stages baked tile by tile equal the untiled bake;
+//! every bad input is refused with a line naming it.
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use glam::DVec3;
+use pcsss::formats::{self, Select};
+use pcsss::tiles::{Manifest, HALO, INDEX};
+use pcsss::Cloud;
+
+use crate::util::*;
+
+fn ok(o: &std::process::Output, what: &str) {
+    assert!(o.status.success(), "{what}: {}", stderr(o));
+}
+
+fn read(p: &Path) -> Cloud {
+    formats::read_cloud_file(p, &Select::All).expect("reads")
+}
+
+fn write(p: &Path, c: &Cloud) {
+    std::fs::write(p, to_bytes(c, LE)).unwrap();
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A half-tube of `n` points with P, N, ptarea, illum (some unlit).
+fn sheet(n: usize) -> Cloud {
+    crate::ssmulti::wavy(n, DVec3::new(3.0, -2.0, 1.0), 1.0, 11)
+}
+
+fn split(input: &Path, dir: &Path, extra: &[&str]) -> std::process::Output {
+    let mut a = vec!["split", s(input), "-o", s(dir)];
+    a.extend_from_slice(extra);
+    run("pctile", &a, b"")
+}
+
+#[test]
+fn split_then_merge_gives_every_element_and_detail_back() {
+    let d = tempdir();
+    let c = every_type_cloud();
+    for (f, name) in [(LE, "le"), (BE, "be"), (ASCII, "ascii")] {
+        let input = d.path().join(format!("in_{name}.ply"));
+        std::fs::write(&input, to_bytes(&c, f)).unwrap();
+        let dir = d.path().join(format!("tiles_{name}"));
+        ok(
+            &split(&input, &dir, &["--tiles", "3", "--halo", "0.15"]),
+            "split",
+        );
+        let out = d.path().join(format!("out_{name}.ply"));
+        ok(
+            &run("pctile", &["merge", s(&dir), "-o", s(&out)], b""),
+            "merge",
+        );
+        let back = std::fs::read(&out).unwrap();
+        // Faces, list elements and rows without properties kept aside
+        // and put back in their places; the bytes of a binary LE write.
+        assert_eq!(back, to_bytes(&c, LE), "{name}");
+    }
+}
+
+#[test]
+fn halos_hold_exactly_the_points_within_reach_and_tiles_balance() {
+    let d = tempdir();
+    let c = sheet(20000);
+    let input = d.path().join("in.ply");
+    write(&input, &c);
+    let h = 0.2;
+    let dir = d.path().join("t");
+    ok(
+        &split(&input, &dir, &["--tiles", "7", "--halo", "0.2"]),
+        "split",
+    );
+    let m = Manifest::read(&dir).unwrap();
+    assert_eq!(m.tiles.len(), 7);
+    let p: Vec<DVec3> = c
+        .points()
+        .vec3_f64("P")
+        .unwrap()
+        .into_iter()
+        .map(DVec3::from_array)
+        .collect();
+    let mut owner = vec![usize::MAX; p.len()];
+    let mut halos = Vec::new();
+    for t in &m.tiles {
+        let tile = read(&dir.join(&t.file));
+        let halo = tile.points().scalar_f64(HALO).unwrap();
+        let index = tile.points().scalar_f64(INDEX).unwrap();
+        let tp = tile.points().vec3_f64("P").unwrap();
+        let (lo, hi) = (DVec3::from_array(t.lo), DVec3::from_array(t.hi));
+        let mut halo_set = HashSet::new();
+        let mut last = -1.0;
+        for k in 0..tile.len() {
+            let i = index[k] as usize;
+            assert_eq!(tp[k], c.points().vec3_f64("P").unwrap()[i]);
+            assert!(index[k] > last, "rows in input order");
+            last = index[k];
+            if halo[k] == 0.0 {
+                assert_eq!(owner[i], usize::MAX, "point {i} owned twice");
+                owner[i] = t.index as usize;
+                assert!(p[i].cmpge(lo).all() && p[i].cmple(hi).all());
+            } else {
+                halo_set.insert(i);
+            }
+        }
+        assert_eq!(halo_set.len() as u64, t.halo);
+        halos.push((lo, hi, halo_set));
+    }
+    // Brute force: a tile's halo is every point of another tile within h
+    // of its box (on a shared face, distance 0), and nothing else.
+    for (t, (lo, hi, halo_set)) in halos.iter().enumerate() {
+        let want: HashSet<usize> = (0..p.len())
+            .filter(|&i| {
+                owner[i] != t && (*lo - p[i]).max(p[i] - *hi).max(DVec3::ZERO).length() <= h
+            })
+            .collect();
+        assert_eq!(&want, halo_set, "tile {t}");
+    }
+    assert!(owner.iter().all(|&o| o != usize::MAX), "every point owned");
+    let counts: Vec<u64> = m.tiles.iter().map(|t| t.owned).collect();
+    let (min, max) = (*counts.iter().min().unwrap(), *counts.iter().max().unwrap());
+    assert!(max - min <= 2, "balanced by count: {counts:?}");
+}
+
+/// |a - b| over max(|b|, the channel's mean |b|), the measure of the
+/// exact method's own test against its f64 double loop.
+fn worst(a: &Cloud, b: &Cloud, attr: &str) -> f64 {
+    let (x, y) = (
+        a.points().vec3_f64(attr).unwrap(),
+        b.points().vec3_f64(attr).unwrap(),
+    );
+    assert_eq!(x.len(), y.len());
+    let mut w: f64 = 0.0;
+    for ch in 0..3 {
+        let mean = y.iter().map(|v| v[ch].abs()).sum::<f64>() / y.len() as f64;
+        for (u, v) in x.iter().zip(&y) {
+            w = w.max((u[ch] - v[ch]).abs() / v[ch].abs().max(mean).max(1e-30));
+        }
+    }
+    w
+}
+
+/// Bakes every tile of `dir` with `stage args` (the tile as the cloud
+/// too for filter) into `out`, then merges into `merged`.
+fn bake_tiles(dir: &Path, out: &Path, merged: &Path, stage: &str, args: &[&str]) {
+    std::fs::create_dir_all(out).unwrap();
+    let m = Manifest::read(dir).unwrap();
+    let mut files = vec![];
+    for t in &m.tiles {
+        let f = dir.join(&t.file);
+        let o = out.join(&t.file);
+        let mut a = vec![s(&f), "-q", "-o", s(&o)];
+        if stage == "filter" {
+            a.extend(["--cloud", s(&f)]);
+        }
+        a.extend_from_slice(args);
+        ok(&run(stage, &a, b""), stage);
+        files.push(o);
+    }
+    let mut a = vec!["merge", s(dir), "-o", s(merged)];
+    a.extend(files.iter().map(|f| s(f)));
+    ok(&run("pctile", &a, b""), "merge");
+}
+
+#[test]
+fn tiled_ssmulti_and_filter_equal_the_untiled_bake() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    write(&input, &sheet(60000));
+    let ss = ["--sd", "0.3", "--rd", "0.9,0.5,0.3", "--rgb"];
+    let whole = d.path().join("whole.ply");
+    let mut a = vec![s(&input), "-q", "-o", s(&whole)];
+    a.extend_from_slice(&ss);
+    ok(&run("ssmulti", &a, b""), "ssmulti");
+    let dir = d.path().join("t");
+    ok(
+        &split(
+            &input,
+            &dir,
+            &[
+                "--tiles",
+                "16",
+                "--for",
+                "ssmulti",
+                "--stage-args",
+                &ss.join(" "),
+            ],
+        ),
+        "split",
+    );
+    let m = Manifest::read(&dir).unwrap();
+    assert!(
+        (m.halo - 0.27).abs() < 1e-12,
+        "the halo is ssmulti's reach: {}",
+        m.halo
+    );
+    let tiled = d.path().join("tiled.ply");
+    bake_tiles(&dir, &d.path().join("o"), &tiled, "ssmulti", &ss);
+    let (w, t) = (read(&whole), read(&tiled));
+    let e = worst(&t, &w, "ssM");
+    eprintln!("tiled ssmulti: worst difference {e:e} (relative, small values against the mean)");
+    assert!(e < 1e-6, "{e}");
+    // Everything else bit for bit, and no tile attribute left.
+    assert!(!t.points().has(HALO) && !t.points().has(INDEX));
+    assert_eq!(w.detail, t.detail);
+    for name in ["P", "N", "ptarea", "illum"] {
+        assert_eq!(
+            w.points()
+                .vec3_f64(name)
+                .or_else(|_| w
+                    .points()
+                    .scalar_f64(name)
+                    .map(|v| v.iter().map(|&x| [x; 3]).collect()))
+                .unwrap(),
+            t.points()
+                .vec3_f64(name)
+                .or_else(|_| t
+                    .points()
+                    .scalar_f64(name)
+                    .map(|v| v.iter().map(|&x| [x; 3]).collect()))
+                .unwrap()
+        );
+    }
+
+    // filter over the tiled ssM: a split with filter's own reach.
+    let fw = d.path().join("fw.ply");
+    ok(
+        &run(
+            "filter",
+            &[
+                s(&tiled),
+                "-q",
+                "--cloud",
+                s(&tiled),
+                "--radius",
+                "0.25",
+                "-o",
+                s(&fw),
+            ],
+            b"",
+        ),
+        "filter",
+    );
+    let dir2 = d.path().join("t2");
+    ok(
+        &split(
+            &tiled,
+            &dir2,
+            &[
+                "--tiles",
+                "16",
+                "--for",
+                "filter",
+                "--stage-args",
+                "--radius 0.25",
+            ],
+        ),
+        "split for filter",
+    );
+    let m2 = Manifest::read(&dir2).unwrap();
+    assert!((m2.halo - 0.25 * 0.27).abs() < 1e-12, "{}", m2.halo);
+    let ft = d.path().join("ft.ply");
+    bake_tiles(
+        &dir2,
+        &d.path().join("o2"),
+        &ft,
+        "filter",
+        &["--radius", "0.25"],
+    );
+    let e = worst(&read(&ft), &read(&fw), "ssM");
+    eprintln!("tiled filter: worst difference {e:e}");
+    assert!(e < 1e-6, "{e}");
+}
+
+#[test]
+fn tiled_approximate_ssmulti_stays_within_its_documented_error() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    write(&input, &sheet(40000));
+    let ss = ["--sd", "0.3", "--rd", "0.9,0.5,0.3", "--tolerance", "0.1"];
+    let whole = d.path().join("whole.ply");
+    let mut a = vec![s(&input), "-q", "-o", s(&whole)];
+    a.extend_from_slice(&ss);
+    ok(&run("ssmulti", &a, b""), "ssmulti");
+    let exact = d.path().join("exact.ply");
+    let mut a = vec![s(&input), "-q", "-o", s(&exact)];
+    a.extend_from_slice(&ss[..4]);
+    ok(&run("ssmulti", &a, b""), "ssmulti exact");
+    let dir = d.path().join("t");
+    ok(
+        &split(
+            &input,
+            &dir,
+            &[
+                "--tiles",
+                "8",
+                "--for",
+                "ssmulti",
+                "--stage-args",
+                &ss.join(" "),
+            ],
+        ),
+        "split",
+    );
+    let tiled = d.path().join("tiled.ply");
+    bake_tiles(&dir, &d.path().join("o"), &tiled, "ssmulti", &ss);
+    // RMS relative to the exact values: the README's 5e-5 to 1e-3 at 0.1,
+    // for the tiled result as for the untiled one.
+    let rms = |c: &Cloud| {
+        let (x, y) = (
+            c.points().vec3_f64("ssM").unwrap(),
+            read(&exact).points().vec3_f64("ssM").unwrap(),
+        );
+        let mut s2 = 0.0;
+        let mut n2 = 0.0;
+        for (u, v) in x.iter().zip(&y) {
+            for ch in 0..3 {
+                s2 += (u[ch] - v[ch]).powi(2);
+                n2 += v[ch].powi(2);
+            }
+        }
+        (s2 / n2).sqrt()
+    };
+    let (rw, rt) = (rms(&read(&whole)), rms(&read(&tiled)));
+    eprintln!("approximate ssmulti RMS error: untiled {rw:e}, tiled {rt:e}");
+    assert!(rt < 1e-3 && rw < 1e-3, "{rw} {rt}");
+}
+
+#[test]
+fn a_halo_narrower_than_the_stage_is_refused_naming_both() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    write(&input, &sheet(3000));
+    let dir = d.path().join("t");
+    ok(
+        &split(&input, &dir, &["--tiles", "2", "--halo", "0.1"]),
+        "split",
+    );
+    let o = run(
+        "ssmulti",
+        &[
+            s(&dir.join("tile_0000.ply")),
+            "--sd",
+            "0.6",
+            "-o",
+            s(&d.path().join("x.ply")),
+        ],
+        b"",
+    );
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("pctile_halo_width 0.1") && e.contains("ssmulti's reach (0.6)"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // filter with --nfp has no bounded reach.
+    let f = dir.join("tile_0000.ply");
+    let o = run(
+        "filter",
+        &[s(&f), "--cloud", s(&f), "--nfp", "8", "--attr", "illum"],
+        b"",
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("no bounded reach"),
+        "{}",
+        stderr(&o)
+    );
+    // split --for checks a given --halo against the stage's reach.
+    let o = split(
+        &input,
+        &d.path().join("t2"),
+        &[
+            "--tiles",
+            "2",
+            "--halo",
+            "0.1",
+            "--for",
+            "ssmulti",
+            "--stage-args",
+            "--sd 0.6",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("0.1 is narrower than ssmulti's reach 0.6"),
+        "{}",
+        stderr(&o)
+    );
+    let o = split(
+        &input,
+        &d.path().join("t3"),
+        &["--tiles", "2", "--for", "filter", "--stage-args", "--nfp 4"],
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("no bounded reach"),
+        "{}",
+        stderr(&o)
+    );
+    let o = split(
+        &input,
+        &d.path().join("t4"),
+        &["--tiles", "2", "--for", "render"],
+    );
+    assert!(
+        stderr(&o).contains("unknown stage 'render'"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn merge_refuses_missing_doubled_foreign_and_edited() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    write(&input, &sheet(5000));
+    let a = d.path().join("a");
+    let b = d.path().join("b");
+    ok(
+        &split(&input, &a, &["--tiles", "4", "--halo", "0.1"]),
+        "split a",
+    );
+    ok(
+        &split(&input, &b, &["--tiles", "4", "--halo", "0.2"]),
+        "split b",
+    );
+    let t = |dir: &Path, i: usize| dir.join(format!("tile_{i:04}.ply"));
+    let merge = |files: &[std::path::PathBuf]| {
+        let mut args = vec![
+            "merge".to_string(),
+            s(&a).to_string(),
+            "-o".into(),
+            s(&d.path().join("m.ply")).into(),
+        ];
+        args.extend(files.iter().map(|f| s(f).to_string()));
+        let args: Vec<&str> = args.iter().map(|x| x.as_str()).collect();
+        run("pctile", &args, b"")
+    };
+    let fail = |o: std::process::Output, want: &str| {
+        assert!(!o.status.success(), "{want}");
+        let e = stderr(&o);
+        assert!(e.contains(want), "{e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+        assert!(!d.path().join("m.ply").exists(), "no output left");
+    };
+    fail(merge(&[t(&a, 0), t(&a, 1), t(&a, 3)]), "tile 2 is missing");
+    fail(
+        merge(&[t(&a, 0), t(&a, 1), t(&a, 1), t(&a, 2), t(&a, 3)]),
+        "tile 1 again",
+    );
+    fail(
+        merge(&[t(&a, 0), t(&b, 1), t(&a, 2), t(&a, 3)]),
+        "a tile of another split",
+    );
+    fail(
+        merge(&[t(&a, 0), t(&a, 1), input.clone(), t(&a, 3)]),
+        "not a tile",
+    );
+    ok(
+        &merge(&[t(&a, 3), t(&a, 2), t(&a, 1), t(&a, 0)]),
+        "any order",
+    );
+    std::fs::remove_file(d.path().join("m.ply")).unwrap();
+    // An edited manifest: the checksum no longer matches.
+    let mpath = a.join("manifest.json");
+    let text = std::fs::read_to_string(&mpath).unwrap();
+    std::fs::write(&mpath, text.replacen("\"halo\": 0.1", "\"halo\": 0.3", 1)).unwrap();
+    fail(merge(&[]), "the manifest was edited after the split");
+    std::fs::write(&mpath, "{").unwrap();
+    fail(merge(&[]), "manifest.json");
+}
+
+#[test]
+fn split_refuses_bad_input_and_leaves_nothing_behind() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    let mut c = sheet(1000);
+    write(&input, &c);
+    let dir = d.path().join("t");
+    ok(
+        &split(&input, &dir, &["--tiles", "2", "--halo", "0.1"]),
+        "split",
+    );
+    // A tile split again.
+    let o = split(
+        &dir.join("tile_0000.ply"),
+        &d.path().join("u"),
+        &["--tiles", "2", "--halo", "0.1"],
+    );
+    assert!(stderr(&o).contains("already a tile"), "{}", stderr(&o));
+    // Absurd parameters: exit status 2, one line.
+    for args in [
+        &["--tiles", "0", "--halo", "0.1"][..],
+        &["--tiles", "5000", "--halo", "0.1"],
+        &["--tiles", "2", "--halo", "NaN"],
+        &["--tiles", "2", "--halo", "-1"],
+        &["--tile-size", "0", "--halo", "0.1"],
+    ] {
+        let o = split(&input, &d.path().join("v"), args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+    }
+    // A non-finite position names the point.
+    let mut p = c.points().vec3_f64("P").unwrap();
+    p[123][1] = f64::NAN;
+    c.points_mut()
+        .set_vec3("P", pcsss::Role::Point, &p)
+        .unwrap();
+    let bad = d.path().join("nan.ply");
+    write(&bad, &c);
+    let o = split(
+        &bad,
+        &d.path().join("w"),
+        &["--tiles", "2", "--halo", "0.1"],
+    );
+    assert!(stderr(&o).contains("point 123: P is"), "{}", stderr(&o));
+    // A header that lies about its count: truncated, no tile left.
+    let bytes = std::fs::read(&input).unwrap();
+    let text = String::from_utf8_lossy(&bytes[..400]).to_string();
+    let lie = text.replacen("element vertex 1000", "element vertex 100000", 1);
+    let mut liar = lie.into_bytes();
+    liar.extend_from_slice(&bytes[400..]);
+    let lp = d.path().join("lie.ply");
+    std::fs::write(&lp, &liar).unwrap();
+    let wd = d.path().join("x");
+    let o = split(&lp, &wd, &["--tiles", "3", "--halo", "0.1"]);
+    assert!(stderr(&o).contains("truncated"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_dir(&wd).map(|r| r.count()).unwrap_or(0),
+        0,
+        "nothing left"
+    );
+    // Not PLY.
+    let o = split(
+        &fixtures().join("mesh/bunny.obj"),
+        &d.path().join("y"),
+        &["--tiles", "2", "--halo", "0.1"],
+    );
+    assert!(stderr(&o).contains("PLY only"), "{}", stderr(&o));
+    // No P.
+    let mut noc = sheet(10);
+    noc.points_mut().remove("P");
+    let np = d.path().join("nop.ply");
+    write(&np, &noc);
+    let o = split(&np, &d.path().join("z"), &["--tiles", "2", "--halo", "0.1"]);
+    assert!(stderr(&o).contains("P"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_empty_cloud_and_standard_input_split_and_merge() {
+    let d = tempdir();
+    let empty = sheet(0);
+    let bytes = to_bytes(&empty, LE);
+    let dir = d.path().join("t");
+    let o = run(
+        "pctile",
+        &["split", "--tiles", "3", "--halo", "0.1", "-o", s(&dir)],
+        &bytes,
+    );
+    ok(&o, "split from stdin");
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.starts_with('.')),
+        "no spool left: {names:?}"
+    );
+    let f = dir.join("tile_0001.ply");
+    ok(
+        &run(
+            "ssmulti",
+            &[s(&f), "--sd", "0.05", "-o", s(&d.path().join("e.ply"))],
+            b"",
+        ),
+        "ssmulti on an empty tile",
+    );
+    let o = run("pctile", &["merge", s(&dir)], b"");
+    ok(&o, "merge to stdout");
+    assert_eq!(o.stdout, bytes);
+    // A cloud from stdin, merged back.
+    let c = sheet(3000);
+    let cb = to_bytes(&c, LE);
+    let dir2 = d.path().join("t2");
+    ok(
+        &run(
+            "pctile",
+            &[
+                "split",
+                "-",
+                "--tile-size",
+                "1000",
+                "--halo",
+                "0.1",
+                "-o",
+                s(&dir2),
+            ],
+            &cb,
+        ),
+        "split",
+    );
+    assert_eq!(Manifest::read(&dir2).unwrap().tiles.len(), 3);
+    let o = run("pctile", &["merge", s(&dir2)], b"");
+    ok(&o, "merge");
+    assert_eq!(o.stdout, cb);
+}
