@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo pyenv exrtools lint
+.PHONY: test bench demo pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -21,12 +21,25 @@ exrtools:
 	command -v exrheader >/dev/null || { export DEBIAN_FRONTEND=noninteractive; \
 	  apt-get install -y -q openexr || { apt-get update -q && apt-get install -y -q openexr; }; }
 
-## Every test; interop tests (Python, exrheader) must run, not skip. Ends
-## with a total. Under the release profile, so the tests and `make demo`
-## share one optimised build of the library and the stages.
-test: pyenv exrtools
+## Debian's Slurm (daemons, client) and munge, for the tiled-bake test on
+## a throwaway single-node cluster (pipelines/slurm/cluster.sh).
+slurm:
+	command -v slurmctld >/dev/null && command -v slurmd >/dev/null && command -v sbatch >/dev/null \
+	  && command -v munged >/dev/null || { export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get install -y -q slurmctld slurmd slurm-client munge \
+	  || { apt-get update -q && apt-get install -y -q slurmctld slurmd slurm-client munge; }; }
+
+## Every test; interop tests (Python, exrheader, Slurm, openjd-cli) must
+## run, not skip. Ends with a total. Under the release profile, so the
+## tests and `make demo` share one optimised build of the library and the
+## stages. The Slurm cluster runs for the tests only: stopped at the end,
+## whatever their outcome.
+test: pyenv exrtools slurm
 	mkdir -p target
-	PCSSS_REQUIRE_PYTHON=1 cargo test --release 2>&1 | tee target/test.log
+	pipelines/slurm/cluster.sh start target/slurm >/dev/null
+	trap 'pipelines/slurm/cluster.sh stop target/slurm' EXIT; \
+	  SLURM_CONF=$(abspath target/slurm/slurm.conf) PCSSS_OPENJD=$(abspath $(PYENV)/bin/openjd) \
+	  PCSSS_REQUIRE_PYTHON=1 cargo test --release 2>&1 | tee target/test.log
 	awk '/^test result:/ { p += $$4; f += $$6 } END { printf "%d passed, %d failed\n", p, f }' target/test.log
 
 ## Benchmarks (figures in the README's performance section), with the

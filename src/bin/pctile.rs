@@ -71,8 +71,12 @@ enum Cmd {
         #[arg(value_name = "DIR")]
         dir: PathBuf,
         /// Baked tile files [default: the tiles the manifest lists in DIR].
-        #[arg(value_name = "TILE")]
+        #[arg(value_name = "TILE", conflicts_with = "from")]
         tiles: Vec<PathBuf>,
+        /// The baked tiles are the manifest's file names in this directory
+        /// (a stage's output directory: other files there are ignored).
+        #[arg(long, value_name = "OUTDIR")]
+        from: Option<PathBuf>,
         /// Output file; standard output when absent or '-'.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
@@ -184,9 +188,18 @@ fn run(args: Args) -> anyhow::Result<()> {
         Cmd::Merge {
             dir,
             tiles: files,
+            from,
             output: out,
             format,
         } => {
+            let files = match from {
+                None => files,
+                Some(from) => tiles::Manifest::read(&dir)?
+                    .tiles
+                    .iter()
+                    .map(|t| from.join(&t.file))
+                    .collect(),
+            };
             let format = format
                 .or_else(|| out.as_deref().and_then(Format::from_path))
                 .unwrap_or(Format::DEFAULT);

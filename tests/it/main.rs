@@ -25,4 +25,5 @@ mod python_interop;
 mod scatter;
 mod ssmulti;
 mod sssingle;
+mod tiled_bake;
 mod tiles;

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# A tiled bake on Slurm: the tiles `pctile split` made in TILE_DIR as a
+# job array, one task per tile (its index is SLURM_ARRAY_TASK_ID), then
+# `pctile merge` as a job that starts only when every task succeeded
+# (--dependency=afterok; a failed tile cancels it).
+#   submit.sh [--wait] TILE_DIR OUT_DIR MERGED STAGE [STAGE ARGS...]
+# Prints the array's and the merge's job ids. --wait: returns when the
+# merge has ended, with its exit status. Extra sbatch options (partition,
+# memory a task) go in SBATCH_* variables, as sbatch reads them. BIN: the
+# stages' directory, as for tile-task.sh (exported to the jobs).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+wait=()
+if [[ ${1:-} == --wait ]]; then wait=(--wait); shift; fi
+if (( $# < 4 )); then
+    echo "usage: submit.sh [--wait] TILE_DIR OUT_DIR MERGED STAGE [STAGE ARGS...]" >&2
+    exit 2
+fi
+abs() { mkdir -p "$(dirname "$1")"; echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
+tdir=$(cd "$1" && pwd)
+odir=$(abs "$2")
+merged=$(abs "$3")
+shift 3
+export BIN=${BIN:-$(cd "$here/../../target/release" && pwd)}
+n=$(grep -c '"file": "tile_' "$tdir/manifest.json")
+mkdir -p "$odir"
+task=$(printf '%q ' "$here/../tile-task.sh" "$tdir" "$odir")'"$SLURM_ARRAY_TASK_ID" '$(printf '%q ' "$@")
+array=$(sbatch --parsable --job-name=pcsss-tiles --array=0-$((n - 1)) \
+    --output="$odir/slurm-%A_%a.log" --wrap "$task")
+merge=$(printf '%q ' "$BIN/pctile" -q merge "$tdir" --from "$odir" -o "$merged")
+echo "tiles: job array $array ($n tasks)"
+sbatch --parsable --job-name=pcsss-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes \
+    --output="$odir/slurm-merge-%j.log" "${wait[@]}" --wrap "$merge" | sed 's/^/merge: job /'

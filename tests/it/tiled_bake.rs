@@ -1,0 +1,128 @@
+//! The tiled bake of the pipelines' Makefile (`make -C pipelines tiled`):
+//! the bunny at 1M points through ssmulti (exact) and filter, in 16 tiles,
+//! equals the untiled bake, with the tiles run by make -j, by a Slurm job
+//! array on the throwaway cluster `make test` starts, and by openjd-cli
+//! running the Open Job Description template.
+
+use std::path::Path;
+use std::process::Command;
+
+use pcsss::formats::{self, Select};
+use pcsss::Cloud;
+
+use crate::util::*;
+
+fn read(p: &Path) -> Cloud {
+    formats::read_cloud_file(p, &Select::All).expect("reads")
+}
+
+/// |a - b| over max(|b|, the channel's mean |b|): the exact method's own
+/// measure against its f64 double loop (tests/it/ssmulti/exact.rs).
+fn worst(a: &Cloud, b: &Cloud, attr: &str) -> f64 {
+    let (x, y) = (
+        a.points().vec3_f64(attr).unwrap(),
+        b.points().vec3_f64(attr).unwrap(),
+    );
+    assert_eq!(x.len(), y.len());
+    let mut w: f64 = 0.0;
+    for ch in 0..3 {
+        let mean = y.iter().map(|v| v[ch].abs()).sum::<f64>() / y.len() as f64;
+        for (u, v) in x.iter().zip(&y) {
+            w = w.max((u[ch] - v[ch]).abs() / v[ch].abs().max(mean).max(1e-30));
+        }
+    }
+    w
+}
+
+fn make(out: &Path, target: &str, extra: &[String]) {
+    let bin = bin("pctile");
+    let mut cmd = Command::new("make");
+    cmd.args(["-s", "-j2", "-C"])
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines"))
+        .arg(format!("OUT={}", out.display()))
+        .arg(format!("BIN={}", bin.parent().unwrap().display()))
+        // Random points and prim areas: the quickest cloud of 1M points;
+        // a filter radius of 0.1 D keeps the untiled filter's neighbour
+        // lists (all held at once) to about 60 a point.
+        .args([
+            "COUNT=1000000",
+            "BLUE=0",
+            "PTAREA=prim",
+            "RADIUS=0.1",
+            "TILES=16",
+        ])
+        .args(extra)
+        .arg(target);
+    let o = cmd.output().expect("make runs");
+    assert!(
+        o.status.success(),
+        "make {target} {extra:?}: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn check(out: &Path, engine: &str) {
+    for (whole, tiled) in [
+        ("bunny_ss.ply", "bunny_ss_tiled.ply"),
+        ("bunny_filtered.ply", "bunny_filtered_tiled.ply"),
+    ] {
+        let (w, t) = (read(&out.join(whole)), read(&out.join(tiled)));
+        assert_eq!(w.len(), 1_000_000);
+        let e = worst(&t, &w, "ssM");
+        eprintln!("{engine}: {tiled} against {whole}: worst difference {e:e}");
+        assert!(e < 1e-6, "{engine}: {tiled}: {e}");
+        assert_eq!(w.detail, t.detail, "{engine}: {tiled}");
+    }
+}
+
+/// Removes the tiled results so that another engine makes them again.
+fn clear(out: &Path) {
+    let _ = std::fs::remove_dir_all(out.join("bunny_tiles"));
+    for f in ["bunny_ss_tiled.ply", "bunny_filtered_tiled.ply"] {
+        let _ = std::fs::remove_file(out.join(f));
+    }
+}
+
+#[test]
+fn tiled_bake_of_a_million_points_equals_the_untiled_bake_on_every_engine() {
+    let d = tempdir();
+    let out = d.path();
+    make(out, "tiled-check", &[]);
+    check(out, "make -j2");
+
+    match std::env::var("SLURM_CONF") {
+        Ok(conf) if Path::new(&conf).is_file() => {
+            clear(out);
+            make(out, "tiled", &["ENGINE=slurm".into()]);
+            check(out, "slurm");
+            let logs = std::fs::read_dir(out.join("bunny_tiles/ss/out"))
+                .unwrap()
+                .filter(|e| {
+                    e.as_ref()
+                        .unwrap()
+                        .file_name()
+                        .to_string_lossy()
+                        .starts_with("slurm-")
+                })
+                .count();
+            assert_eq!(logs, 17, "16 array tasks and the merge ran under Slurm");
+        }
+        _ => interop_missing::<()>("a Slurm cluster (SLURM_CONF; make test starts one)")
+            .unwrap_or(()),
+    }
+    match std::env::var("PCSSS_OPENJD") {
+        Ok(openjd) if Path::new(&openjd).is_file() => {
+            clear(out);
+            make(
+                out,
+                "tiled",
+                &["ENGINE=openjd".into(), format!("OPENJD={openjd}")],
+            );
+            check(out, "openjd");
+        }
+        _ => {
+            interop_missing::<()>("openjd-cli (PCSSS_OPENJD; make test installs it)").unwrap_or(())
+        }
+    }
+}
