@@ -3,7 +3,6 @@
 //! index (the split wrote them so and the stages keep the order), so the
 //! output is a k-way merge that holds one chunk of each tile at a time.
 
-use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -282,9 +281,14 @@ pub fn merge(
         while next < m.points {
             let end = (next + CHUNK as u64).min(m.points);
             let mut parts: Vec<Arc<Element>> = Vec::new();
-            let mut part_of: HashMap<(usize, usize), u32> = HashMap::new();
-            let mut rows: Vec<(u32, u32, u32)> = Vec::with_capacity((end - next) as usize);
-            for (t, c) in tiles.iter_mut().enumerate() {
+            // Row k of the output is input point next + k: each owned
+            // point goes straight to its slot, and a slot filled twice or
+            // left empty is a tile that does not match the manifest.
+            const EMPTY: (u32, u32) = (u32::MAX, u32::MAX);
+            let mut slots = vec![EMPTY; (end - next) as usize];
+            for c in tiles.iter_mut() {
+                // The part (in `parts`) of the tile's current chunk.
+                let mut part: Option<(*const Element, u32)> = None;
                 while let Some((halo, idx)) = c.peek()? {
                     if !halo {
                         if (idx as u64) >= end {
@@ -299,34 +303,32 @@ pub fn merge(
                         }
                         c.last = Some(idx);
                         let chunk = c.chunk.as_ref().expect("peeked");
-                        let key = (t, Arc::as_ptr(chunk) as usize);
-                        let p = *part_of.entry(key).or_insert_with(|| {
-                            parts.push(chunk.clone());
-                            parts.len() as u32 - 1
-                        });
-                        rows.push((idx, p, c.at as u32));
+                        let p = match part {
+                            Some((ptr, p)) if ptr == Arc::as_ptr(chunk) => p,
+                            _ => {
+                                parts.push(chunk.clone());
+                                let p = parts.len() as u32 - 1;
+                                part = Some((Arc::as_ptr(chunk), p));
+                                p
+                            }
+                        };
+                        let slot = &mut slots[(idx as u64 - next) as usize];
+                        if *slot != EMPTY {
+                            bail!("{}: point {idx} is owned by two tiles", c.name);
+                        }
+                        *slot = (p, c.at as u32);
                     }
                     c.at += 1;
                 }
             }
-            rows.sort_unstable_by_key(|r| r.0);
-            for (k, r) in rows.iter().enumerate() {
-                if r.0 as u64 != next + k as u64 {
-                    bail!(
-                        "point {} is in no tile (or in two): the tiles do not match their manifest",
-                        next + k as u64
-                    );
-                }
-            }
-            if (rows.len() as u64) < end - next {
+            if let Some(k) = slots.iter().position(|s| *s == EMPTY) {
                 bail!(
                     "point {} is in no tile: the tiles do not match their manifest",
-                    next + rows.len() as u64
+                    next + k as u64
                 );
             }
             let refs: Vec<&Element> = parts.iter().map(|p| p.as_ref()).collect();
-            let idx: Vec<(u32, u32)> = rows.iter().map(|r| (r.1, r.2)).collect();
-            let mut el = Element::gather_from(&refs, &idx);
+            let mut el = Element::gather_from(&refs, &slots);
             el.remove(HALO);
             el.remove(INDEX);
             write_body(out, &el, enc)?;

@@ -257,8 +257,13 @@ impl Plan {
     /// Calls `f` with every tile other than `owner` whose box is within
     /// `h` of `p` (closed boxes: a point at the distance is in).
     pub fn halo_of(&self, p: DVec3, owner: u32, h: f64, mut f: impl FnMut(u32)) {
-        let mut stack = vec![0u32];
-        while let Some(at) = stack.pop() {
+        // Depth first, the far child pushed below the near one: the stack
+        // holds at most one node a level, and MAX_TILES leaves take 12.
+        let mut stack = [0u32; 64];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let at = stack[len];
             match self.nodes[at as usize] {
                 Node::Leaf(t) => {
                     if t != owner {
@@ -272,10 +277,12 @@ impl Plan {
                 Node::Cut { axis, cut, lo, hi } => {
                     let x = p[axis as usize];
                     if x - cut <= h {
-                        stack.push(lo);
+                        stack[len] = lo;
+                        len += 1;
                     }
                     if cut - x <= h {
-                        stack.push(hi);
+                        stack[len] = hi;
+                        len += 1;
                     }
                 }
             }
@@ -311,8 +318,11 @@ pub fn halo_mask(cloud: &Cloud, reach: Option<f64>, what: &str) -> Result<Option
         }
         _ => {}
     }
-    let halo = pts.scalar_f64(HALO)?;
-    Ok(Some(halo.iter().map(|&h| h == 0.0).collect()))
+    let col = pts.scalar_column(HALO)?.column();
+    Ok(Some(match col.as_slice::<u8>() {
+        Some(h) => h.iter().map(|&h| h == 0).collect(),
+        None => (0..col.len()).map(|i| col.get_f64(i) == 0.0).collect(),
+    }))
 }
 
 /// Zeroes the rows of `rows` a tile does not own (`mask` false): a

@@ -33,6 +33,106 @@ pub enum TileCount {
     Tiles(usize),
     /// As many as hold about this many owned points each.
     Size(u64),
+    /// The fewest whose largest tile, halo included, a stage can bake in
+    /// `bytes` of memory at `per_point` bytes a point (plus
+    /// [`BASE_MEMORY`]), as estimated from the sample.
+    Memory { bytes: u64, per_point: u64 },
+}
+
+/// What a stage's process holds besides its points (the binary, its
+/// libraries, buffers): about 10 MiB measured, counted as 32.
+pub const BASE_MEMORY: u64 = 32 << 20;
+
+/// Bytes a point at the peak of `stage` on a tile (its resident memory
+/// over its points, measured by `cargo bench --bench tiles`); `None` for
+/// a stage not measured.
+pub fn point_bytes(stage: &str) -> Option<u64> {
+    match stage {
+        "ssmulti" => Some(SSMULTI_POINT_BYTES),
+        _ => None,
+    }
+}
+
+/// ssmulti's resident memory a point, with a margin (measured:
+/// benches/results/tiles.txt).
+pub const SSMULTI_POINT_BYTES: u64 = 230;
+
+/// Owned and halo points (within `h`) of each tile of `plan` among `pts`.
+pub fn tile_counts(plan: &Plan, pts: &[DVec3], h: f64) -> Vec<[u64; 2]> {
+    let tiles = plan.boxes.len();
+    pts.par_chunks(4096)
+        .fold(
+            || vec![[0u64; 2]; tiles],
+            |mut c, ps| {
+                for &p in ps {
+                    let o = plan.owner(p);
+                    c[o as usize][0] += 1;
+                    plan.halo_of(p, o, h, |t| c[t as usize][1] += 1);
+                }
+                c
+            },
+        )
+        .reduce(
+            || vec![[0u64; 2]; tiles],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(&b) {
+                    x[0] += y[0];
+                    x[1] += y[1];
+                }
+                a
+            },
+        )
+}
+
+/// The fewest tiles (at most MAX_TILES) whose largest, halo included,
+/// fits `bytes` at `per_point` a point, by the sample (every `stride`-th
+/// point); an error when even MAX_TILES do not.
+fn tiles_for_memory(
+    sample: &[DVec3],
+    stride: u64,
+    (lo, hi): (DVec3, DVec3),
+    h: f64,
+    bytes: u64,
+    per_point: u64,
+) -> anyhow::Result<usize> {
+    let need = |t: usize| -> u64 {
+        let mut s = sample.to_vec();
+        let plan = Plan::new(&mut s, lo, hi, t);
+        let most = tile_counts(&plan, sample, h)
+            .iter()
+            .map(|c| c[0] + c[1])
+            .max()
+            .unwrap_or(0);
+        BASE_MEMORY + most * stride * per_point
+    };
+    if bytes <= BASE_MEMORY {
+        return Err(crate::Error::param(
+            "--tile-memory",
+            format!("{bytes} bytes: a stage needs more than {BASE_MEMORY} besides its points"),
+        )
+        .into());
+    }
+    let mut t = 1;
+    while need(t) > bytes {
+        if t >= MAX_TILES {
+            bail!(
+                "--tile-memory {bytes}: even {MAX_TILES} tiles need {} bytes each (the halo alone outgrows the budget: give more memory, or a narrower reach)",
+                need(MAX_TILES)
+            );
+        }
+        t = (t * 2).min(MAX_TILES);
+    }
+    // The smallest that fits, between the last that did not and t.
+    let (mut a, mut b) = (t / 2, t);
+    while b - a > 1 {
+        let m = (a + b) / 2;
+        if need(m) <= bytes {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    Ok(b.max(1))
 }
 
 /// What `split` is asked for.
@@ -120,17 +220,21 @@ pub fn split(
             p.name
         );
     }
-    let tiles = match opt.tiles {
+    let mut tiles = match opt.tiles {
         TileCount::Tiles(n) => n,
         TileCount::Size(0) => {
             return Err(crate::Error::param("--tile-size", "must be at least 1 point").into())
         }
         TileCount::Size(s) => count.div_ceil(s).max(1) as usize,
+        TileCount::Memory { per_point: 0, .. } => {
+            return Err(crate::Error::param("--point-bytes", "must be at least 1").into())
+        }
+        TileCount::Memory { .. } => 1,
     };
     if !(1..=MAX_TILES).contains(&tiles) {
         let flag = match opt.tiles {
             TileCount::Tiles(_) => "--tiles",
-            TileCount::Size(_) => "--tile-size",
+            _ => "--tile-size",
         };
         return Err(crate::Error::param(
             flag,
@@ -138,12 +242,16 @@ pub fn split(
         )
         .into());
     }
+    let only_p = crate::formats::Select::only(&["P"]);
     let stride = count.div_ceil(SAMPLE).max(1);
     let mut sample = Vec::new();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut seen = 0u64;
     progress.start("split: the box", count);
-    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+    while let Some((el, chunk)) = r
+        .next_chunk_with(CHUNK, &only_p)
+        .map_err(|e| at(e.into()))?
+    {
         if el != v {
             continue;
         }
@@ -162,6 +270,9 @@ pub fn split(
     if seen == 0 {
         (lo, hi) = (DVec3::ZERO, DVec3::ZERO);
     }
+    if let TileCount::Memory { bytes, per_point } = opt.tiles {
+        tiles = tiles_for_memory(&sample, stride, (lo, hi), opt.halo, bytes, per_point)?;
+    }
     let plan = Plan::new(&mut sample, lo, hi, tiles);
     drop(sample);
 
@@ -171,34 +282,15 @@ pub fn split(
     let mut counts = vec![[0u64; 2]; tiles];
     let mut base = 0u64;
     progress.start("split: counting", count);
-    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+    while let Some((el, chunk)) = r
+        .next_chunk_with(CHUNK, &only_p)
+        .map_err(|e| at(e.into()))?
+    {
         if el != v {
             continue;
         }
         let pos = positions(&chunk, base).map_err(at)?;
-        let part = pos
-            .par_chunks(4096)
-            .fold(
-                || vec![[0u64; 2]; tiles],
-                |mut c, ps| {
-                    for &p in ps {
-                        let o = plan.owner(p);
-                        c[o as usize][0] += 1;
-                        plan.halo_of(p, o, h, |t| c[t as usize][1] += 1);
-                    }
-                    c
-                },
-            )
-            .reduce(
-                || vec![[0u64; 2]; tiles],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        x[0] += y[0];
-                        x[1] += y[1];
-                    }
-                    a
-                },
-            );
+        let part = tile_counts(&plan, &pos, h);
         for (x, y) in counts.iter_mut().zip(&part) {
             x[0] += y[0];
             x[1] += y[1];
@@ -314,21 +406,26 @@ pub fn split(
             continue;
         }
         let pos = positions(&chunk, base).map_err(at)?;
-        let assign: Vec<(u32, Vec<u32>)> = pos
+        // Each point's owner, and its halo tiles as (row, tile) in row
+        // order; then each tile's rows in the input's order.
+        let owner: Vec<u32> = pos.par_iter().map(|&p| plan.owner(p)).collect();
+        let halos: Vec<(u32, u32)> = pos
             .par_iter()
-            .map(|&p| {
-                let o = plan.owner(p);
+            .enumerate()
+            .flat_map_iter(|(k, &p)| {
                 let mut hs = Vec::new();
-                plan.halo_of(p, o, h, |t| hs.push(t));
+                plan.halo_of(p, owner[k], h, |t| hs.push((k as u32, t)));
                 hs.sort_unstable();
-                (o, hs)
+                hs
             })
             .collect();
         let mut rows: Vec<Vec<(usize, bool)>> = vec![Vec::new(); tiles];
-        for (k, (o, hs)) in assign.iter().enumerate() {
-            rows[*o as usize].push((k, false));
-            for &t in hs {
-                rows[t as usize].push((k, true));
+        let mut hi = 0;
+        for (k, &o) in owner.iter().enumerate() {
+            rows[o as usize].push((k, false));
+            while hi < halos.len() && halos[hi].0 as usize == k {
+                rows[halos[hi].1 as usize].push((k, true));
+                hi += 1;
             }
         }
         for (t, rs) in rows.iter().enumerate().filter(|(_, rs)| !rs.is_empty()) {

@@ -257,6 +257,19 @@ const TABLE: &[Row] = &[
     row("pcconvert", &["lying.ply", "-o", "@OUT"], 1, "lying.ply"),
     row("pcconvert", &["cloud.ply", "--compression", "bogus", "-o", "@OUT.exr"], 2, "--compression"),
     piped("pcconvert", &["-o", "@OUT"], "zero.ply", 1, "<stdin>"),
+    // pctile (@OUT: split's directory, merge's file)
+    row("pctile", &["split", "trunc.ply", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], 1, "trunc.ply"),
+    row("pctile", &["split", "lying.ply", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], 1, "lying.ply"),
+    row("pctile", &["split", "nan.ply", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], 1, "nan.ply"),
+    row("pctile", &["split", "text.ply", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], 1, "text.ply"),
+    row("pctile", &["split", "cube.obj", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], 1, "cube.obj"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "0", "--halo", "0.1", "-o", "@OUT"], 2, "--tiles"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--halo", "-1", "-o", "@OUT"], 2, "--halo"),
+    row("pctile", &["split", "cloud.ply", "--tile-memory", "1K", "--halo", "0.1", "-o", "@OUT"], 2, "--tile-memory"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd nope", "-o", "@OUT"], 2, "--stage-args"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd 0.5", "--halo", "0.1", "-o", "@OUT"], 2, "--halo"),
+    piped("pctile", &["split", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], "zero.ply", 1, "<stdin>"),
+    row("pctile", &["merge", "nosuch", "-o", "@OUT"], 1, "nosuch/manifest.json"),
     // pcdiff
     row("pcdiff", &["cloud.ply", "cloud.ply", "--only", "nosuch"], 2, "nosuch"),
     row("pcdiff", &["cloud.ply", "cloud.ply", "--tol", "nosuch=1"], 2, "nosuch"),
@@ -368,6 +381,7 @@ fn every_binary_refuses_bad_input_with_one_line_and_leaves_nothing() {
         "pcconvert",
         "pcdiff",
         "pcinfo",
+        "pctile",
     ] {
         assert!(
             per_bin.get(b).copied().unwrap_or(0) >= 4,

@@ -501,6 +501,16 @@ impl<R: BufRead> PlyChunks<R> {
     /// with rows left: its index in the header and the rows. `None` once
     /// every element has been read and nothing follows.
     pub fn next_chunk(&mut self, max: usize) -> Result<Option<(usize, Element)>> {
+        self.next_chunk_with(max, &Select::All)
+    }
+
+    /// [`PlyChunks::next_chunk`], decoding only the `select`ed attributes
+    /// of binary rows (the others stay as the chunk's bytes).
+    pub fn next_chunk_with(
+        &mut self,
+        max: usize,
+        select: &Select,
+    ) -> Result<Option<(usize, Element)>> {
         let max = max.max(1) as u64;
         loop {
             let Some(def) = self.header.elements.get(self.el) else {
@@ -538,7 +548,7 @@ impl<R: BufRead> PlyChunks<R> {
                     &lay,
                     stride,
                     enc == Encoding::BinaryBe,
-                    &Select::All,
+                    select,
                 )?,
                 (enc, _) => read_rows(r, def, rows.clone(), &lay, enc == Encoding::BinaryBe)?,
             };
