@@ -5,8 +5,9 @@
 #                          until the node is idle; prints `export SLURM_CONF=...`
 #   cluster.sh stop DIR    stops them (and is harmless when none runs)
 # Needs root and Debian's slurmctld, slurmd, slurm-client and munge
-# (`make slurm` installs them). Ports: SLURM_TEST_PORT (default 6917) and
-# the next one, so a real cluster's 6817/6818 are left alone.
+# (`make slurm` installs them). Ports: the first free pair from
+# SLURM_TEST_PORT (default 6917) on, so a real cluster's 6817/6818 and
+# another test cluster are left alone.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 cmd=${1:?usage: cluster.sh start|stop DIR}
@@ -41,7 +42,11 @@ start)
     host=$(hostname -s)
     cpus=$(nproc)
     mem=$(( $(awk '/MemTotal/ {print $2}' /proc/meminfo) / 1024 * 9 / 10 ))
+    # The first pair of free ports from SLURM_TEST_PORT on: another
+    # cluster (a second checkout's tests) keeps its own.
     port=${SLURM_TEST_PORT:-6917}
+    busy() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
+    while busy "$port" || busy $((port + 1)); do port=$((port + 2)); done
     sed -e "s|@STATE@|$dir|g" -e "s|@HOST@|$host|g" -e "s|@CPUS@|$cpus|g" \
         -e "s|@MEM@|$mem|g" -e "s|@CTLD_PORT@|$port|g" -e "s|@SLURMD_PORT@|$((port + 1))|g" \
         "$here/slurm.conf.in" > "$conf"
