@@ -43,6 +43,18 @@ fn reduce(vals: &[f64], method: Method, what: &str) -> Result<f64> {
     })
 }
 
+/// A reduction is over the whole cloud: a tile of `pctile split` (part of
+/// the points, and a halo of others' points) is refused.
+fn whole(cloud: &Cloud) -> Result<()> {
+    if cloud.points().has(crate::tiles::HALO) {
+        return Err(Error::invalid(format!(
+            "a tile of pctile split ('{}'): promote reduces the whole cloud; run it before the split or after the merge",
+            crate::tiles::HALO
+        )));
+    }
+    Ok(())
+}
+
 /// Sets detail attribute `as_name` to `method` of `class` attribute `attr`.
 pub fn promote(
     cloud: &mut Cloud,
@@ -55,6 +67,7 @@ pub fn promote(
         Class::Point => POINTS,
         Class::Face => FACES,
     };
+    whole(cloud)?;
     let el = cloud
         .element(el_name)
         .ok_or_else(|| Error::invalid(format!("no {el_name} element to promote from")))?;
@@ -83,6 +96,7 @@ pub fn promote(
 /// afresh; afterwards `Tptarea` is set to the new sum (equal to `Tarea` to
 /// float precision). Returns `(Tarea, Tptarea before)`.
 pub fn normalize(cloud: &mut Cloud) -> Result<(f64, f64)> {
+    whole(cloud)?;
     let tarea = cloud.detail_f64("Tarea").map_err(|_| {
         Error::invalid(
             "missing detail attribute 'Tarea' (run 'measure' and 'promote --class face --attr area --as Tarea' on the mesh before 'scatter')",

@@ -411,6 +411,13 @@ fn a_halo_narrower_than_the_stage_is_refused_naming_both() {
         "{}",
         stderr(&o)
     );
+    // A reduction over the whole cloud refuses a tile.
+    let o = run("promote", &[s(&f), "--attr", "ptarea"], b"");
+    assert!(
+        !o.status.success() && stderr(&o).contains("run it before the split"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
