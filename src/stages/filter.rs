@@ -37,6 +37,9 @@ use crate::maths::smoothstep;
 use crate::progress::Progress;
 use crate::stages::{ssmulti, sssingle};
 
+/// Shade points whose neighbours are held at once.
+const FILTER_CHUNK: usize = 1 << 15;
+
 /// Which cloud points a shade point reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Reach {
@@ -441,20 +444,31 @@ pub fn filter(
     };
     let owns = |i: usize| own.as_ref().is_none_or(|h| h[i] == 0.0);
     let index = CloudIndex::new(cloud, p.facing).map_err(about_cloud)?;
-    progress.start("finding neighbours", sp.len() as u64);
-    let nbs: Vec<Vec<(u32, f64)>> = sp
-        .par_iter()
-        .enumerate()
-        .map(|(i, q)| {
-            if !owns(i) {
-                return Vec::new();
-            }
-            let r = index.neighbours(DVec3::from_array(*q), sn.as_ref().map(|n| n[i]), p.reach);
-            progress.inc(1);
-            r
-        })
+    // Shade points are done a chunk at a time: their neighbour lists
+    // (16 bytes a neighbour) would otherwise all be held at once, 6 GB for
+    // 1M shade points reading 400 each. Lazy sources need to know first
+    // which cloud points any shade point reads: a first pass marks them,
+    // and the neighbours are found again in the second.
+    let lazy = sources.iter().any(|s| !matches!(s, Source::Stored(_)));
+    let chunks: Vec<std::ops::Range<usize>> = (0..sp.len())
+        .step_by(FILTER_CHUNK)
+        .map(|a| a..(a + FILTER_CHUNK).min(sp.len()))
         .collect();
-    progress.finish();
+    let neighbours = |c: &std::ops::Range<usize>| -> Vec<Vec<(u32, f64)>> {
+        let nb: Vec<Vec<(u32, f64)>> = c
+            .clone()
+            .into_par_iter()
+            .map(|i| {
+                if !owns(i) {
+                    return Vec::new();
+                }
+                let q = DVec3::from_array(sp[i]);
+                index.neighbours(q, sn.as_ref().map(|n| n[i]), p.reach)
+            })
+            .collect();
+        progress.inc(c.len() as u64);
+        nb
+    };
     let nc = cloud.len();
     let mut report = Report {
         shade_points: sp.len(),
@@ -462,14 +476,21 @@ pub fn filter(
         ..Report::default()
     };
     let mut want = vec![false; nc];
-    for nb in &nbs {
-        for &(i, _) in nb {
-            want[i as usize] = true;
+    if lazy {
+        progress.start("finding what is read", sp.len() as u64);
+        for c in &chunks {
+            for nb in neighbours(c) {
+                for (i, _) in nb {
+                    want[i as usize] = true;
+                }
+            }
         }
+        progress.finish();
     }
     let read = want.iter().filter(|&&w| w).count();
+    let mut values: Vec<Vec<[f32; 3]>> = Vec::with_capacity(sources.len());
     for source in sources {
-        let values: Vec<[f32; 3]> = match *source {
+        values.push(match *source {
             Source::Stored(name) => cloud.points().vec3_f32(name).map_err(about_cloud)?,
             Source::Multi(sp) => {
                 let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)
@@ -490,26 +511,41 @@ pub fn filter(
                 report.lazy.push(("ssS".into(), read, rep.computed));
                 v
             }
-        };
-        let out: Vec<[f32; 3]> = nbs
-            .par_iter()
-            .map(|nb| average(nb, &values).map_or([0.0; 3], |v| v.map(|x| x as f32)))
-            .collect();
+        });
+    }
+    drop(want);
+    let mut out: Vec<Vec<[f32; 3]>> = vec![Vec::with_capacity(sp.len()); sources.len()];
+    let (mut used, mut receivers) = (0usize, 0usize);
+    progress.start("filtering", sp.len() as u64);
+    for c in &chunks {
+        let nbs = neighbours(c);
+        for (k, v) in values.iter().enumerate() {
+            out[k].par_extend(
+                nbs.par_iter()
+                    .map(|nb| average(nb, v).map_or([0.0; 3], |x| x.map(|y| y as f32))),
+            );
+        }
+        for (j, nb) in nbs.iter().enumerate() {
+            if owns(c.start + j) {
+                receivers += 1;
+                used += nb.len();
+                report.empty += nb.is_empty() as usize;
+            }
+        }
+    }
+    progress.finish();
+    for (source, rows) in sources.iter().zip(&out) {
         let role = cloud
             .points()
             .attr(source.name())
             .and_then(|a| a.role())
             .unwrap_or(Role::Color);
-        shade.points_mut().set_vec3(source.name(), role, &out)?;
+        shade.points_mut().set_vec3(source.name(), role, rows)?;
     }
-    let receivers = (0..nbs.len()).filter(|&i| owns(i)).count();
-    report.empty = (0..nbs.len())
-        .filter(|&i| owns(i) && nbs[i].is_empty())
-        .count();
     report.mean_used = if receivers == 0 {
         0.0
     } else {
-        nbs.iter().map(|nb| nb.len()).sum::<usize>() as f64 / receivers as f64
+        used as f64 / receivers as f64
     };
     Ok(report)
 }

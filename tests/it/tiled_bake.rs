@@ -42,8 +42,8 @@ fn make(out: &Path, target: &str, extra: &[String]) {
         .arg(format!("OUT={}", out.display()))
         .arg(format!("BIN={}", bin.parent().unwrap().display()))
         // Random points and prim areas: the quickest cloud of 1M points;
-        // a filter radius of 0.1 D keeps the untiled filter's neighbour
-        // lists (all held at once) to about 60 a point.
+        // a filter radius of 0.1 D, about 60 neighbours a point, keeps
+        // the filter passes quick.
         .args([
             "COUNT=1000000",
             "BLUE=0",
