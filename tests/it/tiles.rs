@@ -615,3 +615,77 @@ fn an_empty_cloud_and_standard_input_split_and_merge() {
     ok(&o, "merge");
     assert_eq!(o.stdout, cb);
 }
+
+#[test]
+fn a_file_larger_than_the_address_space_splits_and_merges() {
+    // 24M points of x y z (288 MB) under a 256 MiB address-space limit:
+    // split and merge stream it, never hold it.
+    let d = tempdir();
+    let input = d.path().join("big.ply");
+    let n: u64 = 24 << 20;
+    {
+        use std::io::Write;
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&input).unwrap());
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+        )
+        .unwrap();
+        let mut row = Vec::with_capacity(12 << 16);
+        for i in 0..n {
+            // A lattice folded over the unit square, z a ripple.
+            let (x, y) = ((i % 4096) as f32 / 4096.0, (i / 4096) as f32 / 6144.0);
+            for v in [x, y, (x * 40.0).sin() * 0.01] {
+                row.extend_from_slice(&v.to_le_bytes());
+            }
+            if row.len() >= 12 << 16 {
+                w.write_all(&row).unwrap();
+                row.clear();
+            }
+        }
+        w.write_all(&row).unwrap();
+    }
+    let limited = |args: &str| {
+        let o = std::process::Command::new("bash")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 262144; exec {} -q {args}",
+                bin("pctile").display()
+            ))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "pctile {args}: {}", stderr(&o));
+    };
+    let dir = d.path().join("t");
+    limited(&format!(
+        "split {} --tiles 6 --halo 0.001 -o {}",
+        s(&input),
+        s(&dir)
+    ));
+    let m = Manifest::read(&dir).unwrap();
+    assert_eq!(m.points, n);
+    assert!(m.tiles.iter().all(|t| t.halo > 0));
+    let out = d.path().join("m.ply");
+    limited(&format!("merge {} -o {}", s(&dir), s(&out)));
+    // The same bytes, compared a block at a time.
+    use std::io::Read;
+    let (mut a, mut b) = (
+        std::fs::File::open(&input).unwrap(),
+        std::fs::File::open(&out).unwrap(),
+    );
+    let (mut x, mut y) = (vec![0u8; 1 << 20], vec![0u8; 1 << 20]);
+    loop {
+        let k = a.read(&mut x).unwrap();
+        let mut got = 0;
+        while got < k {
+            let r = b.read(&mut y[got..k]).unwrap();
+            assert!(r > 0, "merged file shorter");
+            got += r;
+        }
+        assert!(x[..k] == y[..k], "merged bytes differ");
+        if k == 0 {
+            assert_eq!(b.read(&mut y).unwrap(), 0, "merged file longer");
+            break;
+        }
+    }
+}
