@@ -7,32 +7,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use pcsss::formats::{self, Select};
-use pcsss::Cloud;
-
+use crate::tiles::{read, worst};
 use crate::util::*;
-
-fn read(p: &Path) -> Cloud {
-    formats::read_cloud_file(p, &Select::All).expect("reads")
-}
-
-/// |a - b| over max(|b|, the channel's mean |b|): the exact method's own
-/// measure against its f64 double loop (tests/it/ssmulti/exact.rs).
-fn worst(a: &Cloud, b: &Cloud, attr: &str) -> f64 {
-    let (x, y) = (
-        a.points().vec3_f64(attr).unwrap(),
-        b.points().vec3_f64(attr).unwrap(),
-    );
-    assert_eq!(x.len(), y.len());
-    let mut w: f64 = 0.0;
-    for ch in 0..3 {
-        let mean = y.iter().map(|v| v[ch].abs()).sum::<f64>() / y.len() as f64;
-        for (u, v) in x.iter().zip(&y) {
-            w = w.max((u[ch] - v[ch]).abs() / v[ch].abs().max(mean).max(1e-30));
-        }
-    }
-    w
-}
 
 fn make(out: &Path, target: &str, extra: &[String]) {
     let bin = bin("pctile");

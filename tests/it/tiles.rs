@@ -16,7 +16,7 @@ fn ok(o: &std::process::Output, what: &str) {
     assert!(o.status.success(), "{what}: {}", stderr(o));
 }
 
-fn read(p: &Path) -> Cloud {
+pub(crate) fn read(p: &Path) -> Cloud {
     formats::read_cloud_file(p, &Select::All).expect("reads")
 }
 
@@ -127,8 +127,9 @@ fn halos_hold_exactly_the_points_within_reach_and_tiles_balance() {
 }
 
 /// |a - b| over max(|b|, the channel's mean |b|), the measure of the
-/// exact method's own test against its f64 double loop.
-fn worst(a: &Cloud, b: &Cloud, attr: &str) -> f64 {
+/// exact method's own test against its f64 double loop
+/// (tests/it/ssmulti/exact.rs).
+pub(crate) fn worst(a: &Cloud, b: &Cloud, attr: &str) -> f64 {
     let (x, y) = (
         a.points().vec3_f64(attr).unwrap(),
         b.points().vec3_f64(attr).unwrap(),
