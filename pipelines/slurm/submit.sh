@@ -29,5 +29,15 @@ array=$(sbatch --parsable --job-name=pcsss-tiles --array=0-$((n - 1)) \
     --output="$odir/slurm-%A_%a.log" --wrap "$task")
 merge=$(printf '%q ' "$BIN/pctile" -q merge "$tdir" --from "$odir" -o "$merged")
 echo "tiles: job array $array ($n tasks)"
-sbatch --parsable --job-name=pcsss-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes \
-    --output="$odir/slurm-merge-%j.log" "${wait[@]}" --wrap "$merge" | sed 's/^/merge: job /'
+# (With --wait, sbatch returns 0 for a merge cancelled by a failed tile:
+# its state says what happened.)
+job=$(sbatch --parsable --job-name=pcsss-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes \
+    --output="$odir/slurm-merge-%j.log" "${wait[@]}" --wrap "$merge") || status=$?
+echo "merge: job ${job:-?}"
+if (( ${#wait[@]} )); then
+    state=$(scontrol show job "$job" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' | cut -d= -f2 || true)
+    if [[ ${status:-0} != 0 || $state != COMPLETED ]]; then
+        echo "submit.sh: the merge job $job ended ${state:-unknown}: a tile failed or was cancelled (logs: $odir/slurm-*.log)" >&2
+        exit 1
+    fi
+fi

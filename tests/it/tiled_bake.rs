@@ -83,6 +83,38 @@ fn tiled_bake_of_a_million_points_equals_the_untiled_bake_on_every_engine() {
                 })
                 .count();
             assert_eq!(logs, 17, "16 array tasks and the merge ran under Slurm");
+            // A tile that fails cancels the merge: submit.sh says so.
+            let small = out.join("small");
+            let o = crate::util::run(
+                "pctile",
+                &[
+                    "split",
+                    out.join("bunny_illum.ply").to_str().unwrap(),
+                    "--tiles",
+                    "2",
+                    "--halo",
+                    "0.1",
+                    "-o",
+                    small.to_str().unwrap(),
+                ],
+                b"",
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/slurm/submit.sh");
+            let o = Command::new(script)
+                .env("BIN", bin("pctile").parent().unwrap())
+                .args([
+                    "--wait",
+                    small.to_str().unwrap(),
+                    out.join("small_out").to_str().unwrap(),
+                ])
+                .arg(out.join("never.ply"))
+                .args(["ssmulti", "--sd", "-1"])
+                .output()
+                .unwrap();
+            assert!(!o.status.success(), "a failed tile fails the submission");
+            assert!(stderr(&o).contains("ended CANCELLED"), "{}", stderr(&o));
+            assert!(!out.join("never.ply").exists());
         }
         _ => interop_missing::<()>("a Slurm cluster (SLURM_CONF; make test starts one)")
             .unwrap_or(()),
