@@ -177,7 +177,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                         .into())
                     }
                     (Some(h), _) => h,
-                    (None, Some(f)) => f.reach,
+                    (None, Some(f)) => f.reach * (1.0 + reach::MARGIN),
                     (None, None) => unreachable!("clap requires --halo or --for"),
                 };
                 let tiles = match (n, tile_size, tile_memory) {

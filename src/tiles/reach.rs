@@ -8,6 +8,12 @@ use crate::cli::args::SsArgs;
 use crate::cloud::{Cloud, Detail};
 use crate::stages::{filter, ssmulti};
 
+/// What `--for` adds to a stage's reach, relatively: the stages compare
+/// distances in f32 relative to their leaves (1.2e-7 of a leaf's size),
+/// so a source at the reach to f64 may be inside it to the stage; with
+/// the exp and Burley falloffs, truncated with a step, it would count.
+pub const MARGIN: f64 = 1e-5;
+
 /// The stages `--for` knows.
 pub const STAGES: &str = "ssmulti, filter, sssingle, illum";
 

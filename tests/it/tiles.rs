@@ -195,8 +195,8 @@ fn tiled_ssmulti_and_filter_equal_the_untiled_bake() {
     );
     let m = Manifest::read(&dir).unwrap();
     assert!(
-        (m.halo - 0.27).abs() < 1e-12,
-        "the halo is ssmulti's reach: {}",
+        (m.halo - 0.27 * (1.0 + 1e-5)).abs() < 1e-12,
+        "the halo is ssmulti's reach and its margin: {}",
         m.halo
     );
     let tiled = d.path().join("tiled.ply");
@@ -263,7 +263,11 @@ fn tiled_ssmulti_and_filter_equal_the_untiled_bake() {
         "split for filter",
     );
     let m2 = Manifest::read(&dir2).unwrap();
-    assert!((m2.halo - 0.25 * 0.27).abs() < 1e-12, "{}", m2.halo);
+    assert!(
+        (m2.halo - 0.25 * 0.27 * (1.0 + 1e-5)).abs() < 1e-12,
+        "{}",
+        m2.halo
+    );
     let ft = d.path().join("ft.ply");
     bake_tiles(
         &dir2,
@@ -687,6 +691,84 @@ fn a_file_larger_than_the_address_space_splits_and_merges() {
         if k == 0 {
             assert_eq!(b.read(&mut y).unwrap(), 0, "merged file longer");
             break;
+        }
+    }
+}
+
+#[test]
+fn tiled_ssmulti_equals_the_untiled_for_every_falloff_and_normalisation() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    write(&input, &sheet(30000));
+    for (k, extra) in [
+        &["--falloff", "exp"][..],
+        &["--falloff", "burley", "--rgb"],
+        &["--norm", "local", "--bounce", "0.5"],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let mut ss = vec!["--sd", "0.3", "--rd", "0.9,0.5,0.3"];
+        ss.extend_from_slice(extra);
+        let whole = d.path().join(format!("whole{k}.ply"));
+        let mut a = vec![s(&input), "-q", "-o", s(&whole)];
+        a.extend_from_slice(&ss);
+        ok(&run("ssmulti", &a, b""), "ssmulti");
+        let dir = d.path().join(format!("t{k}"));
+        ok(
+            &split(
+                &input,
+                &dir,
+                &[
+                    "--tiles",
+                    "8",
+                    "--for",
+                    "ssmulti",
+                    "--stage-args",
+                    &ss.join(" "),
+                ],
+            ),
+            "split",
+        );
+        let tiled = d.path().join(format!("tiled{k}.ply"));
+        bake_tiles(
+            &dir,
+            &d.path().join(format!("o{k}")),
+            &tiled,
+            "ssmulti",
+            &ss,
+        );
+        let (t, w) = (read(&tiled), read(&whole));
+        let e = worst(&t, &w, "ssM");
+        // exp and Burley stop with a step at their reach: a source whose
+        // f32 distance rounds to either side of it counts in one grouping
+        // of leaves and not in another, a jump of e^-sigma of its weight
+        // (the exact method against its f64 loop has the same
+        // ambiguity). Such points are few; every other is within the
+        // exact method's accuracy.
+        let (x, y) = (
+            t.points().vec3_f64("ssM").unwrap(),
+            w.points().vec3_f64("ssM").unwrap(),
+        );
+        let mean: Vec<f64> = (0..3)
+            .map(|c| y.iter().map(|v| v[c].abs()).sum::<f64>() / y.len() as f64)
+            .collect();
+        let off = x
+            .iter()
+            .zip(&y)
+            .filter(|(u, v)| (0..3).any(|c| (u[c] - v[c]).abs() > 2e-6 * v[c].abs().max(mean[c])))
+            .count();
+        eprintln!(
+            "{extra:?}: worst difference {e:e}, {off} of {} points past 2e-6",
+            x.len()
+        );
+        if extra.contains(&"exp") || extra.contains(&"burley") {
+            assert!(
+                off * 5000 <= x.len() && e < 2e-3,
+                "{extra:?}: {off} points, worst {e}"
+            );
+        } else {
+            assert!(e < 1e-6, "{extra:?}: {e}");
         }
     }
 }
