@@ -29,6 +29,8 @@ enum Cmd {
     /// tile_NNNN.ply, manifest.json, rest.ply (elements other than
     /// vertex). The input is streamed, never loaded whole.
     Split {
+        /// The cloud: PLY of any encoding; standard input when absent or
+        /// '-' (spooled to DIR: it is read three times).
         #[arg(value_name = "IN")]
         input: Option<PathBuf>,
         /// The directory to write the tiles to (made if missing).
@@ -64,8 +66,9 @@ enum Cmd {
         )]
         halo: Option<f64>,
         /// Compute the halo from this stage's reach (ssmulti, filter,
-        /// sssingle, illum) with --stage-args; with --halo too, the halo is
-        /// checked to be wide enough.
+        /// sssingle, illum) with --stage-args, plus 1e-5 of it for the
+        /// stages' float rounding; with --halo too, the halo is checked to
+        /// be wide enough.
         #[arg(long = "for", value_name = "STAGE")]
         for_stage: Option<String>,
         /// The stage's arguments, as one string ("--sd 0.6 --rd 0.9,0.5,0.3").
