@@ -175,3 +175,65 @@ fn large_binary_crosses_chunk_boundaries() {
         assert_eq!(r.points().scalar_f64("id").unwrap()[n - 1], (n - 1) as f64);
     }
 }
+
+/// `PlyChunks` (the streaming reader `pctile` uses) against the whole
+/// reader: for every encoding and chunk size, the chunks of each element
+/// put together are the element read whole, and a body cut short fails
+/// as truncated at the same row.
+#[test]
+fn chunked_reading_equals_whole_reading() {
+    use pcsss::formats::ply::read::PlyChunks;
+    use pcsss::Element;
+    let c = every_type_cloud();
+    for f in [LE, BE, ASCII] {
+        let bytes = to_bytes(&c, f);
+        let whole = from_bytes(&bytes);
+        for max in [1, 2, 5, 1 << 16] {
+            let mut r = PlyChunks::new(&bytes[..]).unwrap();
+            let mut parts: Vec<Vec<Element>> = vec![Vec::new(); whole.elements.len()];
+            while let Some((el, chunk)) = r.next_chunk(max).unwrap() {
+                assert!(chunk.len() <= max || chunk.attrs().is_empty());
+                parts[el].push(chunk);
+            }
+            for (e, ps) in whole.elements.iter().zip(&parts) {
+                if e.attrs().is_empty() {
+                    assert_eq!(ps.iter().map(|p| p.len()).sum::<usize>(), e.len());
+                    continue;
+                }
+                let refs: Vec<&Element> = ps.iter().collect();
+                let idx: Vec<(u32, u32)> = ps
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(k, p)| (0..p.len() as u32).map(move |i| (k as u32, i)))
+                    .collect();
+                let joined = Element::gather_from(&refs, &idx);
+                let mut a = pcsss::Cloud::default();
+                a.elements.push(e.clone());
+                let mut b = pcsss::Cloud::default();
+                b.elements.push(joined);
+                assert_same_values(&a, &b);
+            }
+        }
+        // Cut short: the same outcome as the whole reader's (an ASCII
+        // body without its last line break is still whole).
+        let head = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
+        for cut in [head + 1, head + (bytes.len() - head) / 2, bytes.len() - 1] {
+            let want = formats::read_cloud(&bytes[..cut], &formats::Select::All)
+                .map(|_| ())
+                .map_err(|e| e.to_string());
+            let mut r = PlyChunks::new(&bytes[..cut]).unwrap();
+            let got = loop {
+                match r.next_chunk(3) {
+                    Ok(Some(_)) => continue,
+                    Ok(None) => break Ok(()),
+                    Err(e) => break Err(e.to_string()),
+                }
+            };
+            assert_eq!(got, want, "cut at {cut}");
+        }
+    }
+}
