@@ -3,7 +3,7 @@
 //! every bad input is refused with a line naming it.
 
 use std::collections::HashSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use pcsss::formats::{self, Select};
@@ -167,40 +167,49 @@ fn bake_tiles(dir: &Path, out: &Path, merged: &Path, stage: &str, args: &[&str])
     ok(&run("pctile", &a, b""), "merge");
 }
 
+/// ssmulti `ss` on `input` whole, and on `tiles` tiles split for it
+/// (`--for ssmulti`), baked and merged, in `dir` under `name`: the whole
+/// result, the merged one and the split's directory.
+fn whole_and_tiled(
+    dir: &Path,
+    name: &str,
+    input: &Path,
+    ss: &[&str],
+    tiles: usize,
+) -> (PathBuf, PathBuf, PathBuf) {
+    let whole = dir.join(format!("{name}_whole.ply"));
+    let mut a = vec![s(input), "-q", "-o", s(&whole)];
+    a.extend_from_slice(ss);
+    ok(&run("ssmulti", &a, b""), "ssmulti");
+    let tdir = dir.join(format!("{name}_tiles"));
+    let n = tiles.to_string();
+    let args = ss.join(" ");
+    let split_args = ["--tiles", &n, "--for", "ssmulti", "--stage-args", &args];
+    ok(&split(input, &tdir, &split_args), "split");
+    let tiled = dir.join(format!("{name}_tiled.ply"));
+    bake_tiles(
+        &tdir,
+        &dir.join(format!("{name}_out")),
+        &tiled,
+        "ssmulti",
+        ss,
+    );
+    (whole, tiled, tdir)
+}
+
 #[test]
 fn tiled_ssmulti_and_filter_equal_the_untiled_bake() {
     let d = tempdir();
     let input = d.path().join("in.ply");
     write(&input, &sheet(60000));
     let ss = ["--sd", "0.3", "--rd", "0.9,0.5,0.3", "--rgb"];
-    let whole = d.path().join("whole.ply");
-    let mut a = vec![s(&input), "-q", "-o", s(&whole)];
-    a.extend_from_slice(&ss);
-    ok(&run("ssmulti", &a, b""), "ssmulti");
-    let dir = d.path().join("t");
-    ok(
-        &split(
-            &input,
-            &dir,
-            &[
-                "--tiles",
-                "16",
-                "--for",
-                "ssmulti",
-                "--stage-args",
-                &ss.join(" "),
-            ],
-        ),
-        "split",
-    );
+    let (whole, tiled, dir) = whole_and_tiled(d.path(), "ss", &input, &ss, 16);
     let m = Manifest::read(&dir).unwrap();
     assert!(
         (m.halo - 0.27 * (1.0 + 1e-5)).abs() < 1e-12,
         "the halo is ssmulti's reach and its margin: {}",
         m.halo
     );
-    let tiled = d.path().join("tiled.ply");
-    bake_tiles(&dir, &d.path().join("o"), &tiled, "ssmulti", &ss);
     let (w, t) = (read(&whole), read(&tiled));
     let e = worst(&t, &w, "ssM");
     eprintln!("tiled ssmulti: worst difference {e:e} (relative, small values against the mean)");
@@ -287,32 +296,11 @@ fn tiled_approximate_ssmulti_stays_within_its_documented_error() {
     let input = d.path().join("in.ply");
     write(&input, &sheet(40000));
     let ss = ["--sd", "0.3", "--rd", "0.9,0.5,0.3", "--tolerance", "0.1"];
-    let whole = d.path().join("whole.ply");
-    let mut a = vec![s(&input), "-q", "-o", s(&whole)];
-    a.extend_from_slice(&ss);
-    ok(&run("ssmulti", &a, b""), "ssmulti");
+    let (whole, tiled, _) = whole_and_tiled(d.path(), "approx", &input, &ss, 8);
     let exact = d.path().join("exact.ply");
     let mut a = vec![s(&input), "-q", "-o", s(&exact)];
     a.extend_from_slice(&ss[..4]);
     ok(&run("ssmulti", &a, b""), "ssmulti exact");
-    let dir = d.path().join("t");
-    ok(
-        &split(
-            &input,
-            &dir,
-            &[
-                "--tiles",
-                "8",
-                "--for",
-                "ssmulti",
-                "--stage-args",
-                &ss.join(" "),
-            ],
-        ),
-        "split",
-    );
-    let tiled = d.path().join("tiled.ply");
-    bake_tiles(&dir, &d.path().join("o"), &tiled, "ssmulti", &ss);
     // RMS relative to the exact values: the README's 5e-5 to 1e-3 at 0.1,
     // for the tiled result as for the untiled one.
     let rms = |c: &Cloud| {
@@ -710,34 +698,7 @@ fn tiled_ssmulti_equals_the_untiled_for_every_falloff_and_normalisation() {
     {
         let mut ss = vec!["--sd", "0.3", "--rd", "0.9,0.5,0.3"];
         ss.extend_from_slice(extra);
-        let whole = d.path().join(format!("whole{k}.ply"));
-        let mut a = vec![s(&input), "-q", "-o", s(&whole)];
-        a.extend_from_slice(&ss);
-        ok(&run("ssmulti", &a, b""), "ssmulti");
-        let dir = d.path().join(format!("t{k}"));
-        ok(
-            &split(
-                &input,
-                &dir,
-                &[
-                    "--tiles",
-                    "8",
-                    "--for",
-                    "ssmulti",
-                    "--stage-args",
-                    &ss.join(" "),
-                ],
-            ),
-            "split",
-        );
-        let tiled = d.path().join(format!("tiled{k}.ply"));
-        bake_tiles(
-            &dir,
-            &d.path().join(format!("o{k}")),
-            &tiled,
-            "ssmulti",
-            &ss,
-        );
+        let (whole, tiled, _) = whole_and_tiled(d.path(), &format!("f{k}"), &input, &ss, 8);
         let (t, w) = (read(&tiled), read(&whole));
         let e = worst(&t, &w, "ssM");
         // exp and Burley stop with a step at their reach: a source whose
