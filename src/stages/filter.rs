@@ -438,11 +438,8 @@ pub fn filter(
         "filter's reach (radius, plus ssmulti's when computed lazily)",
     )
     .map_err(about_cloud)?;
-    let own = match shade.points().has(crate::tiles::HALO) {
-        true => Some(shade.points().scalar_f64(crate::tiles::HALO)?),
-        false => None,
-    };
-    let owns = |i: usize| own.as_ref().is_none_or(|h| h[i] == 0.0);
+    let own = crate::tiles::owned(shade)?;
+    let owns = |i: usize| own.as_ref().is_none_or(|o| o[i]);
     let index = CloudIndex::new(cloud, p.facing).map_err(about_cloud)?;
     // Shade points are done a chunk at a time: their neighbour lists
     // (16 bytes a neighbour) would otherwise all be held at once, 6 GB for

@@ -318,6 +318,16 @@ pub fn halo_mask(cloud: &Cloud, reach: Option<f64>, what: &str) -> Result<Option
         }
         _ => {}
     }
+    owned(cloud)
+}
+
+/// Which points of a tile it owns (`pctile_halo` 0), or `None` for a
+/// cloud that is not a tile.
+pub fn owned(cloud: &Cloud) -> Result<Option<Vec<bool>>> {
+    let pts = cloud.points();
+    if !pts.has(HALO) {
+        return Ok(None);
+    }
     let col = pts.scalar_column(HALO)?.column();
     Ok(Some(match col.as_slice::<u8>() {
         Some(h) => h.iter().map(|&h| h == 0).collect(),
