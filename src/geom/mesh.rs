@@ -231,54 +231,99 @@ impl Adjacency {
     /// The adjacency of `mesh`'s triangles.
     pub fn new(mesh: &TriMesh) -> Adjacency {
         use rayon::prelude::*;
-        // One id per distinct position.
-        let mut by_pos: Vec<u32> = (0..mesh.positions.len() as u32).collect();
-        let bits = |v: u32| {
-            mesh.positions[v as usize]
-                .to_array()
-                .map(|x| (x + 0.0).to_bits())
-        };
-        by_pos.par_sort_unstable_by_key(|&v| (bits(v), v));
+        // One id per distinct position: positions sorted by their bits.
+        let mut by_pos: Vec<([u64; 3], u32)> = mesh
+            .positions
+            .par_iter()
+            .enumerate()
+            .map(|(v, p)| (p.to_array().map(|x| (x + 0.0).to_bits()), v as u32))
+            .collect();
+        by_pos.par_sort_unstable();
         let mut weld = vec![0u32; mesh.positions.len()];
         let mut id = 0u32;
-        for (k, &v) in by_pos.iter().enumerate() {
-            if k > 0 && bits(v) != bits(by_pos[k - 1]) {
+        for (k, &(bits, v)) in by_pos.iter().enumerate() {
+            if k > 0 && bits != by_pos[k - 1].0 {
                 id += 1;
             }
             weld[v as usize] = id;
         }
-        // Every edge as (low vertex, high vertex, triangle * 3 + corner),
-        // sorted: the triangles sharing an edge sit together.
-        // Triangles of no area are left out: a walk never enters one.
-        let mut edges: Vec<(u32, u32, u32)> = (0..mesh.tris.len())
+        drop(by_pos);
+        // Each triangle's welded corners; triangles of no area are left
+        // out (a walk never enters one).
+        let corners: Vec<Option<[u32; 3]>> = (0..mesh.tris.len())
             .into_par_iter()
-            .filter(|&t| {
+            .map(|t| {
                 let [a, b, c] = mesh.tri(t);
-                geom::tri_cross(a, b, c) != DVec3::ZERO
-            })
-            .flat_map_iter(|t| {
-                let v = mesh.tris[t].map(|c| weld[mesh.vertex(c)]);
-                (0..3).map(move |k| {
-                    let (a, b) = (v[(k + 1) % 3], v[(k + 2) % 3]);
-                    (a.min(b), a.max(b), (t * 3 + k) as u32)
-                })
+                (geom::tri_cross(a, b, c) != DVec3::ZERO)
+                    .then(|| mesh.tris[t].map(|c| weld[mesh.vertex(c)]))
             })
             .collect();
-        edges.par_sort_unstable();
+        // Every edge as (high vertex, triangle * 3 + corner) in the bucket
+        // of its low vertex, in triangle order (a counting sort): the
+        // triangles sharing an edge sit in one small bucket.
+        let edge = |v: &[u32; 3], k: usize| {
+            let (a, b) = (v[(k + 1) % 3], v[(k + 2) % 3]);
+            (a.min(b), a.max(b))
+        };
+        let mut start = vec![0u32; id as usize + 2];
+        for v in corners.iter().flatten() {
+            for k in 0..3 {
+                start[edge(v, k).0 as usize + 1] += 1;
+            }
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut at = start.clone();
+        let mut bucket = vec![0u64; *start.last().expect("not empty") as usize];
+        for (t, v) in corners.iter().enumerate() {
+            if let Some(v) = v {
+                for k in 0..3 {
+                    let (a, b) = edge(v, k);
+                    bucket[at[a as usize] as usize] = (b as u64) << 32 | (t * 3 + k) as u64;
+                    at[a as usize] += 1;
+                }
+            }
+        }
+        drop(at);
+        // Each bucket sorted, so the triangles of an edge follow each
+        // other (a vertex shared by a million triangles costs a sort, not
+        // a million squared).
+        let mut rest: &mut [u64] = &mut bucket;
+        let mut runs: Vec<&mut [u64]> = Vec::with_capacity(start.len());
+        for w in start.windows(2) {
+            let (run, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+            runs.push(run);
+            rest = tail;
+        }
+        // An edge with exactly two triangles links them; a degenerate edge
+        // (both ends at one position) leads nowhere.
+        let links: Vec<(u32, u32)> = runs
+            .into_par_iter()
+            .enumerate()
+            .flat_map_iter(|(a, run)| {
+                run.sort_unstable();
+                let mut out = Vec::new();
+                let mut i = 0;
+                while i < run.len() {
+                    let hi = run[i] >> 32;
+                    let mut j = i + 1;
+                    while j < run.len() && run[j] >> 32 == hi {
+                        j += 1;
+                    }
+                    if j - i == 2 && hi as usize != a {
+                        out.push((run[i] as u32, run[i + 1] as u32));
+                    }
+                    i = j;
+                }
+                out
+            })
+            .collect();
         let mut adj = vec![[NO_TRIANGLE; 3]; mesh.tris.len()];
-        let mut i = 0;
-        while i < edges.len() {
-            let mut j = i + 1;
-            while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
-                j += 1;
-            }
-            // A degenerate edge (both ends at one position) leads nowhere.
-            if j - i == 2 && edges[i].0 != edges[i].1 {
-                let (e, f) = (edges[i].2 as usize, edges[i + 1].2 as usize);
-                adj[e / 3][e % 3] = (f / 3) as u32;
-                adj[f / 3][f % 3] = (e / 3) as u32;
-            }
-            i = j;
+        for (e, f) in links {
+            let (e, f) = (e as usize, f as usize);
+            adj[e / 3][e % 3] = (f / 3) as u32;
+            adj[f / 3][f % 3] = (e / 3) as u32;
         }
         Adjacency { adj }
     }
@@ -359,5 +404,107 @@ impl<'a> ClosestPoint<'a> {
             .closest_point(self.mesh, p)
             .expect("a BVH with triangles has a closest one");
         Hit { tri, bary, dist }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::RngCore;
+    use rand_pcg::Pcg32;
+
+    /// A mesh of triangles over `positions`, each its own polygon.
+    fn mesh(positions: Vec<DVec3>, tris: &[[u32; 3]]) -> TriMesh {
+        let indices: Vec<u32> = tris.iter().flatten().copied().collect();
+        TriMesh {
+            positions,
+            polys: Polygons {
+                offsets: (0..=tris.len()).map(|f| 3 * f).collect(),
+                indices,
+            },
+            tris: (0..tris.len() as u32)
+                .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+                .collect(),
+            face_tris: (0..=tris.len() as u32).collect(),
+        }
+    }
+
+    /// Adjacency by its definition, pair by pair: the triangle across the
+    /// edge opposite corner `k` is the other one of exactly two triangles
+    /// of area that have an edge between the same two positions (not one
+    /// position twice).
+    fn brute(m: &TriMesh) -> Vec<[u32; 3]> {
+        let area = |t: usize| {
+            let [a, b, c] = m.tri(t);
+            geom::tri_cross(a, b, c) != DVec3::ZERO
+        };
+        let at = |t: usize, k: usize| m.positions[m.vertex(m.tris[t][k])].to_array();
+        let ends = |t: usize, k: usize| {
+            let (a, b) = (at(t, (k + 1) % 3), at(t, (k + 2) % 3));
+            let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+            let (a, b) = (key(a), key(b));
+            (a.min(b), a.max(b))
+        };
+        (0..m.tris.len())
+            .map(|t| {
+                std::array::from_fn(|k| {
+                    let e = ends(t, k);
+                    if !area(t) || e.0 == e.1 {
+                        return NO_TRIANGLE;
+                    }
+                    let sharing: Vec<usize> = (0..m.tris.len())
+                        .filter(|&u| area(u))
+                        .flat_map(|u| (0..3).map(move |j| (u, j)))
+                        .filter(|&(u, j)| ends(u, j) == e)
+                        .map(|(u, _)| u)
+                        .collect();
+                    match sharing[..] {
+                        [a, b] if a == t => b as u32,
+                        [a, b] if b == t => a as u32,
+                        _ => NO_TRIANGLE,
+                    }
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn adjacency_is_what_its_definition_says() {
+        // A grid of squares split in two, with every position written
+        // twice (seams between unwelded copies), a fin of three triangles
+        // on one edge, a triangle of no area and one with two corners at
+        // one position.
+        let mut g = Pcg32::new(3, 9);
+        let side = 7u32;
+        let mut pos = Vec::new();
+        for i in 0..side {
+            for j in 0..side {
+                let z = (g.next_u32() % 5) as f64 * 0.1;
+                pos.push(DVec3::new(i as f64, j as f64, z));
+            }
+        }
+        let copies = pos.len() as u32;
+        pos.extend(pos.clone());
+        let mut tris = Vec::new();
+        for i in 0..side - 1 {
+            for j in 0..side - 1 {
+                let mut v = |a: u32, b: u32| (i + a) * side + j + b + copies * (g.next_u32() % 2);
+                tris.push([v(0, 0), v(1, 0), v(1, 1)]);
+                tris.push([v(0, 0), v(1, 1), v(0, 1)]);
+            }
+        }
+        pos.push(DVec3::new(0.5, 0.5, 3.0));
+        let apex = pos.len() as u32 - 1;
+        tris.push([0, side + 1, apex]);
+        tris.push([0, 1, 2]);
+        tris.push([0, 0, side]);
+        let m = mesh(pos, &tris);
+        let adj = Adjacency::new(&m);
+        let want = brute(&m);
+        let linked = want.iter().flatten().filter(|&&t| t != NO_TRIANGLE).count();
+        assert!(linked > 100, "the mesh is mostly connected ({linked})");
+        for (t, w) in want.iter().enumerate() {
+            assert_eq!(adj.of(t), *w, "triangle {t}");
+        }
     }
 }
