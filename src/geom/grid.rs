@@ -241,8 +241,11 @@ impl PointGrid {
     /// keeps where each neighbour was found (start with `Cursor::new`):
     /// cells visited in order find their neighbours a few keys from the
     /// last ones, where a hash table's slot would be a cache miss.
-    fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
-        let at = coords(self.keys[c]);
+    /// With `forward`, the cells before `c` in grid order are left empty:
+    /// a forward scan never reads them, and half the searches are saved.
+    fn runs27(&self, c: usize, forward: bool, cursor: &mut Cursor) -> [Range<usize>; 27] {
+        let own = self.keys[c];
+        let at = coords(own);
         let top = (1u64 << BITS) - 1;
         let cur = &mut cursor.0;
         std::array::from_fn(|k| {
@@ -255,8 +258,12 @@ impl PointGrid {
                 }
                 q[a] = x - 1;
             }
+            let kq = key(q);
+            if forward && kq < own {
+                return 0..0;
+            }
             let from = if cur[k] == usize::MAX { c } else { cur[k] };
-            match self.find_from(from, key(q)) {
+            match self.find_from(from, kq) {
                 Ok(i) => {
                     cur[k] = i;
                     self.cell_points(i)
@@ -445,7 +452,7 @@ impl PointGrid {
         let half = 0.5 * self.cell;
         let mut cursor = Cursor::new();
         for c in cs {
-            let runs = self.runs27(c, &mut cursor);
+            let runs = self.runs27(c, forward, &mut cursor);
             let mid = self.cell_corner(c) + half;
             for s in self.cell_points(c) {
                 let q = self.rel[s];

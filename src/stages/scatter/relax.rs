@@ -47,9 +47,11 @@ const GAIN: f64 = 0.5;
 /// The longest step, in spacings.
 const MAX_STEP: f64 = 0.5;
 /// The Verlet lists' skin, in spacings: relaxation moves points up to
-/// half a spacing a round, so its lists last a round or two whatever the
-/// skin; separation moves them a few hundredths, and a wider skin lets
-/// its lists last several rounds.
+/// half a spacing a round, so its lists seldom outlast a round and have
+/// none, but the last round's, which the separation rounds go on with
+/// (their reach is shorter: 0.8 spacings and this skin leave them 0.5 of
+/// slack); separation moves points a few hundredths, and a wider skin
+/// lets its lists last several rounds.
 const SKIN: f64 = 0.3;
 const SEPARATE_SKIN: f64 = 0.5;
 /// A separation round moves each point of a close pair this part of the
@@ -218,7 +220,12 @@ fn polish_with(
         };
     for round in 0..relax {
         let reach = REACH * d;
-        refresh(&mut list, samples, reach, SKIN * d);
+        let skin = if round + 1 == relax && separate > 0 {
+            SKIN
+        } else {
+            0.0
+        };
+        refresh(&mut list, samples, reach, skin * d);
         ph.mark("relax lists");
         let l = &list.as_ref().expect("made above").0;
         let cur: &[Sample] = samples;
