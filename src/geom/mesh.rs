@@ -225,6 +225,9 @@ pub const NO_TRIANGLE: u32 = u32::MAX;
 /// are nobody's.
 pub struct Adjacency {
     adj: Vec<[u32; 3]>,
+    /// Each triangle's corner positions, copied: a walk reads one
+    /// triangle's 72 bytes where `TriMesh::tri` follows three indices.
+    tri: Vec<[DVec3; 3]>,
 }
 
 impl Adjacency {
@@ -248,12 +251,16 @@ impl Adjacency {
             weld[v as usize] = id;
         }
         drop(by_pos);
+        let tri: Vec<[DVec3; 3]> = (0..mesh.tris.len())
+            .into_par_iter()
+            .map(|t| mesh.tri(t))
+            .collect();
         // Each triangle's welded corners; triangles of no area are left
         // out (a walk never enters one).
         let corners: Vec<Option<[u32; 3]>> = (0..mesh.tris.len())
             .into_par_iter()
             .map(|t| {
-                let [a, b, c] = mesh.tri(t);
+                let [a, b, c] = tri[t];
                 (geom::tri_cross(a, b, c) != DVec3::ZERO)
                     .then(|| mesh.tris[t].map(|c| weld[mesh.vertex(c)]))
             })
@@ -303,20 +310,9 @@ impl Adjacency {
             .enumerate()
             .flat_map_iter(|(a, run)| {
                 run.sort_unstable();
-                let mut out = Vec::new();
-                let mut i = 0;
-                while i < run.len() {
-                    let hi = run[i] >> 32;
-                    let mut j = i + 1;
-                    while j < run.len() && run[j] >> 32 == hi {
-                        j += 1;
-                    }
-                    if j - i == 2 && hi as usize != a {
-                        out.push((run[i] as u32, run[i + 1] as u32));
-                    }
-                    i = j;
-                }
-                out
+                run.chunk_by(|x, y| x >> 32 == y >> 32)
+                    .filter(move |e| e.len() == 2 && (e[0] >> 32) as usize != a)
+                    .map(|e| (e[0] as u32, e[1] as u32))
             })
             .collect();
         let mut adj = vec![[NO_TRIANGLE; 3]; mesh.tris.len()];
@@ -325,12 +321,18 @@ impl Adjacency {
             adj[e / 3][e % 3] = (f / 3) as u32;
             adj[f / 3][f % 3] = (e / 3) as u32;
         }
-        Adjacency { adj }
+        Adjacency { adj, tri }
     }
 
     /// The neighbours of triangle `t` across its edges.
     pub fn of(&self, t: usize) -> [u32; 3] {
         self.adj[t]
+    }
+
+    /// The corner positions of triangle `t` (`TriMesh::tri`).
+    #[inline]
+    pub fn tri(&self, t: usize) -> [DVec3; 3] {
+        self.tri[t]
     }
 
     /// Moves a point of triangle `t` to `q` along the surface: `q` is put
@@ -340,11 +342,11 @@ impl Adjacency {
     /// back where it came from (a fold), or after `MAX_WALK` steps, the
     /// answer is the point of the current triangle closest to `q`. Meant
     /// for moves of a few triangles; a far move ends where the walk stops.
-    pub fn walk(&self, mesh: &TriMesh, mut t: usize, q: DVec3) -> (usize, [f64; 3]) {
+    pub fn walk(&self, mut t: usize, q: DVec3) -> (usize, [f64; 3]) {
         const MAX_WALK: usize = 64;
         let mut from = NO_TRIANGLE as usize;
         for _ in 0..MAX_WALK {
-            let [a, b, c] = mesh.tri(t);
+            let [a, b, c] = self.tri[t];
             let Some(w) = geom::barycentric_in_plane(q, a, b, c) else {
                 break;
             };
@@ -359,7 +361,7 @@ impl Adjacency {
             from = t;
             t = next;
         }
-        let [a, b, c] = mesh.tri(t);
+        let [a, b, c] = self.tri[t];
         (t, geom::closest_on_triangle(q, a, b, c))
     }
 }

@@ -132,7 +132,7 @@ fn polish_with(
     let normals: Vec<DVec3> = (0..m.tris.len())
         .into_par_iter()
         .map(|t| {
-            let [a, b, c] = m.tri(t);
+            let [a, b, c] = adj.tri(t);
             geom::unit_or_zero(geom::tri_cross(a, b, c))
         })
         .collect();
@@ -192,8 +192,8 @@ fn polish_with(
         if step == DVec3::ZERO {
             return None;
         }
-        let (t, w) = adj.walk(m, s.tri as usize, s.p + step);
-        let [a, b, c] = m.tri(t);
+        let (t, w) = adj.walk(s.tri as usize, s.p + step);
+        let [a, b, c] = adj.tri(t);
         Some(Sample {
             p: geom::blend(w, a, b, c),
             tri: t as u32,
