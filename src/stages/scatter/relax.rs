@@ -18,12 +18,15 @@
 //!   in ten thousand below 0.6 spacings after 4 iterations); 12 rounds remove
 //!   it without moving the points that have room. After the first round
 //!   only the points near a mover are looked at (a third of the points,
-//!   then fewer each round at 1M on the bunny: 0.45 s for 12 rounds where
-//!   every point every round took 0.8 s), with the same result.
+//!   then fewer each round: at 1M on the bunny 0.25 s for 12 rounds, 0.1 s
+//!   of it the first), with the same result.
 //!
-//! Neighbours come from Verlet lists: every point's neighbours within the
-//! reach plus a skin (0.3 spacings for relaxation, 0.5 for separation),
-//! found on a grid (`geom::grid`) and kept until some point has moved half
+//! A relaxation round moves each point as its neighbours are found on a
+//! grid (`geom::grid`): points move up to half a spacing a round, so
+//! lists of neighbours would not outlast one. The last relaxation round
+//! before separation, and the separation rounds, use Verlet lists: every
+//! point's neighbours within the reach plus a skin (0.3 spacings for
+//! relaxation, 0.5 for separation), kept until some point has moved half
 //! the skin since (then no pair can have come within the reach unseen).
 //! Points are kept in the grid's (Morton) order, so a point's neighbours
 //! sit near it in memory.
@@ -138,68 +141,69 @@ fn polish_with(
         .collect();
     let d = hex_spacing(total, n);
     ph.mark("adjacency");
-    // The move of sample `s` (index `i`) for a force from the listed
-    // neighbours, or None if it stays.
-    let step_of = |cur: &[Sample], l: &Lists, i: usize, round: u32, relaxing: bool, reach: f64| {
-        let s = cur[i];
-        let q = s.p;
-        let nrm = normals[s.tri as usize];
-        let mut f = DVec3::ZERO;
-        for &t in &l.other[l.start[i]..l.start[i + 1]] {
-            let d3 = q - cur[t as usize].p;
-            let r2 = d3.length_squared();
-            if r2 >= reach * reach {
-                continue;
-            }
-            if relaxing {
-                let r = r2.sqrt();
-                let dir = if r > 1e-9 * d {
-                    d3 / r
+    // The move of sample `s` (index `i`) for a force from the
+    // neighbours `near`, or None if it stays.
+    let step_of =
+        |cur: &[Sample], near: &[u32], i: usize, round: u32, relaxing: bool, reach: f64| {
+            let s = cur[i];
+            let q = s.p;
+            let nrm = normals[s.tri as usize];
+            let mut f = DVec3::ZERO;
+            for &t in near {
+                let d3 = q - cur[t as usize].p;
+                let r2 = d3.length_squared();
+                if r2 >= reach * reach {
+                    continue;
+                }
+                if relaxing {
+                    let r = r2.sqrt();
+                    let dir = if r > 1e-9 * d {
+                        d3 / r
+                    } else {
+                        // Coincident points (pushed onto the same edge or
+                        // corner): apart along a direction of their own.
+                        let mut g = Pcg32::new(seed ^ (round as u64) << 32, i as u64);
+                        DVec3::new(uniform53(&mut g), uniform53(&mut g), uniform53(&mut g)) - 0.5
+                    };
+                    let x = 1.0 - r / reach;
+                    f += dir * (x * x);
                 } else {
-                    // Coincident points (pushed onto the same edge or
-                    // corner): apart along a direction of their own.
-                    let mut g = Pcg32::new(seed ^ (round as u64) << 32, i as u64);
-                    DVec3::new(uniform53(&mut g), uniform53(&mut g), uniform53(&mut g)) - 0.5
-                };
-                let x = 1.0 - r / reach;
-                f += dir * (x * x);
-            } else {
-                // Apart in the tangent plane until the straight distance
-                // is `reach`: across a thin part of the mesh only a
-                // tangential offset can help. A shortfall under
-                // SEPARATE_TOL is left: re-projection onto a curved
-                // surface would otherwise keep pairs at `reach` moving
-                // by rounding-sized steps for ever.
-                let g = d3.dot(nrm);
-                let tv = d3 - nrm * g;
-                let s0 = tv.length();
-                if s0 > 1e-9 * d {
-                    let s1 = (reach * reach - g * g).max(0.0).sqrt();
-                    if s1 - s0 > SEPARATE_TOL * d {
-                        f += tv / s0 * (SEPARATE_PUSH * (s1 - s0));
+                    // Apart in the tangent plane until the straight distance
+                    // is `reach`: across a thin part of the mesh only a
+                    // tangential offset can help. A shortfall under
+                    // SEPARATE_TOL is left: re-projection onto a curved
+                    // surface would otherwise keep pairs at `reach` moving
+                    // by rounding-sized steps for ever.
+                    let g = d3.dot(nrm);
+                    let tv = d3 - nrm * g;
+                    let s0 = tv.length();
+                    if s0 > 1e-9 * d {
+                        let s1 = (reach * reach - g * g).max(0.0).sqrt();
+                        if s1 - s0 > SEPARATE_TOL * d {
+                            f += tv / s0 * (SEPARATE_PUSH * (s1 - s0));
+                        }
                     }
                 }
             }
-        }
-        let mut step = f - nrm * f.dot(nrm);
-        if relaxing {
-            step *= GAIN * reach;
-        }
-        let len = step.length();
-        if len > MAX_STEP * d {
-            step *= MAX_STEP * d / len;
-        }
-        if step == DVec3::ZERO {
-            return None;
-        }
-        let (t, w) = adj.walk(s.tri as usize, s.p + step);
-        let [a, b, c] = adj.tri(t);
-        Some(Sample {
-            p: geom::blend(w, a, b, c),
-            tri: t as u32,
-            w,
-        })
-    };
+            let mut step = f - nrm * f.dot(nrm);
+            if relaxing {
+                step *= GAIN * reach;
+            }
+            let len = step.length();
+            if len > MAX_STEP * d {
+                step *= MAX_STEP * d / len;
+            }
+            if step == DVec3::ZERO {
+                return None;
+            }
+            let (t, w) = adj.walk(s.tri as usize, s.p + step);
+            let [a, b, c] = adj.tri(t);
+            Some(Sample {
+                p: geom::blend(w, a, b, c),
+                tri: t as u32,
+                w,
+            })
+        };
     let mut list: Option<(Lists, f64)> = None;
     // Lists that reach past `reach` by twice as far as any point has
     // moved since they were made, else new ones.
@@ -220,19 +224,36 @@ fn polish_with(
         };
     for round in 0..relax {
         let reach = REACH * d;
-        let skin = if round + 1 == relax && separate > 0 {
-            SKIN
+        let cur: Vec<Sample>;
+        let moved: Vec<Sample> = if round + 1 == relax && separate > 0 {
+            // The last round's lists, with a skin, serve the separation
+            // rounds that follow.
+            refresh(&mut list, samples, reach, SKIN * d);
+            ph.mark("relax lists");
+            let l = &list.as_ref().expect("made above").0;
+            let cur: &[Sample] = samples;
+            (0..n)
+                .into_par_iter()
+                .map(|i| {
+                    let near = &l.other[l.start[i]..l.start[i + 1]];
+                    step_of(cur, near, i, round, true, reach).unwrap_or(cur[i])
+                })
+                .collect()
         } else {
-            0.0
+            // Points move up to half a spacing a round, so lists would
+            // not outlast it: each point moves as its neighbours are
+            // found in a grid.
+            let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
+            let grid = PointGrid::new(&pos, 2.0 * reach);
+            drop(pos);
+            cur = grid.order().iter().map(|&i| samples[i as usize]).collect();
+            ph.mark("relax grid");
+            grid.map_near(reach, Vec::new, |ids: &mut Vec<u32>, i, near| {
+                ids.clear();
+                ids.extend(near.iter().map(|&(t, _)| t));
+                step_of(&cur, ids, i, round, true, reach).unwrap_or(cur[i])
+            })
         };
-        refresh(&mut list, samples, reach, skin * d);
-        ph.mark("relax lists");
-        let l = &list.as_ref().expect("made above").0;
-        let cur: &[Sample] = samples;
-        let moved: Vec<Sample> = (0..n)
-            .into_par_iter()
-            .map(|i| step_of(cur, l, i, round, true, reach).unwrap_or(cur[i]))
-            .collect();
         *samples = moved;
         ph.mark("relax moves");
         progress.inc(1);
@@ -263,11 +284,17 @@ fn polish_with(
         let movers: Vec<(u32, Sample)> = match &active {
             None => (0..n as u32)
                 .into_par_iter()
-                .filter_map(|i| step_of(cur, l, i as usize, round, false, reach).map(|s| (i, s)))
+                .filter_map(|i| {
+                    let near = &l.other[l.start[i as usize]..l.start[i as usize + 1]];
+                    step_of(cur, near, i as usize, round, false, reach).map(|s| (i, s))
+                })
                 .collect(),
             Some(a) => a
                 .par_iter()
-                .filter_map(|&i| step_of(cur, l, i as usize, round, false, reach).map(|s| (i, s)))
+                .filter_map(|&i| {
+                    let near = &l.other[l.start[i as usize]..l.start[i as usize + 1]];
+                    step_of(cur, near, i as usize, round, false, reach).map(|s| (i, s))
+                })
                 .collect(),
         };
         let mut next: Vec<u32> = movers
