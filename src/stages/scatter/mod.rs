@@ -256,6 +256,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
             voronoi_areas(&pos, &nrm, total)
         }
     };
+    ph.mark("ptarea");
     let mut cloud = Cloud::with_points(n);
     cloud.detail = mesh.detail.clone();
     let pts = cloud.points_mut();
