@@ -6,8 +6,12 @@
 //! benches/py/bake_python.py) in the same run. Scatter uses per-face
 //! areas without relaxation here, as the Python side does.
 //!
+//! Then the accurate bake as the README runs it, `make -C pipelines
+//! COUNT=1000000`, timed whole (target/bench/bake_make.txt).
+//!
 //! `cargo bench --bench bake` (or `make bench`); `BENCH_QUICK=1` runs only
-//! the bunny at 100k. Results: target/bench/bake.txt.
+//! the bunny at 100k. Results: target/bench/bake.txt. `BENCH_MAKE_ONLY=1`
+//! runs only the make-driven bake.
 
 mod common;
 
@@ -30,6 +34,11 @@ struct Scene {
 fn main() {
     let quick = std::env::var_os("BENCH_QUICK").is_some();
     let root = env!("CARGO_MANIFEST_DIR");
+    if std::env::var_os("BENCH_MAKE_ONLY").is_some() {
+        let scatter = std::path::Path::new(env!("CARGO_BIN_EXE_pcinfo")).with_file_name("scatter");
+        accurate_bake(root, &scatter.display().to_string());
+        return;
+    }
     let mut scenes = vec![Scene {
         name: "bunny",
         mesh: format!("{root}/fixtures/mesh/bunny.obj"),
@@ -231,6 +240,58 @@ fn main() {
         }
     }
     t.save("bake.txt");
+    if !quick {
+        accurate_bake(root, &bin("scatter"));
+    }
+}
+
+/// The README's accurate bake as a user runs it: `make -C pipelines
+/// COUNT=1000000` (blue noise, Voronoi areas, every stage the Makefile
+/// runs), the whole make timed, with and without single scattering.
+fn accurate_bake(root: &str, scatter: &str) {
+    let bin_dir = std::path::Path::new(scatter)
+        .parent()
+        .unwrap()
+        .display()
+        .to_string();
+    let make = |out: &std::path::Path, extra: &str| {
+        format!(
+            "make -s -C {root}/pipelines BIN={bin_dir} OUT={} {extra} >/dev/null",
+            out.display()
+        )
+    };
+    let mut t = Table::new(
+        &format!(
+            "The accurate bake through pipelines/Makefile (scatter --blue --ptarea voronoi, facet, promote, illum, ssmulti, sssingle when SINGLE=1, filter and render: the Makefile's defaults), bunny; whole make, all processes; {}; best of 2",
+            machine()
+        ),
+        "| points | command | seconds |\n|---|---|---|",
+    );
+    // A first small bake builds what make would build, outside the times.
+    let warm = bench_dir().join("make_warm");
+    best_cmd(1, &make(&warm, "COUNT=1000"));
+    for (extra, what) in [
+        (
+            "COUNT=1000000 SINGLE=0",
+            "make -C pipelines COUNT=1000000 SINGLE=0",
+        ),
+        ("COUNT=1000000", "make -C pipelines COUNT=1000000"),
+        ("COUNT=200000", "make -C pipelines (the demo's 200,000)"),
+    ] {
+        let mut best = f64::INFINITY;
+        for k in 0..2 {
+            let out = bench_dir().join(format!("make_bake_{k}"));
+            let _ = std::fs::remove_dir_all(&out);
+            best = best.min(best_cmd(1, &make(&out, extra)).unwrap_or(f64::NAN));
+        }
+        let points = extra
+            .split(' ')
+            .next()
+            .unwrap_or("")
+            .trim_start_matches("COUNT=");
+        t.row(format!("| {points} | {what} | {best:.2} |"));
+    }
+    t.save("bake_make.txt");
 }
 
 /// Our render against Python's, over the pixels both cover: the RMS
