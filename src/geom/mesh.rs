@@ -474,8 +474,8 @@ mod tests {
     fn adjacency_is_what_its_definition_says() {
         // A grid of squares split in two, with every position written
         // twice (seams between unwelded copies), a fin of three triangles
-        // on one edge, a triangle of no area and one with two corners at
-        // one position.
+        // on one edge, a triangle across the grid's first row, and one
+        // with two corners at one position (no area).
         let mut g = Pcg32::new(3, 9);
         let side = 7u32;
         let mut pos = Vec::new();

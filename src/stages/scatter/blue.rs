@@ -23,23 +23,23 @@
 //! order only (`PointGrid::scan_forward`: half the distance tests), then
 //! spread to both candidates' lists, in parallel too: at 1M on the bunny
 //! 0.4 s and 0.15 s, where finding each pair from both ends took 0.8 s
-//! in all (and a serial spread 0.24 s). The
-//! elimination works on blocks of about
-//! 4,000 candidates (aligned cubes of grid cells, `PointGrid::blocks`)
-//! in colour phases, the blocks of a colour in parallel, each with its
+//! in all (and a serial spread 0.24 s). The elimination works on blocks
+//! of about 4,000 candidates (aligned cubes of grid cells,
+//! `PointGrid::blocks`) in colour phases, the blocks of a colour in parallel, each with its
 //! data in cache, down to 95% of the way to its share of `N`; the last
 //! 5% of the removals go over all the candidates at once, most crowded
 //! first (`eliminate_serial`), so the counts can shift between blocks,
 //! whose shares follow their candidates' counts. Without that tail the
-//! spacing statistics do not change, but the ssmulti kernel error on
-//! the sphere at 100k points grew by 7-12% (benches/ssmulti.rs,
-//! accuracy: 1.43e-5 with a tenth, 1.45e-5 with a twentieth, 1.60e-5
-//! without, ring-ordered triangles, 4 seeds); a twentieth costs 0.06-0.08
-//! s at 1M, a tenth 0.11-0.17 s. Before, a single serial queue over all the candidates took 1.4 s
-//! of a million points' 5 s, its time in cache misses; the block
-//! elimination leaves the same spacing statistics (bunny 1M, before
-//! relaxation: min 0.629, cv 0.105 both). Everything runs in a fixed
-//! order, so the result does not depend on the thread count.
+//! spacing statistics do not change, but the ssmulti kernel error on the
+//! sphere at 100k points grew by 7-12% (benches/ssmulti.rs, accuracy:
+//! 1.43e-5 with a tenth, 1.45e-5 with a twentieth, 1.60e-5 without,
+//! ring-ordered triangles, 4 seeds); a twentieth costs 0.06-0.08 s at
+//! 1M, a tenth 0.11-0.17 s. Before the blocks, a single serial queue over
+//! all the candidates took 1.4 s of a million points' 5 s, its time in
+//! cache misses; the block elimination leaves the same spacing
+//! statistics (bunny 1M, before relaxation: min 0.629, cv 0.105 both).
+//! Everything runs in a fixed order, so the result does not depend on
+//! the thread count.
 
 use std::ops::Range;
 

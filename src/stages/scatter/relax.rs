@@ -224,7 +224,6 @@ fn polish_with(
         };
     for round in 0..relax {
         let reach = REACH * d;
-        let cur: Vec<Sample>;
         let moved: Vec<Sample> = if round + 1 == relax && separate > 0 {
             // The last round's lists, with a skin, serve the separation
             // rounds that follow.
@@ -246,12 +245,12 @@ fn polish_with(
             let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
             let grid = PointGrid::new(&pos, 2.0 * reach);
             drop(pos);
-            cur = grid.order().iter().map(|&i| samples[i as usize]).collect();
+            let sorted: Vec<Sample> = grid.order().iter().map(|&i| samples[i as usize]).collect();
             ph.mark("relax grid");
             grid.map_near(reach, Vec::new, |ids: &mut Vec<u32>, i, near| {
                 ids.clear();
                 ids.extend(near.iter().map(|&(t, _)| t));
-                step_of(&cur, ids, i, round, true, reach).unwrap_or(cur[i])
+                step_of(&sorted, ids, i, round, true, reach).unwrap_or(sorted[i])
             })
         };
         *samples = moved;
