@@ -22,8 +22,8 @@
 //! candidate), in parallel, each from its earlier candidate in grid
 //! order only (`PointGrid::scan_forward`: half the distance tests), then
 //! spread to both candidates' lists, in parallel too: at 1M on the bunny
-//! 0.4 s and 0.15 s, where finding each pair from both ends took 0.8 s
-//! in all (and a serial spread 0.24 s). The elimination works on blocks
+//! 0.35 s and 0.2 s, where finding each pair from both ends took 0.8 s
+//! in all (and a serial spread 0.27 s). The elimination works on blocks
 //! of about 4,000 candidates (aligned cubes of grid cells,
 //! `PointGrid::blocks`) in colour phases, the blocks of a colour in parallel, each with its
 //! data in cache, down to 95% of the way to its share of `N`; the last
