@@ -262,7 +262,7 @@ fn accurate_bake(root: &str, scatter: &str) {
     };
     let mut t = Table::new(
         &format!(
-            "The accurate bake through pipelines/Makefile (scatter --blue --ptarea voronoi, facet, promote, illum, ssmulti, sssingle when SINGLE=1, filter and render: the Makefile's defaults), bunny; whole make, all processes; {}; best of 2",
+            "The accurate bake through pipelines/Makefile (scatter --blue --ptarea centroid, facet, promote, illum, ssmulti, sssingle when SINGLE=1, filter and render: the Makefile's defaults), bunny; whole make, all processes; {}; best of 2",
             machine()
         ),
         "| points | command | seconds |\n|---|---|---|",

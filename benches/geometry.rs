@@ -79,8 +79,8 @@ fn blue_noise() {
             row(n, "scatter --blue", best_cmd(2, &cmd("--blue")));
             row(
                 n,
-                "scatter --blue --ptarea voronoi",
-                best_cmd(2, &cmd("--blue --ptarea voronoi")),
+                "scatter --blue --ptarea centroid",
+                best_cmd(2, &cmd("--blue --ptarea centroid")),
             );
             row(n, "scatter (random)", best_cmd(2, &cmd("")));
             if n == 200_000 {
@@ -163,11 +163,11 @@ fn speed() {
         ),
     );
     row(
-        "scatter -n N --blue --ptarea voronoi",
+        "scatter -n N --blue --ptarea centroid",
         best_cmd(
             1,
             &format!(
-                "{} {p} -n {n} --blue --ptarea voronoi -o {out}",
+                "{} {p} -n {n} --blue --ptarea centroid -o {out}",
                 b("scatter")
             ),
         ),

@@ -16,7 +16,12 @@
 //! 2. sd 0.3, Rd (1, 0.5, 0.25): error against the continuous integral
 //!    (computed here by quadrature; the issue's independent value at the
 //!    lit pole is (0.989286, 0.494643, 0.247321)) for random and
-//!    blue-noise scatter at equal point counts.
+//!    blue-noise scatter at equal point counts. Each error is split into
+//!    its part along latitude (the mean over bands of 1/160 of the range,
+//!    where the faceted mesh's own error lies) and the rest (the points'
+//!    quadrature noise). `BENCH_ACCURACY=1` runs only this;
+//!    `BENCH_ACCURACY_SIZES=100000`, `BENCH_ACCURACY_SEEDS=N` and
+//!    `BENCH_ACCURACY_ROWS=--blue,relax 10` (scatter column) narrow it.
 //! 3. Every falloff, normalisation and channel mode at 100k points x
 //!    2,000 neighbours, and every falloff with sd 1e20 (every pair) at
 //!    20k points: `ssmulti_variants.txt`. `BENCH_VARIANTS=1` runs only
@@ -535,10 +540,10 @@ fn accuracy(mesh: &Cloud) {
     let seeds: u64 = std::env::var("BENCH_ACCURACY_SEEDS").map_or(4, |v| v.parse().unwrap());
     let mut acc = Table::new(
         &format!(
-            "ssmulti against the continuous integral: unit sphere, sd 0.3, Rd (1, 0.5, 0.25), one distant light along -z; pole by quadrature {:.6} x Rd (issue: 0.989286 x Rd); error = RMS over points with theta < 80 deg of (ssM - truth) / truth at the pole, red channel; mean over {} seeds (11 on), with the smallest and largest",
+            "ssmulti against the continuous integral: unit sphere, sd 0.3, Rd (1, 0.5, 0.25), one distant light along -z; pole by quadrature {:.6} x Rd (issue: 0.989286 x Rd); error = RMS over points with theta < 80 deg of (ssM - truth) / truth at the pole, red channel; mean over {} seeds (11 on), with the smallest and largest, and its parts: the RMS of each band of latitude's mean error (bands of 0.5 deg) and of the error about it",
             pole, seeds
         ),
-        "| triangles | points | scatter | ptarea | error | seeds' range | mean within 0.02 rad of the pole: ssM / truth |\n|---|---|---|---|---|---|---|",
+        "| triangles | points | scatter | ptarea | error | seeds' range | along latitude | the rest | mean within 0.02 rad of the pole: ssM / truth |\n|---|---|---|---|---|---|---|---|---|",
     );
     // Cubic (four-point Lagrange) interpolation in the table: error of
     // order h^4 times the fourth derivative (1e-9 here).
@@ -565,11 +570,19 @@ fn accuracy(mesh: &Cloud) {
             for (relax, ptarea, blue, what) in [
                 (0u32, PtareaMode::Prim, false, "random"),
                 (0, PtareaMode::Voronoi, false, "random"),
+                (0, PtareaMode::Centroid, false, "random"),
                 (10, PtareaMode::Voronoi, false, "relax 10"),
+                (10, PtareaMode::Centroid, false, "relax 10"),
                 (0, PtareaMode::Voronoi, true, "--blue"),
-                (10, PtareaMode::Voronoi, true, "--blue --relax 10"),
+                (0, PtareaMode::Centroid, true, "--blue"),
+                (10, PtareaMode::Centroid, true, "--blue --relax 10"),
             ] {
-                let (mut errs, mut poles) = (Vec::new(), Vec::new());
+                if let Ok(only) = std::env::var("BENCH_ACCURACY_ROWS") {
+                    if !only.split(',').any(|w| w == what) {
+                        continue;
+                    }
+                }
+                let (mut errs, mut poles, mut parts) = (Vec::new(), Vec::new(), Vec::new());
                 for seed in 11..11 + seeds {
                     let cloud = sphere_cloud_with(mesh, n, relax, ptarea, blue, seed);
                     let (v, _, _) = run(
@@ -596,6 +609,32 @@ fn accuracy(mesh: &Cloud) {
                         }
                     }
                     errs.push((se / cnt as f64).sqrt());
+                    // The error's mean in each band of latitude, and what
+                    // is left about it.
+                    const BANDS: usize = 160;
+                    let band = |th: f64| {
+                        ((th / 80f64.to_radians() * BANDS as f64) as usize).min(BANDS - 1)
+                    };
+                    let mut sums = vec![(0.0, 0usize); BANDS];
+                    for (q, s) in pos.iter().zip(&v) {
+                        let th = q[2].clamp(-1.0, 1.0).acos();
+                        if th < 80f64.to_radians() {
+                            let b = &mut sums[band(th)];
+                            b.0 += (s[0] - at(th)) / pole;
+                            b.1 += 1;
+                        }
+                    }
+                    let (mut along, mut rest) = (0.0, 0.0);
+                    for (q, s) in pos.iter().zip(&v) {
+                        let th = q[2].clamp(-1.0, 1.0).acos();
+                        if th < 80f64.to_radians() {
+                            let b = sums[band(th)];
+                            let m = b.0 / b.1 as f64;
+                            along += m * m;
+                            rest += ((s[0] - at(th)) / pole - m).powi(2);
+                        }
+                    }
+                    parts.push(((along / cnt as f64).sqrt(), (rest / cnt as f64).sqrt()));
                     poles.push((
                         pole_sum / pole_n.max(1) as f64,
                         pole_truth / pole_n.max(1) as f64,
@@ -608,8 +647,10 @@ fn accuracy(mesh: &Cloud) {
                     .fold((f64::MAX, f64::MIN), |(a, b), &e| (a.min(e), b.max(e)));
                 let pole_s = poles.iter().map(|p| p.0).sum::<f64>() / k;
                 let pole_t = poles.iter().map(|p| p.1).sum::<f64>() / k;
+                let along = parts.iter().map(|p| p.0).sum::<f64>() / k;
+                let rest = parts.iter().map(|p| p.1).sum::<f64>() / k;
                 acc.row(format!(
-                "| {order} | {n} | {what} | {:?} | {mean:.2e} | {lo:.2e} .. {hi:.2e} | {pole_s:.6} / {pole_t:.6} |",
+                "| {order} | {n} | {what} | {:?} | {mean:.2e} | {lo:.2e} .. {hi:.2e} | {along:.2e} | {rest:.2e} | {pole_s:.6} / {pole_t:.6} |",
                 ptarea,
             ));
             }

@@ -35,7 +35,7 @@ struct Args {
     /// Blue noise (Poisson-disk quality, the exact count asked for): weighted
     /// sample elimination from --candidates times as many random points,
     /// 2 relaxation iterations (or --relax), close pairs pushed apart. The
-    /// accurate choice: pair it with --ptarea voronoi.
+    /// accurate choice: pair it with --ptarea centroid.
     #[arg(long)]
     blue: bool,
     /// Candidates per point for --blue (1.5 to 64): more give a more

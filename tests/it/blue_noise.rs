@@ -75,7 +75,7 @@ fn blue_noise_counts_are_exact_and_seeds_reproduce_on_any_thread_count() {
             d.path(),
             "scatter",
             &[
-                "s.ply", "-n", n, "--seed", seed, "--blue", "--ptarea", "voronoi",
+                "s.ply", "-n", n, "--seed", seed, "--blue", "--ptarea", "centroid",
             ],
             &[("RAYON_NUM_THREADS", threads)],
             None,

@@ -6,7 +6,12 @@ use pcsss::stages::{measure, promote};
 
 #[test]
 fn after_the_chain_ptarea_sums_to_tarea_for_every_mode() {
-    for mode in [PtareaMode::Prim, PtareaMode::Knn, PtareaMode::Voronoi] {
+    for mode in [
+        PtareaMode::Prim,
+        PtareaMode::Knn,
+        PtareaMode::Voronoi,
+        PtareaMode::Centroid,
+    ] {
         let mut mesh = uv_sphere(16, 32, 2.0, [1e6, -1e6, 1e6]);
         measure::measure(&mut mesh).unwrap();
         promote::promote(

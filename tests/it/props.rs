@@ -522,7 +522,7 @@ proptest! {
     fn scatter_is_the_same_on_any_threads_and_moves_with_its_mesh(
         n in 1usize..600,
         seed in any::<u64>(),
-        mode in prop_oneof![Just(PtareaMode::Prim), Just(PtareaMode::Knn), Just(PtareaMode::Voronoi)],
+        mode in prop_oneof![Just(PtareaMode::Prim), Just(PtareaMode::Knn), Just(PtareaMode::Voronoi), Just(PtareaMode::Centroid)],
         relax in 0u32..3,
         offset in (-1e6f64..1e6, -1e6f64..1e6, -1e6f64..1e6).prop_map(|(x, y, z)| DVec3::new(x, y, z)),
         k in -20i32..20,

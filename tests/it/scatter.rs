@@ -204,9 +204,11 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
     let relaxed = measure(PtareaMode::Voronoi, 10, false);
     let blue = measure(PtareaMode::Voronoi, 0, true);
     let blue_relaxed = measure(PtareaMode::Voronoi, 10, true);
-    // Measured: 0.0087, 0.0035, 0.00063, 0.0021, 0.00069. At ~60
+    let blue_centroid = measure(PtareaMode::Centroid, 0, true);
+    // Measured: 0.0087, 0.0035, 0.00063, 0.0021, 0.00069, 0.0010. At ~60
     // neighbours the error follows how even the Voronoi areas are (their
-    // coefficient of variation, printed).
+    // coefficient of variation, printed), and on blue noise how far the
+    // cells' centroids are from their points (`centroid` halves it).
     assert!(prim < 0.012, "{prim}");
     assert!(voronoi < prim / 2.0, "{voronoi} vs {prim}");
     assert!(
@@ -218,6 +220,52 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
         blue_relaxed < prim / 8.0 && blue_relaxed < 0.001,
         "{blue_relaxed} vs {prim}"
     );
+    assert!(blue_centroid < blue / 1.5, "{blue_centroid} vs {blue}");
+}
+
+#[test]
+fn centroid_weights_keep_each_cells_area_and_are_never_negative() {
+    use glam::DVec3;
+    use pcsss::maths::uniform53;
+    // Random points on a tilted square far from the origin (open edges,
+    // cells next to empty patches), some of them twice, and blue noise on
+    // a sphere.
+    let nrm = DVec3::new(1.0, 2.0, 3.0).normalize();
+    let (t1, t2) = pcsss::geom::tangent_basis(nrm);
+    let o = DVec3::new(1e6, -1e6, 1e6);
+    let mut g = rand_pcg::Pcg32::new(5, 0);
+    let mut pos: Vec<DVec3> = (0..3000)
+        .map(|_| o + t1 * uniform53(&mut g) + t2 * uniform53(&mut g))
+        .collect();
+    pos.extend(pos[..40].to_vec());
+    let sphere = uv_sphere(60, 120, 1.0, [0.0; 3]);
+    let mut p = scatter::Params::new(scatter::Amount::Count(4000));
+    (p.seed, p.blue) = (3, true);
+    let c = scatter::scatter(&sphere, &p).unwrap();
+    let ball: Vec<DVec3> = c
+        .points()
+        .vec3_f64("P")
+        .unwrap()
+        .into_iter()
+        .map(DVec3::from_array)
+        .collect();
+    let ball_n: Vec<DVec3> = ball.iter().map(|q| q.normalize()).collect();
+    for (pos, nrm, area) in [
+        (&pos, vec![nrm; pos.len()], 1.0),
+        (&ball, ball_n, 4.0 * std::f64::consts::PI),
+    ] {
+        let a = scatter::voronoi_areas(pos, &nrm, area);
+        let w = scatter::voronoi_weights(pos, &nrm, area);
+        assert!(w.iter().all(|x| x.is_finite() && *x >= 0.0));
+        let (sa, sw) = (
+            a.iter().map(|&x| x as f64).sum::<f64>(),
+            w.iter().map(|&x| x as f64).sum::<f64>(),
+        );
+        assert!((sw / sa - 1.0).abs() < 1e-6, "{sw} vs {sa}");
+        // Most weights move a little, none by more than its cell.
+        let moved = a.iter().zip(&w).filter(|(a, w)| a != w).count();
+        assert!(moved > pos.len() / 2, "{moved}");
+    }
 }
 
 #[test]
@@ -250,12 +298,18 @@ fn voronoi_cells_of_lattices_are_exact() {
             pos.push(DVec3::new(x, i as f64 * s * 3f64.sqrt() / 2.0, 0.0));
         }
     }
-    let a = scatter::voronoi_areas(&pos, &vec![DVec3::ZERO; pos.len()], 0.0);
     let cell = 3f64.sqrt() / 2.0 * s * s;
-    for i in 3..17 {
-        for j in 3..17 {
-            let v = a[i * 20 + j] as f64;
-            assert!((v / cell - 1.0).abs() < 1e-5, "{i},{j}: {v}");
+    // A lattice's cells are centred on their points: placing the areas at
+    // the centroids changes nothing.
+    for a in [
+        scatter::voronoi_areas(&pos, &vec![DVec3::ZERO; pos.len()], 0.0),
+        scatter::voronoi_weights(&pos, &vec![DVec3::ZERO; pos.len()], 0.0),
+    ] {
+        for i in 3..17 {
+            for j in 3..17 {
+                let v = a[i * 20 + j] as f64;
+                assert!((v / cell - 1.0).abs() < 1e-5, "{i},{j}: {v}");
+            }
         }
     }
     // A lone point stands for what it is given.

@@ -31,17 +31,20 @@
 //!   other point (k = 8): follows local density; needs `promote
 //!   --normalize` to sum to `Tarea`.
 //! - `voronoi`: the point's Voronoi cell in its tangent plane (see
-//!   `voronoi_areas`); needs `promote --normalize`. The most accurate
-//!   weights for every later sum: on a unit sphere the RMS error of the
-//!   `ssmulti` kernel sum over 8000 points with ~60 neighbours is 0.0087
-//!   with `prim`, 0.0035 with `voronoi`, under 0.001 with `voronoi` on
-//!   relaxed or blue-noise points (`tests/it/scatter.rs`).
+//!   `voronoi_areas`); needs `promote --normalize`. On a unit sphere the
+//!   RMS error of the `ssmulti` kernel sum over 8000 points with ~60
+//!   neighbours is 0.0087 with `prim`, 0.0035 with `voronoi`, under 0.001
+//!   with `voronoi` on relaxed points (`tests/it/scatter.rs`).
+//! - `centroid`: each Voronoi cell's area placed at the cell's centroid,
+//!   shared with two neighbours (see `voronoi_weights`); the most accurate
+//!   on blue noise, where it halves that error; needs `promote
+//!   --normalize`.
 
 mod blue;
 mod relax;
 mod voronoi;
 
-pub use voronoi::voronoi_areas;
+pub use voronoi::{voronoi_areas, voronoi_weights};
 
 use crate::maths::uniform53;
 use glam::DVec3;
@@ -63,9 +66,13 @@ pub enum PtareaMode {
     Prim,
     /// pi r^2 / k from the 8 nearest neighbours (follows local density).
     Knn,
-    /// The Voronoi cell in the tangent plane (most accurate; pair with
-    /// --relax and promote --normalize).
+    /// The Voronoi cell in the tangent plane (pair with promote
+    /// --normalize).
     Voronoi,
+    /// The Voronoi cell's area placed at its centroid, shared with two
+    /// neighbours (most accurate with --blue; pair with promote
+    /// --normalize).
+    Centroid,
 }
 
 /// Parameters.
@@ -244,7 +251,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     let ptarea: Vec<f32> = match p.ptarea {
         PtareaMode::Prim => prim_area(&m, &areas, &samples),
         PtareaMode::Knn => knn_area(&samples.iter().map(|s| s.p).collect::<Vec<_>>(), total),
-        PtareaMode::Voronoi => {
+        PtareaMode::Voronoi | PtareaMode::Centroid => {
             let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
             let nrm: Vec<DVec3> = samples
                 .iter()
@@ -253,7 +260,11 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
                     geom::tri_cross(a, b, c)
                 })
                 .collect();
-            voronoi_areas(&pos, &nrm, total)
+            if p.ptarea == PtareaMode::Centroid {
+                voronoi_weights(&pos, &nrm, total)
+            } else {
+                voronoi_areas(&pos, &nrm, total)
+            }
         }
     };
     ph.mark("ptarea");

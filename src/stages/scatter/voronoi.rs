@@ -39,7 +39,15 @@ struct Cells<'a> {
     near: Vec<(f64, usize)>,
     cell: Vec<[f64; 2]>,
     tmp: Vec<[f64; 2]>,
+    /// The point (sorted index) whose bisector each edge of `cell` (from
+    /// the vertex of the same index to the next) lies on; `NONE` for the
+    /// bounding square's edges.
+    lab: Vec<u32>,
+    tlab: Vec<u32>,
 }
+
+/// The label of an edge of the bounding square.
+const NONE: u32 = u32::MAX;
 
 impl<'a> Cells<'a> {
     fn new(grid: &'a PointGrid, reach: f64) -> Self {
@@ -49,6 +57,8 @@ impl<'a> Cells<'a> {
             near: Vec::with_capacity(64),
             cell: Vec::with_capacity(32),
             tmp: Vec::with_capacity(32),
+            lab: Vec::with_capacity(32),
+            tlab: Vec::with_capacity(32),
         }
     }
 
@@ -64,6 +74,8 @@ impl<'a> Cells<'a> {
         let h = self.reach;
         self.cell.clear();
         self.cell.extend([[-h, -h], [h, -h], [h, h], [-h, h]]);
+        self.lab.clear();
+        self.lab.extend([NONE; 4]);
         // The points within `h`, then (when the cell is not closed yet)
         // those up to twice its farthest corner: after them no point can
         // cut it, and the square bounds that corner at sqrt 2 h.
@@ -97,8 +109,15 @@ impl<'a> Cells<'a> {
                 let v = [d.dot(t1), d.dot(t2)];
                 let c = 0.5 * (v[0] * v[0] + v[1] * v[1]);
                 if c > 0.0 {
-                    geom::clip_half_plane(&self.cell, v, c, &mut self.tmp);
+                    clip(
+                        (&self.cell, &self.lab),
+                        v,
+                        c,
+                        t as u32,
+                        (&mut self.tmp, &mut self.tlab),
+                    );
                     std::mem::swap(&mut self.cell, &mut self.tmp);
+                    std::mem::swap(&mut self.lab, &mut self.tlab);
                 }
             }
             if 4.0 * corner2(&self.cell) <= hi * hi {
@@ -106,6 +125,55 @@ impl<'a> Cells<'a> {
             }
         }
         (t1, t2)
+    }
+}
+
+/// `geom::clip_half_plane` of a convex polygon whose edges carry labels:
+/// the edge the line `v . x = c` makes gets `k`, the others keep theirs.
+fn clip(
+    (poly, lab): (&[[f64; 2]], &[u32]),
+    v: [f64; 2],
+    c: f64,
+    k: u32,
+    (out, olab): (&mut Vec<[f64; 2]>, &mut Vec<u32>),
+) {
+    out.clear();
+    olab.clear();
+    let side = |p: [f64; 2]| p[0] * v[0] + p[1] * v[1] - c;
+    for (i, &p) in poly.iter().enumerate() {
+        let q = poly[(i + 1) % poly.len()];
+        let (sp, sq) = (side(p), side(q));
+        if sp <= 0.0 {
+            out.push(p);
+            // From a vertex on the line to one beyond it, the edge runs
+            // along the line.
+            olab.push(if sp == 0.0 && sq > 0.0 { k } else { lab[i] });
+        }
+        if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
+            let t = sp / (sp - sq);
+            out.push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t]);
+            // Leaving, the edge from here runs along the line; entering,
+            // along the rest of the old edge.
+            olab.push(if sp < 0.0 { k } else { lab[i] });
+        }
+    }
+}
+
+/// The area and centroid (from the origin) of a convex polygon.
+fn area_centroid(poly: &[[f64; 2]]) -> (f64, [f64; 2]) {
+    let n = poly.len();
+    let (mut a2, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for k in 0..n {
+        let (p, q) = (poly[k], poly[(k + 1) % n]);
+        let x = p[0] * q[1] - q[0] * p[1];
+        a2 += x;
+        cx += (p[0] + q[0]) * x;
+        cy += (p[1] + q[1]) * x;
+    }
+    if a2 > 0.0 {
+        (0.5 * a2, [cx / (3.0 * a2), cy / (3.0 * a2)])
+    } else {
+        (0.5 * a2.abs(), [0.0, 0.0])
     }
 }
 
@@ -120,24 +188,107 @@ fn corner2(cell: &[[f64; 2]]) -> f64 {
 /// module), for points on a surface of area `area` (which sets the first
 /// reach); a lone point gets `area`.
 pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f32> {
+    if positions.len() <= 1 {
+        return vec![area as f32; positions.len()];
+    }
+    let (grid, by_sorted) = per_cell(positions, normals, area, |cells, _, _| {
+        geom::polygon_area_2d(&cells.cell)
+    });
+    in_input_order(&grid, by_sorted.into_iter())
+}
+
+/// The weights `scatter --ptarea voronoi` gives: each point's Voronoi
+/// cell area (as `voronoi_areas`), placed at the cell's centroid. The
+/// centroid lies in a triangle of the point and two consecutive Voronoi
+/// neighbours (a Delaunay triangle); the area is shared among those three
+/// by the centroid's barycentric coordinates, so that a sum of weights
+/// times a linear function is the function's integral over the cells,
+/// where the point's own weight alone would miss it by the gradient
+/// times the centroid's offset (the leading error of a weighted sum over
+/// blue noise). The shares are never negative, and their total is each
+/// cell's area. A centroid beyond the triangle's far edge (a cell next
+/// to an empty patch) is moved onto it; a cell with no such triangle (at
+/// an open edge) keeps its area.
+pub fn voronoi_weights(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f32> {
     let n = positions.len();
     if n <= 1 {
         return vec![area as f32; n];
     }
+    let (grid, shares) = per_cell(positions, normals, area, |cells, s, (t1, t2)| {
+        let (a, c) = area_centroid(&cells.cell);
+        let rel = cells.grid.rel();
+        let at = |k: u32| {
+            let d = rel[k as usize] - rel[s];
+            [d.dot(t1), d.dot(t2)]
+        };
+        // Consecutive neighbours around the cell, in its edges' order.
+        let mut labs = cells.lab.iter().copied().filter(|&k| k != NONE);
+        let Some(first) = labs.next() else {
+            return (a, [(NONE, 0.0); 2]);
+        };
+        let mut last = first;
+        for kb in labs.chain(std::iter::once(first)) {
+            let ka = std::mem::replace(&mut last, kb);
+            let (pa, pb) = (at(ka), at(kb));
+            let det = pa[0] * pb[1] - pa[1] * pb[0];
+            if !det.is_finite() || det <= 0.0 {
+                continue;
+            }
+            let ba = (c[0] * pb[1] - c[1] * pb[0]) / det;
+            let bb = (pa[0] * c[1] - pa[1] * c[0]) / det;
+            if ba >= 0.0 && bb >= 0.0 {
+                let s = ba + bb;
+                let (ba, bb, own) = if s > 1.0 {
+                    (ba / s, bb / s, 0.0)
+                } else {
+                    (ba, bb, 1.0 - s)
+                };
+                return (a * own, [(ka, a * ba), (kb, a * bb)]);
+            }
+        }
+        (a, [(NONE, 0.0); 2])
+    });
+    let mut w: Vec<f64> = shares.iter().map(|s| s.0).collect();
+    // In sorted order, one point after another: the same sums on any
+    // thread count.
+    for (_, given) in &shares {
+        for &(k, x) in given {
+            if k != NONE {
+                w[k as usize] += x;
+            }
+        }
+    }
+    in_input_order(&grid, w.into_iter())
+}
+
+/// `f(cells, s, basis)` of every point's cell (sorted index `s`, the
+/// cell in `cells.cell` in the tangent `basis`), in the grid's order.
+fn per_cell<T: Send>(
+    positions: &[DVec3],
+    normals: &[DVec3],
+    area: f64,
+    f: impl Fn(&Cells, usize, (DVec3, DVec3)) -> T + Sync,
+) -> (PointGrid, Vec<T>) {
     let reach = first_reach(positions, area);
     let grid = PointGrid::new(positions, 2.0 * reach);
     let order = grid.order();
-    let mut out = vec![0f32; n];
-    let by_sorted: Vec<f32> = grid.map_near(
+    let out = grid.map_near(
         reach,
         || Cells::new(&grid, reach),
         |cells, s, first| {
-            cells.cell(s, normals[order[s] as usize], first);
-            geom::polygon_area_2d(&cells.cell) as f32
+            let basis = cells.cell(s, normals[order[s] as usize], first);
+            f(cells, s, basis)
         },
     );
-    for (s, a) in by_sorted.into_iter().enumerate() {
-        out[order[s] as usize] = a;
+    (grid, out)
+}
+
+/// Values in the grid's order back in the input's, as f32.
+fn in_input_order(grid: &PointGrid, by_sorted: impl Iterator<Item = f64>) -> Vec<f32> {
+    let order = grid.order();
+    let mut out = vec![0f32; order.len()];
+    for (s, a) in by_sorted.enumerate() {
+        out[order[s] as usize] = a as f32;
     }
     out
 }
