@@ -98,17 +98,26 @@ impl<'a> Cells<'a> {
                 hi
             };
             // Nearest first (ties in grid order): the far ones then rarely
-            // cut, and the loop stops as soon as none can.
-            near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            // cut, and the loop stops as soon as none can. A squared
+            // distance is never negative, so its bits sort as it does.
+            near.sort_unstable_by_key(|a| (a.0.to_bits(), a.1));
+            let mut far2 = corner2(&self.cell);
             for &(d2, t) in near.iter() {
-                if 4.0 * corner2(&self.cell) <= d2 || used == MAX_USED {
+                if 4.0 * far2 <= d2 || used == MAX_USED {
                     return (t1, t2);
                 }
                 used += 1;
                 let d = rel[t] - q;
                 let v = [d.dot(t1), d.dot(t2)];
                 let c = 0.5 * (v[0] * v[0] + v[1] * v[1]);
-                if c > 0.0 {
+                // Most bisectors past the nearest few miss the cell: no
+                // copy for those.
+                if c > 0.0
+                    && self
+                        .cell
+                        .iter()
+                        .any(|p| p[0] * v[0] + p[1] * v[1] - c > 0.0)
+                {
                     clip(
                         (&self.cell, &self.lab),
                         v,
@@ -118,6 +127,7 @@ impl<'a> Cells<'a> {
                     );
                     std::mem::swap(&mut self.cell, &mut self.tmp);
                     std::mem::swap(&mut self.lab, &mut self.tlab);
+                    far2 = corner2(&self.cell);
                 }
             }
             if 4.0 * corner2(&self.cell) <= hi * hi {
