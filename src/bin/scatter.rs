@@ -34,7 +34,7 @@ struct Args {
     relax: u32,
     /// Blue noise (Poisson-disk quality, the exact count asked for): weighted
     /// sample elimination from --candidates times as many random points,
-    /// 1 relaxation iteration (or --relax), close pairs pushed apart. The
+    /// 2 relaxation iterations (or --relax), close pairs pushed apart. The
     /// accurate choice: pair it with --ptarea centroid.
     #[arg(long)]
     blue: bool,

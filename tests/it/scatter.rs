@@ -205,7 +205,7 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
     let blue = measure(PtareaMode::Voronoi, 0, true);
     let blue_relaxed = measure(PtareaMode::Voronoi, 10, true);
     let blue_centroid = measure(PtareaMode::Centroid, 0, true);
-    // Measured: 0.0087, 0.0035, 0.00063, 0.0028, 0.00070, 0.0013. At ~60
+    // Measured: 0.0087, 0.0035, 0.00063, 0.0021, 0.00069, 0.0010. At ~60
     // neighbours the error follows how even the Voronoi areas are (their
     // coefficient of variation, printed), and on blue noise how far the
     // cells' centroids are from their points (`centroid` halves it).
@@ -215,7 +215,7 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
         relaxed < prim / 8.0 && relaxed < 0.001,
         "{relaxed} vs {prim}"
     );
-    assert!(blue < voronoi, "{blue} vs {voronoi}");
+    assert!(blue < voronoi / 1.5, "{blue} vs {voronoi}");
     assert!(
         blue_relaxed < prim / 8.0 && blue_relaxed < 0.001,
         "{blue_relaxed} vs {prim}"
