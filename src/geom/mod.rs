@@ -275,19 +275,34 @@ pub fn tangent_basis(n: DVec3) -> (DVec3, DVec3) {
 }
 
 /// Clips the convex polygon `poly` to the half-plane `dot(x, v) <= c`
-/// (Sutherland-Hodgman), into `out`.
-pub fn clip_half_plane(poly: &[[f64; 2]], v: [f64; 2], c: f64, out: &mut Vec<[f64; 2]>) {
+/// (Sutherland-Hodgman), into `out`. Each edge (from the vertex of the
+/// same index to the next) carries a label, in `lab` and `olab`: the
+/// edge the line makes gets `k`, the others keep theirs.
+pub fn clip_half_plane(
+    (poly, lab): (&[[f64; 2]], &[u32]),
+    v: [f64; 2],
+    c: f64,
+    k: u32,
+    (out, olab): (&mut Vec<[f64; 2]>, &mut Vec<u32>),
+) {
     out.clear();
+    olab.clear();
     let side = |p: [f64; 2]| p[0] * v[0] + p[1] * v[1] - c;
-    for (k, &p) in poly.iter().enumerate() {
-        let q = poly[(k + 1) % poly.len()];
+    for (i, &p) in poly.iter().enumerate() {
+        let q = poly[(i + 1) % poly.len()];
         let (sp, sq) = (side(p), side(q));
         if sp <= 0.0 {
             out.push(p);
+            // From a vertex on the line to one beyond it, the edge runs
+            // along the line.
+            olab.push(if sp == 0.0 && sq > 0.0 { k } else { lab[i] });
         }
         if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
             let t = sp / (sp - sq);
             out.push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t]);
+            // Leaving, the edge from here runs along the line; entering,
+            // along the rest of the old edge.
+            olab.push(if sp < 0.0 { k } else { lab[i] });
         }
     }
 }
@@ -351,6 +366,50 @@ mod tests {
 
     fn d(x: f64, y: f64, z: f64) -> DVec3 {
         DVec3::new(x, y, z)
+    }
+
+    #[test]
+    fn clipping_labels_the_new_edge_and_keeps_the_others() {
+        // The unit square (edges 0..4 from its corners, counter-clockwise)
+        // cut by x + y <= 1.5: the corner (1, 1) goes, a new edge 9 joins
+        // (1, 0.5) to (0.5, 1).
+        let sq = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let (mut out, mut lab) = (Vec::new(), Vec::new());
+        clip_half_plane(
+            (&sq, &[0, 1, 2, 3]),
+            [1.0, 1.0],
+            1.5,
+            9,
+            (&mut out, &mut lab),
+        );
+        assert_eq!(
+            out,
+            vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [0.5, 1.0], [0.0, 1.0]]
+        );
+        assert_eq!(lab, vec![0, 1, 9, 2, 3]);
+        assert!((polygon_area_2d(&out) - 0.875).abs() < 1e-15);
+        // Through a corner: the edge from it along the line is the new one.
+        clip_half_plane(
+            (&sq, &[0, 1, 2, 3]),
+            [1.0, 1.0],
+            1.0,
+            9,
+            (&mut out, &mut lab),
+        );
+        assert_eq!(out, vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        assert_eq!(lab, vec![0, 9, 3]);
+        // A line that misses the polygon changes nothing.
+        clip_half_plane(
+            (&sq, &[0, 1, 2, 3]),
+            [1.0, 1.0],
+            5.0,
+            9,
+            (&mut out, &mut lab),
+        );
+        assert_eq!(
+            (out.as_slice(), lab.as_slice()),
+            (&sq[..], &[0, 1, 2, 3][..])
+        );
     }
 
     #[test]

@@ -4,7 +4,6 @@
 //! stress cases (many faces and few points, few faces and many points,
 //! degenerate faces, far-apart parts, far from the origin).
 
-use glam::DVec3;
 
 use crate::util::*;
 use pcsss::geom::mesh::{ClosestPoint, TriMesh};
@@ -17,15 +16,6 @@ fn blue(mesh: &Cloud, n: usize, seed: u64, ptarea: PtareaMode) -> Cloud {
     p.seed = seed;
     p.ptarea = ptarea;
     scatter::scatter(mesh, &p).unwrap()
-}
-
-fn positions(c: &Cloud) -> Vec<DVec3> {
-    c.points()
-        .vec3_f64("P")
-        .unwrap()
-        .into_iter()
-        .map(DVec3::from_array)
-        .collect()
 }
 
 fn area(mesh: &Cloud) -> f64 {

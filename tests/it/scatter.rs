@@ -242,13 +242,7 @@ fn centroid_weights_keep_each_cells_area_and_are_never_negative() {
     let mut p = scatter::Params::new(scatter::Amount::Count(4000));
     (p.seed, p.blue) = (3, true);
     let c = scatter::scatter(&sphere, &p).unwrap();
-    let ball: Vec<DVec3> = c
-        .points()
-        .vec3_f64("P")
-        .unwrap()
-        .into_iter()
-        .map(DVec3::from_array)
-        .collect();
+    let ball = positions(&c);
     let ball_n: Vec<DVec3> = ball.iter().map(|q| q.normalize()).collect();
     for (pos, nrm, area) in [
         (&pos, vec![nrm; pos.len()], 1.0),

@@ -77,13 +77,7 @@ fn halos_hold_exactly_the_points_within_reach_and_tiles_balance() {
     );
     let m = Manifest::read(&dir).unwrap();
     assert_eq!(m.tiles.len(), 7);
-    let p: Vec<DVec3> = c
-        .points()
-        .vec3_f64("P")
-        .unwrap()
-        .into_iter()
-        .map(DVec3::from_array)
-        .collect();
+    let p = positions(&c);
     let mut owner = vec![usize::MAX; p.len()];
     let mut halos = Vec::new();
     for t in &m.tiles {

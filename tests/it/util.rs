@@ -392,3 +392,13 @@ pub fn icosphere(level: u32) -> Cloud {
     let b = std::fs::read(fixtures().join(format!("mesh/icosphere{level}.obj"))).unwrap();
     from_bytes(&b)
 }
+
+/// A cloud's positions.
+pub fn positions(c: &Cloud) -> Vec<glam::DVec3> {
+    c.points()
+        .vec3_f64("P")
+        .unwrap()
+        .into_iter()
+        .map(glam::DVec3::from_array)
+        .collect()
+}

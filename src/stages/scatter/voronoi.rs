@@ -118,7 +118,7 @@ impl<'a> Cells<'a> {
                         .iter()
                         .any(|p| p[0] * v[0] + p[1] * v[1] - c > 0.0)
                 {
-                    clip(
+                    geom::clip_half_plane(
                         (&self.cell, &self.lab),
                         v,
                         c,
@@ -135,37 +135,6 @@ impl<'a> Cells<'a> {
             }
         }
         (t1, t2)
-    }
-}
-
-/// `geom::clip_half_plane` of a convex polygon whose edges carry labels:
-/// the edge the line `v . x = c` makes gets `k`, the others keep theirs.
-fn clip(
-    (poly, lab): (&[[f64; 2]], &[u32]),
-    v: [f64; 2],
-    c: f64,
-    k: u32,
-    (out, olab): (&mut Vec<[f64; 2]>, &mut Vec<u32>),
-) {
-    out.clear();
-    olab.clear();
-    let side = |p: [f64; 2]| p[0] * v[0] + p[1] * v[1] - c;
-    for (i, &p) in poly.iter().enumerate() {
-        let q = poly[(i + 1) % poly.len()];
-        let (sp, sq) = (side(p), side(q));
-        if sp <= 0.0 {
-            out.push(p);
-            // From a vertex on the line to one beyond it, the edge runs
-            // along the line.
-            olab.push(if sp == 0.0 && sq > 0.0 { k } else { lab[i] });
-        }
-        if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
-            let t = sp / (sp - sq);
-            out.push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t]);
-            // Leaving, the edge from here runs along the line; entering,
-            // along the rest of the old edge.
-            olab.push(if sp < 0.0 { k } else { lab[i] });
-        }
     }
 }
 
