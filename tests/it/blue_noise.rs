@@ -4,7 +4,6 @@
 //! stress cases (many faces and few points, few faces and many points,
 //! degenerate faces, far-apart parts, far from the origin).
 
-
 use crate::util::*;
 use pcsss::geom::mesh::{ClosestPoint, TriMesh};
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode, Spacing};

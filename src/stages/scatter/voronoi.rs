@@ -1,5 +1,6 @@
 //! `ptarea voronoi`: the area of each point's Voronoi cell in its tangent
-//! plane.
+//! plane; `ptarea centroid`: those areas placed at the cells' centroids
+//! (`voronoi_weights`).
 //!
 //! A point's cell is a square of half-width `R` (twice the hexagonal
 //! spacing of the cloud on its area: it bounds a cell at an open edge) cut
@@ -10,11 +11,13 @@
 //! (next to an empty patch, or at an open edge) is cut by those up to
 //! twice its farthest corner (at most `2 sqrt 2 R`: the square bounds
 //! it), at most the 256 nearest (a surface folded onto itself many
-//! times). Exact for
-//! points on a plane away from its edges; on a smooth surface the error is
-//! of the order of the cell's size over the radius of curvature. Cells at
-//! an open boundary stop at the square and come out too large (`promote
-//! --normalize` rescales the total).
+//! times). Exact for points on a plane away from its edges; on a smooth
+//! surface the error is of the order of the cell's size over the radius
+//! of curvature. Cells at an open boundary stop at the square and come
+//! out too large (`promote --normalize` rescales the total). Each edge of
+//! a cell remembers the point whose bisector made it: consecutive edges
+//! give the Delaunay triangles around the point, which `centroid` shares
+//! each area over.
 //!
 //! The points within `R` come cell by cell from a grid of `2 R` cells
 //! (`geom::grid`), the rare second round from a query of its own; each
@@ -176,7 +179,7 @@ pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f
     in_input_order(&grid, by_sorted.into_iter())
 }
 
-/// The weights `scatter --ptarea voronoi` gives: each point's Voronoi
+/// The weights `scatter --ptarea centroid` gives: each point's Voronoi
 /// cell area (as `voronoi_areas`), placed at the cell's centroid. The
 /// centroid lies in a triangle of the point and two consecutive Voronoi
 /// neighbours (a Delaunay triangle); the area is shared among those three
@@ -216,11 +219,11 @@ pub fn voronoi_weights(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec
             let ba = (c[0] * pb[1] - c[1] * pb[0]) / det;
             let bb = (pa[0] * c[1] - pa[1] * c[0]) / det;
             if ba >= 0.0 && bb >= 0.0 {
-                let s = ba + bb;
-                let (ba, bb, own) = if s > 1.0 {
-                    (ba / s, bb / s, 0.0)
+                let sum = ba + bb;
+                let (ba, bb, own) = if sum > 1.0 {
+                    (ba / sum, bb / sum, 0.0)
                 } else {
-                    (ba, bb, 1.0 - s)
+                    (ba, bb, 1.0 - sum)
                 };
                 return (a * own, [(ka, a * ba), (kb, a * bb)]);
             }
