@@ -17,12 +17,14 @@
 //! - [`lights`]: the lights file, light masks, light arriving at a point.
 //! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti, filter,
 //!   render.
+//! - [`alloc`](mod@alloc): the global allocator (mimalloc, default feature).
 //! - [`cli`]: what every binary shares (I/O, messages, errors).
 //! - [`tools`]: `pcinfo` and `pcdiff`.
 //!
 //! What each stage computes is in the repository's `docs/DESIGN.md`; the on-disk
 //! conventions in `formats/`.
 
+pub mod alloc;
 pub mod cli;
 pub mod cloud;
 pub mod column;

@@ -291,6 +291,7 @@ pub fn is_param_error(e: &anyhow::Error) -> bool {
 /// and returns exit status 2 for a bad parameter (as for a usage error),
 /// 1 for anything else (a broken pipe is success).
 pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
+    crate::alloc::keep_freed_memory();
     output::remove_temps_on_signals();
     match body() {
         Ok(()) => ExitCode::SUCCESS,
