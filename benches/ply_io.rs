@@ -1,5 +1,6 @@
 //! PLY and OpenEXR read and write speed: 2,000,000 points x 10 float
-//! properties (80 MB), from a file in the page cache and from a pipe, in
+//! properties (80 MB), from a file in the page cache and from a pipe
+//! (and from the same values as ASCII text), in
 //! process and whole-process, beside Python's plyfile and OpenEXR and the
 //! Rust crate ply-rs-bw. MB/s are of the 80 MB of values.
 //!
@@ -113,6 +114,27 @@ fn main() {
         "pcsss read, pipe, only P and N decoded",
         Some(best(3, || read_pipe(&bytes, &Select::only(&["P", "N"])))),
     );
+    // The same values as ASCII text: a mapped file's rows are parsed in
+    // parallel, a stream's row by row.
+    let ascii = dir.join(format!("ply_io_{n}_ascii.ply"));
+    let mut f = BufWriter::new(File::create(&ascii).unwrap());
+    formats::write_cloud(&mut f, &cloud, Format::Ply(formats::Encoding::Ascii)).unwrap();
+    f.flush().unwrap();
+    drop(f);
+    row(
+        "pcsss read, ASCII file (mapped: rows in parallel), all decoded",
+        Some(best(3, || {
+            formats::read_cloud_file(&ascii, &Select::All).unwrap()
+        })),
+    );
+    row(
+        "pcsss read, ASCII file (streamed: row by row), all decoded",
+        Some(best(3, || {
+            let f = File::open(&ascii).unwrap();
+            formats::read_cloud(BufReader::with_capacity(1 << 16, f), &Select::All).unwrap()
+        })),
+    );
+    std::fs::remove_file(&ascii).unwrap();
     let out = dir.join("ply_io_out.ply");
     row(
         "pcsss write, file",

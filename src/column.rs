@@ -304,6 +304,15 @@ impl Column {
         with_column!(self, v => v.push(Scalar::read(b, big)))
     }
 
+    /// Appends the values of `other`, a column of this one's type (panics
+    /// otherwise).
+    pub fn append(&mut self, other: &Column) {
+        fn app<T: Scalar>(v: &mut Vec<T>, other: &Column) {
+            v.extend_from_slice(other.as_slice::<T>().expect("columns of one type"))
+        }
+        with_column!(self, v => app(v, other))
+    }
+
     /// Appends one value parsed from an ASCII token; false when invalid.
     pub fn push_token(&mut self, tok: &str) -> bool {
         fn push<T: Scalar>(v: &mut Vec<T>, tok: &str) -> bool {

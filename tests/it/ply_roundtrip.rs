@@ -237,3 +237,71 @@ fn chunked_reading_equals_whole_reading() {
         }
     }
 }
+
+/// A file read through its mapping (ASCII rows parsed in parallel, a
+/// chunk of lines a task) and the same bytes read as a stream (row by
+/// row): the same cloud, or the same error.
+fn mapped_and_streamed(bytes: &[u8]) -> (pcsss::Result<Cloud>, pcsss::Result<Cloud>) {
+    let d = tempdir();
+    let path = d.path().join("in.ply");
+    std::fs::write(&path, bytes).unwrap();
+    (
+        formats::read_cloud_file(&path, &Select::All),
+        formats::read_cloud(bytes, &Select::All),
+    )
+}
+
+#[test]
+fn ascii_read_in_parallel_equals_the_row_by_row_read() {
+    // Every type, lists and several elements; and a cloud large enough
+    // for many chunks, whose lists' offsets must join across them.
+    let p: Vec<[f64; 3]> = (0..60_000)
+        .map(|i| [i as f64 * 0.25, -(i as f64), 1.0 / (i as f64 + 1.0)])
+        .collect();
+    let faces: Vec<Vec<i32>> = (0..200_000)
+        .map(|i: i32| (0..i % 5).map(|k| i + k).collect())
+        .collect();
+    for (cloud, big) in [(every_type_cloud(), false), (mesh_from(&p, &faces), true)] {
+        let bytes = to_bytes(&cloud, ASCII);
+        assert!(!big || bytes.len() > 2 << 20, "several chunks");
+        let (mapped, streamed) = mapped_and_streamed(&bytes);
+        let (mapped, streamed) = (mapped.unwrap(), streamed.unwrap());
+        assert_same_values(&streamed, &mapped);
+        assert_same_values(&cloud, &mapped);
+    }
+}
+
+#[test]
+fn ascii_rows_not_one_a_line_still_read_and_errors_name_the_same_line() {
+    let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    let bodies = [
+        // One row a line, CRLF, trailing blanks, no newline at the end.
+        "1 2\r\n3 4 \r\n5 6\n3 0 1 2\n2 1 2",
+        // A row over two lines, two rows on one, a blank line.
+        "1\n2\n3 4 5 6\n\n3 0 1 2\n2 1 2\n",
+        // A list over lines.
+        "1 2\n3 4\n5 6\n3 0\n1 2 2 1 2\n",
+    ];
+    let want = from_bytes(format!("{head}1 2\n3 4\n5 6\n3 0 1 2\n2 1 2\n").as_bytes());
+    for body in bodies {
+        let (mapped, streamed) = mapped_and_streamed(format!("{head}{body}").as_bytes());
+        assert_same_values(&want, &streamed.unwrap());
+        assert_same_values(&want, &mapped.unwrap());
+    }
+    let bad = [
+        "1 2\n3 x\n5 6\n3 0 1 2\n2 1 2\n",
+        "1 2\n3 4\n5 6\n3 0 1 2\n-2 1 2\n",
+        "1 2\n3 4\n5 6\n3 0 1 2\n",
+        "1 2\n3 4\n5 6\n3 0 1 2\n2 1 2\n7\n",
+        "1 2\n3 4\n5 6\n3 0 1 2\n2 1 \u{e9}\n",
+        "1 2\n3 4\n",
+    ];
+    for body in bad {
+        let (mapped, streamed) = mapped_and_streamed(format!("{head}{body}").as_bytes());
+        let (m, s) = (
+            mapped.unwrap_err().to_string(),
+            streamed.unwrap_err().to_string(),
+        );
+        assert_eq!(m, s, "{body:?}");
+    }
+}

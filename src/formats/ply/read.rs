@@ -4,7 +4,9 @@
 //! path: rows are read in 1 MiB chunks and the selected properties decoded
 //! while the chunk is hot in cache; the rest stay as raw bytes, decoded only
 //! if asked for and otherwise copied through on write. Elements with lists
-//! (faces) and ASCII bodies are decoded row by row. Nothing is allocated
+//! (faces) and ASCII bodies are decoded row by row, but for a mapped ASCII
+//! file laid out one row a line, which is parsed in parallel, a chunk of
+//! lines a task (`read_ascii_lines`). Nothing is allocated
 //! from a header's counts: buffers grow with the bytes that actually arrive,
 //! so a header that claims 10^12 vertices over a short body fails as
 //! "truncated" with memory bounded by the file.
@@ -148,7 +150,10 @@ pub fn read_ply_from<R: Source>(mut r: R, select: &Select) -> Result<Cloud> {
         }
         let lay = layout(def, &roles);
         let el = match (h.encoding, def.fixed_stride()) {
-            (Encoding::Ascii, _) => read_ascii(&mut r, &mut tokens, def, 0..def.count, &lay)?,
+            (Encoding::Ascii, _) => match ascii_in_parallel(&mut r, &mut tokens, def, &lay) {
+                Some(el) => el,
+                None => read_ascii(&mut r, &mut tokens, def, 0..def.count, &lay)?,
+            },
             (enc, Some(stride)) if stride > 0 => read_fixed(
                 &mut r,
                 def,
@@ -558,6 +563,142 @@ impl<R: BufRead> PlyChunks<R> {
     }
 }
 
+/// Bytes of ASCII body parsed by one task of `read_ascii_lines`, about.
+const ASCII_TASK_BYTES: usize = 1 << 20;
+
+/// An ASCII element read from a mapped file by `read_ascii_lines`, when
+/// the reader stands at the start of a line; `None` leaves the reader
+/// where it was.
+fn ascii_in_parallel<R: Source>(
+    r: &mut R,
+    tok: &mut Tokens,
+    def: &ElementDef,
+    lay: &[Layout],
+) -> Option<Element> {
+    if !tok.line[tok.pos..].trim().is_empty() {
+        return None;
+    }
+    let (el, bytes, lines) = {
+        let (map, pos) = r.mapped()?;
+        read_ascii_lines(&map[pos..], def, lay)?
+    };
+    r.consume(bytes);
+    tok.lineno += lines;
+    tok.line.clear();
+    tok.pos = 0;
+    Some(el)
+}
+
+/// The `def.count` rows of an ASCII element at the start of `body`, one
+/// row a line (as PLY writers lay them out), parsed in parallel: chunks
+/// of whole lines, each into columns of its own, joined in order. With
+/// the element's bytes used and its lines. `None` when the rows are laid
+/// out otherwise (a row over two lines, two on one, a blank line) or
+/// anything is wrong (a bad token, a short body): the row-by-row reader
+/// then reads the element, or reports what is wrong at its line. Nothing
+/// is allocated before the lines are found in `body`.
+fn read_ascii_lines(
+    body: &[u8],
+    def: &ElementDef,
+    lay: &[Layout],
+) -> Option<(Element, usize, usize)> {
+    use rayon::prelude::*;
+    let count = usize::try_from(def.count).ok()?;
+    if count == 0 {
+        return None;
+    }
+    let end = memchr::memchr_iter(b'\n', body).nth(count - 1)? + 1;
+    let mut cuts = vec![0];
+    while let Some(&last) = cuts.last() {
+        let want = last + ASCII_TASK_BYTES;
+        if want >= end {
+            break;
+        }
+        let cut = want + memchr::memchr(b'\n', &body[want..end])? + 1;
+        cuts.push(cut);
+    }
+    cuts.push(end);
+    let parts: Vec<Vec<PropData>> = cuts
+        .par_windows(2)
+        .map(|w| ascii_lines(&body[w[0]..w[1]], def))
+        .collect::<Option<_>>()?;
+    let mut props = empty_props(def);
+    for (i, p) in props.iter_mut().enumerate() {
+        match p {
+            PropData::Values(v) => {
+                let c = v.column_mut();
+                for part in &parts {
+                    let PropData::Values(pv) = &part[i] else {
+                        unreachable!("one layout")
+                    };
+                    c.append(pv.column());
+                }
+            }
+            PropData::List(l) => {
+                for part in &parts {
+                    let PropData::List(pl) = &part[i] else {
+                        unreachable!("one layout")
+                    };
+                    let base = l.items.len();
+                    l.items.append(&pl.items);
+                    l.offsets.extend(pl.offsets[1..].iter().map(|o| o + base));
+                }
+            }
+        }
+    }
+    let el = assemble(def, lay, props.into_iter().map(Some).collect(), count);
+    Some((el, end, count))
+}
+
+/// Lines of `def`'s rows, one row each, into columns; `None` at a line
+/// that is not exactly one valid row.
+fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
+    let mut props = empty_props(def);
+    // (Every chunk ends with its last line's newline.)
+    for line in text
+        .strip_suffix(b"\n")
+        .unwrap_or(text)
+        .split(|&b| b == b'\n')
+    {
+        let mut tokens = line
+            .split(u8::is_ascii_whitespace)
+            .filter(|t| !t.is_empty())
+            .map(std::str::from_utf8);
+        let mut next = || tokens.next()?.ok();
+        for (pd, p) in def.props.iter().zip(props.iter_mut()) {
+            match pd.kind {
+                PropKind::Scalar(_) => {
+                    if !scalar_mut(p).push_token(next()?) {
+                        return None;
+                    }
+                }
+                PropKind::List(ct, _) => {
+                    let s = next()?;
+                    if s.parse::<i64>().is_ok_and(|n| n < 0) {
+                        return None;
+                    }
+                    let mut c = Column::empty(ct);
+                    if !c.push_token(s) {
+                        return None;
+                    }
+                    let n = count_value(&c);
+                    let PropData::List(l) = p else { unreachable!() };
+                    for _ in 0..n {
+                        if !l.items.push_token(next()?) {
+                            return None;
+                        }
+                    }
+                    l.offsets.push(l.items.len());
+                }
+            }
+        }
+        if next().is_some() {
+            return None;
+        }
+    }
+    Some(props)
+}
+
 /// Whitespace-separated tokens of an ASCII body, with line numbers.
 struct Tokens {
     line: String,
@@ -671,4 +812,66 @@ fn read_ascii<R: BufRead>(
         props.into_iter().map(Some).collect(),
         len,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `read_ascii_lines` on `text` (a header and its body), for its
+    /// first element.
+    fn lines_of(text: &str) -> Option<(Element, usize, usize)> {
+        let mut r = std::io::Cursor::new(text.as_bytes());
+        let h = read_header(&mut r).expect("a header");
+        let lay = layout(&h.elements[0], &roles(&h));
+        let body = &text.as_bytes()[r.position() as usize..];
+        read_ascii_lines(body, &h.elements[0], &lay)
+    }
+
+    #[test]
+    fn rows_one_a_line_are_read_in_chunks_and_others_left_to_the_row_reader() {
+        let head = |n: usize| {
+            format!("ply\nformat ascii 1.0\nelement face {n}\nproperty list uchar int v\nproperty float x\nend_header\n")
+        };
+        // Rows of 0 to 3 items over several chunks, then another element.
+        let n = 300_000;
+        let mut text = head(n);
+        for i in 0..n {
+            let items: Vec<String> = (0..i % 4).map(|k| (i + k).to_string()).collect();
+            text += &format!("{} {} {}.5\n", i % 4, items.join(" "), i);
+        }
+        assert!(text.len() > 4 * ASCII_TASK_BYTES);
+        let rows = text.len();
+        text += "after\n";
+        let (el, bytes, lines) = lines_of(&text).expect("one row a line");
+        assert_eq!((bytes, lines), (rows - head(n).len(), n));
+        let AttrData::List(l) = &el.attr("v").expect("the list").data else {
+            panic!("a list")
+        };
+        assert_eq!(l.offsets.len(), n + 1);
+        for i in [0, 1, 2, 3, n / 2 + 1, n - 1] {
+            let got: Vec<f64> = (l.offsets[i]..l.offsets[i + 1])
+                .map(|k| l.items.get_f64(k))
+                .collect();
+            let want: Vec<f64> = (0..i % 4).map(|k| (i + k) as f64).collect();
+            assert_eq!(got, want, "row {i}");
+        }
+        let x = el.attr("x").expect("x").components()[0]
+            .column()
+            .get_f64(n - 1);
+        assert_eq!(x, (n - 1) as f64 + 0.5);
+        // Laid out otherwise, or wrong: not here.
+        for body in [
+            "1 7 1\n2 7\n8 2\n",
+            "1 7 1 2 7 8 2\n\n",
+            "1 7 1\n\n2 7 8 2\n",
+            "1 7 1\n2 7 8 x\n",
+            "1 7 1\n2 7 8\n",
+            "1 7 1\n-1 2\n",
+            "1 7 1\n2 7 8 2",
+        ] {
+            assert!(lines_of(&(head(2) + body)).is_none(), "{body:?}");
+        }
+        assert!(lines_of(&(head(2) + "1 7 1\r\n2 7 8 2 \n")).is_some());
+    }
 }
