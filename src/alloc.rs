@@ -7,11 +7,13 @@
 //! afresh and unmaps it when freed, so the kernel faults in and zeroes
 //! each one's pages again: at 1M points on the bunny a sixth of `scatter
 //! --blue`'s time went to page faults. mimalloc reuses memory it has
-//! mapped (in transparent huge pages where the kernel allows them: with
-//! them 1M points took 2.17 s on the bunny and 2.92 s on the dragon,
-//! without 2.34 and 3.01, glibc 2.58 and 3.25, medians of 6 runs by
-//! hand), and [`keep_freed_memory`] tells it never to give memory back
-//! before the process ends.
+//! mapped, and [`keep_freed_memory`] tells it never to give memory back
+//! before the process ends: 1M points took 2.34 s on the bunny and 3.01 s
+//! on the dragon, against 2.58 and 3.25 s with glibc (medians of 6 runs
+//! by hand). It is built without transparent huge pages: with them the
+//! medians were lower (2.17 and 2.92 s), but the system time of a run
+//! on the dragon went from 0.6 to 1.5 s and back from one run to the
+//! next, where without them it stayed at 0.5-0.7 s.
 
 #[cfg(feature = "mimalloc")]
 #[global_allocator]
