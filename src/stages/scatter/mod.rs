@@ -107,13 +107,14 @@ pub const BLUE_RELAX: u32 = 2;
 /// spacings, in rounds until no point moves, at most `SEPARATE_ROUNDS`.
 pub const SEPARATE: f64 = 0.8;
 /// The most separation rounds. Measured at 1M points, seeds 0-3 (by
-/// hand): the bunny settles in 21-29 rounds, the dragon in 32-42 and
-/// once 247; a fixed 12 rounds left a pair at 0.748 on the bunny and
-/// 0.737 on the dragon for seed 1. The rounds after the first dozen
-/// move a few points each and take under a millisecond; a cluster that
-/// never settles (points jammed in a concave crease, pushing each other
-/// back and forth) stops here, its closest pair at 0.77 in the one case
-/// seen.
+/// hand): the bunny settles in 21-29 rounds, the dragon in 32-42, or
+/// for seed 1 in 247 (stopped here at 64, its closest pair 0.797); a
+/// fixed 12 rounds left a pair at 0.748 on the bunny and 0.737 on the
+/// dragon for seed 1. The rounds after the first dozen move a few points
+/// each, 2-3 ms in all; a cluster that never settles (points jammed in
+/// a concave crease, pushing each other back and forth) stops here too:
+/// its closest pair was 0.77 in the one case seen (dragon,
+/// `--candidates 2.5`, seed 3, still moving after 400 rounds).
 pub const SEPARATE_ROUNDS: u32 = 64;
 /// The range of `--candidates`.
 pub const CANDIDATES_RANGE: (f64, f64) = (1.5, 64.0);
