@@ -578,12 +578,12 @@ fn ascii_in_parallel<R: Source>(
     if !tok.line[tok.pos..].trim().is_empty() {
         return None;
     }
-    let (el, bytes, lines) = {
+    let (el, bytes) = {
         let (map, pos) = r.mapped()?;
         read_ascii_lines(&map[pos..], def, lay)?
     };
     r.consume(bytes);
-    tok.lineno += lines;
+    tok.lineno += el.len();
     tok.line.clear();
     tok.pos = 0;
     Some(el)
@@ -591,33 +591,30 @@ fn ascii_in_parallel<R: Source>(
 
 /// The `def.count` rows of an ASCII element at the start of `body`, one
 /// row a line (as PLY writers lay them out), parsed in parallel: chunks
-/// of whole lines, each into columns of its own, joined in order. With
-/// the element's bytes used and its lines. `None` when the rows are laid
+/// of whole lines, each into columns of its own, joined in order; with
+/// the element's length in bytes. `None` when the rows are laid
 /// out otherwise (a row over two lines, two on one, a blank line) or
 /// anything is wrong (a bad token, a short body): the row-by-row reader
 /// then reads the element, or reports what is wrong at its line. Nothing
 /// is allocated before the lines are found in `body`.
-fn read_ascii_lines(
-    body: &[u8],
-    def: &ElementDef,
-    lay: &[Layout],
-) -> Option<(Element, usize, usize)> {
+fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(Element, usize)> {
     use rayon::prelude::*;
     let count = usize::try_from(def.count).ok()?;
     if count == 0 {
         return None;
     }
     let end = memchr::memchr_iter(b'\n', body).nth(count - 1)? + 1;
+    // Chunks end after a newline: the first at or after each step.
     let mut cuts = vec![0];
-    while let Some(&last) = cuts.last() {
+    let mut last = 0;
+    while last + ASCII_TASK_BYTES < end {
         let want = last + ASCII_TASK_BYTES;
-        if want >= end {
-            break;
-        }
-        let cut = want + memchr::memchr(b'\n', &body[want..end])? + 1;
-        cuts.push(cut);
+        last = want + memchr::memchr(b'\n', &body[want..end])? + 1;
+        cuts.push(last);
     }
-    cuts.push(end);
+    if last < end {
+        cuts.push(end);
+    }
     let parts: Vec<Vec<PropData>> = cuts
         .par_windows(2)
         .map(|w| ascii_lines(&body[w[0]..w[1]], def))
@@ -647,7 +644,7 @@ fn read_ascii_lines(
         }
     }
     let el = assemble(def, lay, props.into_iter().map(Some).collect(), count);
-    Some((el, end, count))
+    Some((el, end))
 }
 
 /// Lines of `def`'s rows, one row each, into columns; `None` at a line
@@ -820,7 +817,7 @@ mod tests {
 
     /// `read_ascii_lines` on `text` (a header and its body), for its
     /// first element.
-    fn lines_of(text: &str) -> Option<(Element, usize, usize)> {
+    fn lines_of(text: &str) -> Option<(Element, usize)> {
         let mut r = std::io::Cursor::new(text.as_bytes());
         let h = read_header(&mut r).expect("a header");
         let lay = layout(&h.elements[0], &roles(&h));
@@ -833,7 +830,8 @@ mod tests {
         let head = |n: usize| {
             format!("ply\nformat ascii 1.0\nelement face {n}\nproperty list uchar int v\nproperty float x\nend_header\n")
         };
-        // Rows of 0 to 3 items over several chunks, then another element.
+        // Rows of 0 to 3 items over several chunks, then bytes that are
+        // not the element's.
         let n = 300_000;
         let mut text = head(n);
         for i in 0..n {
@@ -843,8 +841,8 @@ mod tests {
         assert!(text.len() > 4 * ASCII_TASK_BYTES);
         let rows = text.len();
         text += "after\n";
-        let (el, bytes, lines) = lines_of(&text).expect("one row a line");
-        assert_eq!((bytes, lines), (rows - head(n).len(), n));
+        let (el, bytes) = lines_of(&text).expect("one row a line");
+        assert_eq!((bytes, el.len()), (rows - head(n).len(), n));
         let AttrData::List(l) = &el.attr("v").expect("the list").data else {
             panic!("a list")
         };
