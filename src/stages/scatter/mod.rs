@@ -19,9 +19,10 @@
 //! points that weighted sample elimination keeps of three times as many
 //! random ones (see `blue`), then evened out over the surface (see
 //! `relax`): 2 relaxation iterations, then rounds that push apart pairs
-//! closer than 0.8 hexagonal spacings until none is left (at most 64). `--relax ITER` alone spreads random
-//! points by repulsion, like the Scatter SOP's relax iterations; it is
-//! slower than `--blue` and leaves closer pairs.
+//! closer than 0.8 hexagonal spacings until none is left (at most 64).
+//! `--relax ITER` alone spreads random points by repulsion, like the
+//! Scatter SOP's relax iterations; it is slower than `--blue` and leaves
+//! closer pairs.
 //!
 //! `ptarea`:
 //! - `prim`: a triangle's area shared equally by its points, and a
