@@ -66,6 +66,28 @@ fn sphere_cloud(mesh: &Cloud, n: usize, relax: u32, ptarea: PtareaMode) -> Cloud
     sphere_cloud_with(mesh, n, relax, ptarea, false, 11)
 }
 
+/// `n` points scattered on `mesh` with these options.
+fn scattered(
+    mesh: &Cloud,
+    n: usize,
+    relax: u32,
+    ptarea: PtareaMode,
+    blue: bool,
+    seed: u64,
+) -> Cloud {
+    scatter::scatter(
+        mesh,
+        &scatter::Params {
+            seed,
+            ptarea,
+            relax,
+            blue,
+            ..scatter::Params::new(Amount::Count(n))
+        },
+    )
+    .unwrap()
+}
+
 /// `sphere_cloud`, blue noise (`scatter --blue`) when `blue`, scattered
 /// with `seed`.
 fn sphere_cloud_with(
@@ -76,17 +98,7 @@ fn sphere_cloud_with(
     blue: bool,
     seed: u64,
 ) -> Cloud {
-    let mut c = scatter::scatter(
-        mesh,
-        &scatter::Params {
-            seed,
-            ptarea,
-            relax,
-            blue,
-            ..scatter::Params::new(Amount::Count(n))
-        },
-    )
-    .unwrap();
+    let mut c = scattered(mesh, n, relax, ptarea, blue, seed);
     let p = c.points().vec3_f64("P").unwrap();
     let a = c.points().scalar_f64("ptarea").unwrap();
     let total: f64 = a.iter().sum();
@@ -791,17 +803,7 @@ fn mesh_accuracy() {
         let mut sums = vec![(0.0, 0.0); radii.len()];
         let mut sum_ratio = 0.0;
         for seed in 0..seeds {
-            let c = scatter::scatter(
-                &mesh,
-                &scatter::Params {
-                    seed,
-                    ptarea,
-                    relax,
-                    blue,
-                    ..scatter::Params::new(Amount::Count(n))
-                },
-            )
-            .unwrap();
+            let c = scattered(&mesh, n, relax, ptarea, blue, seed);
             let p: Vec<DVec3> = c
                 .points()
                 .vec3_f64("P")
