@@ -84,33 +84,62 @@ pub fn cdf_single(y: f64) -> f64 {
     y * (2.0 + y * y * (y - 2.0))
 }
 
-/// The inverse of [`cdf_single`] on [0, 1]: Newton's steps kept inside a
-/// shrinking bracket (`F' = 2 (1 - y)^2 (1 + 2y)` vanishes at 1, where
-/// the bracket takes over), to full precision.
+/// The inverse of [`cdf_single`] on [0, 1], to a few ulps.
+///
+/// `F` is concave and its slope vanishes at 1 (`1 - F(1 - e) = e^3 (2 -
+/// e)`: a triple root), so one formula does not serve the whole range.
+/// Below `u = 1/2` (`y <= 0.27`) Newton's steps on `F(y) = u` start at the
+/// series `y = w + w^3`, `w = u / 2`, and keep y's relative precision for
+/// tiny u; above it they solve `e^3 (2 - e) = 1 - u` for `e = 1 - y` from
+/// `e = cbrt((1 - u) / 2)`, where the slope in `e` stays away from zero.
+/// Either start is within a few per cent, so the steps settle in three to
+/// five (the bracket, and a cap of 16, only guard against rounding).
 pub fn cdf_single_inv(u: f64) -> f64 {
-    let u = u.clamp(0.0, 1.0);
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    let mut y = 0.5 * u;
-    for _ in 0..100 {
-        let f = cdf_single(y) - u;
-        if f > 0.0 {
-            hi = y;
-        } else {
-            lo = y;
+    if u.is_nan() || u <= 0.0 {
+        return 0.0;
+    }
+    if u >= 1.0 {
+        return 1.0;
+    }
+    if u <= 0.5 {
+        let w = 0.5 * u;
+        let y = newton(w + w * w * w, 0.0, 0.27, |y| {
+            (cdf_single(y) - u, 2.0 * (1.0 - y) * (1.0 - y) * (1.0 + 2.0 * y))
+        });
+        return y.clamp(0.0, 1.0);
+    }
+    let v = 1.0 - u;
+    let e = newton((0.5 * v).cbrt(), 0.0, 1.0, |e| {
+        (e * e * e * (2.0 - e) - v, 2.0 * e * e * (3.0 - 2.0 * e))
+    });
+    (1.0 - e).clamp(0.0, 1.0)
+}
+
+/// Newton's steps on the increasing `f` (which returns the value and the
+/// slope) from `x` within `[lo, hi]`, until a step changes nothing at the
+/// precision of `x` (bisection should a step leave the bracket).
+#[inline]
+fn newton(mut x: f64, mut lo: f64, mut hi: f64, f: impl Fn(f64) -> (f64, f64)) -> f64 {
+    for _ in 0..16 {
+        let (v, d) = f(x);
+        if v == 0.0 {
+            return x;
         }
-        let d = 2.0 * (1.0 - y) * (1.0 - y) * (1.0 + 2.0 * y);
-        let next = y - f / d;
-        let next = if next > lo && next < hi && d > 0.0 {
-            next
+        if v > 0.0 {
+            hi = hi.min(x);
         } else {
-            0.5 * (lo + hi)
-        };
-        if (next - y).abs() <= 1e-16 * y.max(1e-300) || hi - lo <= 4.0 * f64::EPSILON {
+            lo = lo.max(x);
+        }
+        let mut next = x - v / d;
+        if !(next >= lo && next <= hi) {
+            next = 0.5 * (lo + hi);
+        }
+        if (next - x).abs() <= 2.0 * f64::EPSILON * x.abs() {
             return next;
         }
-        y = next;
+        x = next;
     }
-    y
+    x
 }
 
 /// The truncated exponential of rate `sigma` on [0, d] (`d` may be
@@ -228,6 +257,20 @@ mod tests {
             assert!((0.0..=1.0).contains(&y));
             assert!((cdf_single(y) - u).abs() < 1e-14, "{u}: {y}");
         }
+        // Relative precision for tiny u (F(y) = 2y near 0), and the ends.
+        for u in [1e-300, 1e-100, 1e-12, 1e-6] {
+            let y = cdf_single_inv(u);
+            assert!((y / (0.5 * u) - 1.0).abs() < 1e-5, "{u}: {y}");
+            assert!((cdf_single(y) / u - 1.0).abs() < 1e-15, "{u}: {y}");
+        }
+        for u in [1.0 - 1e-16, 1.0 - 1e-9, 0.5, 0.5 + 1e-16] {
+            let y = cdf_single_inv(u);
+            assert!((cdf_single(y) - u).abs() < 1e-15, "{u}: {y}");
+        }
+        assert_eq!(cdf_single_inv(0.0), 0.0);
+        assert_eq!(cdf_single_inv(1.0), 1.0);
+        assert_eq!(cdf_single_inv(-1.0), 0.0);
+        assert_eq!(cdf_single_inv(2.0), 1.0);
     }
 
     #[test]
