@@ -6,7 +6,9 @@
 //!    traced for their nearest hit on 1 and 2 threads by the project's BVH
 //!    and by Embree 4 (Python embreex, installed by `make bench`, one
 //!    thread per process): M rays/s, and both sides' hit counts and mean
-//!    hit distance, which must agree.
+//!    hit distance, which must agree. The distant light's rays also
+//!    through the grid down its direction that sssingle builds
+//!    (`geom::columns`).
 //! 2. The whole `sssingle` process on the Stanford bunny at 1,000,000
 //!    points with two lights (`fixtures/lights/bunny.json`, the bake's
 //!    camera), samples 1 to 256.
@@ -32,6 +34,7 @@ use obvhs::ray::Ray;
 use pcsss::cloud::Role;
 use pcsss::formats::{self, Format};
 use pcsss::geom::bvh::Facing;
+use pcsss::geom::columns::Columns;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::lights::{self, Arrival};
 use pcsss::progress::Progress;
@@ -139,6 +142,30 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
     let (t2, _, _) = trace(&rays, 2, nearest(Facing::Any));
     let (l1, lhits, _) = trace(&rays, 1, nearest(Facing::Leaving));
     let (l2, _, _) = trace(&rays, 2, nearest(Facing::Leaving));
+    // The distant light's rays alone, through the BVH and through the
+    // grid sssingle builds for that light.
+    let key = match lights[0].shape {
+        lights::Shape::Distant { to_light } => to_light,
+        _ => unreachable!("the first light is distant"),
+    };
+    let cols = Columns::new(occ, key).expect("a grid for the key light");
+    let parallel: Vec<Ray> = rays
+        .iter()
+        .filter(|r| r.direction == occ.unit_ray(DVec3::ZERO, key, 0.0, 1.0).direction)
+        .copied()
+        .collect();
+    let (b1, bhits, bdist) = trace(&parallel, 1, nearest(Facing::Leaving));
+    let (b2, _, _) = trace(&parallel, 2, nearest(Facing::Leaving));
+    let columns = |r: &Ray| {
+        let mut r = *r;
+        cols.nearest_ray(occ, &mut r, Facing::Leaving)
+            .map(|_| r.tmax)
+    };
+    let t = Instant::now();
+    let _ = Columns::new(occ, key);
+    let cbuild = t.elapsed().as_secs_f64();
+    let (c1, chits, cdist) = trace(&parallel, 1, columns);
+    let (c2, _, _) = trace(&parallel, 2, columns);
     let embree = embree(&dir, occ.triangles(), &rays, "intersect");
     let nr = rays.len() as f64;
     tab.row(format!(
@@ -156,6 +183,24 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
         "| pcsss nearest leaving hit (sssingle's query), M rays/s | | {:.2} | {:.2} |",
         nr / l1 / 1e6,
         nr / l2 / 1e6
+    ));
+    let np = parallel.len() as f64;
+    tab.row(format!(
+        "| the distant light's {} rays alone: nearest leaving hit through the BVH, M rays/s | | {:.2} | {:.2} |",
+        parallel.len(),
+        np / b1 / 1e6,
+        np / b2 / 1e6
+    ));
+    let (cells, entries) = cols.size();
+    tab.row(format!(
+        "| the same through sssingle's grid down the light ({cells} cells, {entries} entries), M rays/s | {cbuild:.3} | {:.2} | {:.2} |",
+        np / c1 / 1e6,
+        np / c2 / 1e6
+    ));
+    tab.row(format!(
+        "| hits: BVH {bhits}, grid {chits}; mean distance BVH {:.6}, grid {:.6} | | | |",
+        bdist / bhits as f64,
+        cdist / chits as f64
     ));
     match &embree {
         Some(e) => {

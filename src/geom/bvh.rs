@@ -297,12 +297,8 @@ impl Occluder {
             return None;
         }
         let mut ray = self.unit_ray(origin, dir, tmin, tmax);
-        self.nearest_ray(&mut ray, facing).map(|j| {
-            (
-                self.ids[j as usize] as usize,
-                ray.tmax as f64 / self.inv_scale,
-            )
-        })
+        self.nearest_ray(&mut ray, facing)
+            .map(|j| (self.ids[j as usize] as usize, self.mesh_dist(ray.tmax)))
     }
 
     /// The ray from `origin` along the unit `dir` over `[tmin, tmax]`, in
@@ -474,6 +470,31 @@ impl Occluder {
     /// other ray tracers on the same rays).
     pub fn triangles(&self) -> &[Triangle] {
         &self.plain
+    }
+
+    /// The ray test of triangle `j` of the leaf order (for
+    /// [`crate::geom::columns`]).
+    #[inline(always)]
+    pub(crate) fn hit_leaf(&self, j: u32, ray: &Ray, facing: Facing) -> Option<f32> {
+        self.tris[j as usize].hit_t(ray, facing)
+    }
+
+    /// The mesh's index of triangle `j` of the leaf order.
+    #[inline(always)]
+    pub fn leaf_id(&self, j: u32) -> u32 {
+        self.ids[j as usize]
+    }
+
+    /// `p` in the unit frame.
+    #[inline]
+    pub fn to_unit(&self, p: DVec3) -> Vec3A {
+        Vec3A::from(((p - self.centre) * self.inv_scale).as_vec3())
+    }
+
+    /// A distance in the unit frame in mesh units.
+    #[inline]
+    pub fn mesh_dist(&self, t: f32) -> f64 {
+        t as f64 / self.inv_scale
     }
 }
 

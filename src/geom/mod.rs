@@ -7,6 +7,7 @@
 //! vertex before crossing, so results hold at large coordinates.
 
 pub mod bvh;
+pub mod columns;
 pub mod grid;
 pub mod kdtree;
 pub mod mesh;

@@ -204,3 +204,176 @@ fn closest_points_through_the_bvh_match_brute_force_on_mixed_triangle_sizes() {
         assert!(area(hit.tri) > 0.0, "a triangle of no area");
     }
 }
+
+/// The triangle soup of `any_hit_agrees_with_brute_force`: 400 triangles
+/// in the unit cube, one in seven long and thin.
+fn soup(seed: u64) -> pcsss::cloud::Cloud {
+    let mut r = Pcg32::new(seed, 0);
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..400 {
+        let c = DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r));
+        let s = if k % 7 == 0 { 0.5 } else { 0.08 };
+        for _ in 0..3 {
+            let q = c + DVec3::new(unit(&mut r) - 0.5, unit(&mut r) - 0.5, unit(&mut r) - 0.5) * s;
+            p.push(q.to_array());
+        }
+        faces.push(vec![3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    mesh_from(&p, &faces)
+}
+
+#[test]
+fn parallel_rays_through_columns_find_the_bvh_hits_and_the_true_ones() {
+    use pcsss::geom::bvh::Facing;
+    use pcsss::geom::columns::Columns;
+    let bunny = pcsss::formats::read_cloud_file(
+        &fixtures().join("mesh/bunny.obj"),
+        &pcsss::formats::Select::All,
+    )
+    .unwrap();
+    let meshes = [
+        ("bunny", bunny),
+        ("soup", soup(9)),
+        // Far from the origin and small: the unit frame takes both.
+        ("sphere", uv_sphere(24, 48, 1e-3, [1e6, -2e6, 5e5])),
+    ];
+    let dirs = [
+        DVec3::Z,
+        -DVec3::X,
+        DVec3::new(1.0, 1.0, 1.0),
+        DVec3::new(0.8, -0.5, -0.35),
+        DVec3::new(-0.3, -0.2, 1.0),
+        DVec3::new(1e-9, 1.0, 0.0),
+    ];
+    let mut r = Pcg32::new(11, 0);
+    for (name, mesh) in &meshes {
+        let m = TriMesh::from_cloud(mesh).unwrap();
+        let occ = Occluder::new(&m);
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &m.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let size = (hi - lo).max_element();
+        let (mut same, mut total, mut hits, mut true_checked) = (0, 0, 0, 0);
+        for dir in dirs {
+            let dir = dir.normalize();
+            let cols = Columns::new(&occ, dir).unwrap_or_else(|| panic!("{name}: no grid"));
+            for k in 0..3000 {
+                // Origins in the box grown by a fifth, and on the
+                // triangles' edges and corners (rays through them).
+                let o = if k % 3 == 0 {
+                    let t = m.tri(k % m.tris.len());
+                    let w = if k % 2 == 0 { 0.5 } else { 0.0 };
+                    (t[0] * (1.0 - w) + t[1] * w) - dir * size * 0.7
+                } else {
+                    lo - (hi - lo) * 0.2
+                        + (hi - lo) * 1.4 * DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r))
+                };
+                let facing = [Facing::Any, Facing::Entering, Facing::Leaving][k / 3 % 3];
+                let (tmin, tmax) = match k / 9 % 4 {
+                    0 => (0.0, f64::INFINITY),
+                    1 => (-0.01 * size, f64::INFINITY),
+                    2 => (0.0, 0.3 * size),
+                    _ => (-0.05 * size, 0.9 * size),
+                };
+                let a = occ.nearest(o, dir, tmin, tmax, facing);
+                let b = cols.nearest(&occ, o, tmin, tmax, facing);
+                hits += a.is_some() as usize;
+                total += (k % 3 != 0) as usize;
+                if a == b {
+                    same += (k % 3 != 0) as usize;
+                } else if k % 3 != 0 {
+                    // A random ray through an edge: the other triangle
+                    // of it, at the same distance up to rounding.
+                    let (Some(a), Some(b)) = (a, b) else {
+                        panic!("{name} {dir:?} {o:?} {facing:?}: bvh {a:?}, columns {b:?}");
+                    };
+                    assert!(
+                        (a.1 - b.1).abs() <= 1e-5 * size,
+                        "{name} {dir:?} {o:?}: bvh {a:?}, columns {b:?}"
+                    );
+                } else {
+                    // A ray through a corner or an edge, along an axis:
+                    // the BVH's box test misses a box whose face the ray
+                    // lies in exactly (its slab is empty), so where the
+                    // ray only grazes the surface there it goes on. The
+                    // grid misses nothing the BVH finds, and what it
+                    // finds is on its triangle.
+                    let b = b.unwrap_or_else(|| {
+                        panic!("{name} {dir:?} {o:?}: bvh {a:?}, no columns hit")
+                    });
+                    assert!(
+                        a.is_none_or(|a| b.1 <= a.1 + 1e-5 * size),
+                        "{name} {dir:?} {o:?}: bvh {a:?}, columns {b:?}"
+                    );
+                    let [ta, tb, tc] = m.tri(b.0);
+                    let p = o + dir * b.1;
+                    let w = pcsss::geom::closest_on_triangle(p, ta, tb, tc);
+                    let q = ta * w[0] + tb * w[1] + tc * w[2];
+                    assert!(
+                        (p - q).length() <= 1e-5 * size,
+                        "{name} {dir:?} {o:?}: {b:?} is off its triangle by {}",
+                        (p - q).length()
+                    );
+                }
+                // Random rays away from edges: the nearest hit is the true
+                // one (f64, every triangle).
+                if k % 3 != 0 && facing == Facing::Any && tmin == 0.0 && tmax.is_infinite() {
+                    let truth = (0..m.tris.len())
+                        .filter_map(|t| hit64(o, dir, f64::INFINITY, m.tri(t)).map(|h| (t, h)))
+                        .min_by(|x, y| x.1 .0.total_cmp(&y.1 .0));
+                    if let Some((t, (d, margin))) = truth {
+                        if margin > 1e-4 * size {
+                            let b = b.expect("a true hit");
+                            assert_eq!(b.0, t, "{name} {dir:?} {o:?}: {b:?} against {d} {margin}");
+                            assert!((b.1 - d).abs() <= 1e-5 * size, "{name}: {b:?} against {d}");
+                            true_checked += 1;
+                        }
+                    } else {
+                        assert_eq!(b, None, "{name} {dir:?} {o:?}");
+                    }
+                }
+            }
+        }
+        assert!(
+            same * 1000 >= total * 998,
+            "{name}: {same} of {total} random rays the same"
+        );
+        assert!(
+            hits * 5 > total && true_checked > 100,
+            "{name}: {hits} hits, {true_checked} checked against the truth"
+        );
+    }
+}
+
+#[test]
+fn columns_decline_what_they_cannot_hold_and_hold_nothing_for_nothing() {
+    use pcsss::geom::columns::Columns;
+    // Fifty huge squares stacked face to face over one small triangle:
+    // seen face on, every cell holds every square: too many entries.
+    let mut p = Vec::new();
+    let mut faces = Vec::new();
+    for k in 0..50 {
+        let z = k as f64 * 0.01;
+        let b = p.len() as i32;
+        p.extend([[0.0, 0.0, z], [1.0, 0.0, z], [1.0, 1.0, z], [0.0, 1.0, z]]);
+        faces.push(vec![b, b + 1, b + 2, b + 3]);
+    }
+    let m = TriMesh::from_cloud(&mesh_from(&p, &faces)).unwrap();
+    let occ = Occluder::new(&m);
+    assert!(Columns::new(&occ, DVec3::Z).is_none());
+    // Edge on, the same stack is thin: a grid.
+    assert!(Columns::new(&occ, DVec3::X).is_some());
+    // No triangle, or no direction: no grid.
+    let flat = mesh_from(
+        &[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+        &[vec![0, 1, 2]],
+    );
+    let occ = Occluder::new(&TriMesh::from_cloud(&flat).unwrap());
+    assert!(Columns::new(&occ, DVec3::Z).is_none());
+    let occ = Occluder::new(&TriMesh::from_cloud(&soup(1)).unwrap());
+    assert!(Columns::new(&occ, DVec3::ZERO).is_none());
+    assert!(Columns::new(&occ, DVec3::NAN).is_none());
+}

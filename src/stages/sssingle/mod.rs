@@ -29,8 +29,9 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
+use crate::geom::columns::Columns;
 use crate::geom::mesh::TriMesh;
-use crate::lights::{Arrival, Light};
+use crate::lights::{Arrival, Light, Shape};
 use crate::maths::uniform24;
 use crate::progress::Progress;
 use crate::stages::ssmulti::{falloff, Falloff};
@@ -335,6 +336,8 @@ struct Run<'a> {
     sigma_t: [f64; 3],
     /// One kernel or density serves every channel.
     single: bool,
+    /// Per light: a grid for its parallel rays (a distant light's).
+    columns: Vec<Option<Columns>>,
 }
 
 impl<'a> Run<'a> {
@@ -345,6 +348,13 @@ impl<'a> Run<'a> {
             Model::Seed => !p.rgb || (lu[0] == lu[1] && lu[1] == lu[2]),
             Model::Physical => sigma_t[0] == sigma_t[1] && sigma_t[1] == sigma_t[2],
         };
+        let columns = lights
+            .par_iter()
+            .map(|l| match l.shape {
+                Shape::Distant { to_light } => interior.columns(to_light),
+                _ => None,
+            })
+            .collect();
         Run {
             p,
             lights,
@@ -353,6 +363,7 @@ impl<'a> Run<'a> {
             lu1: lu.iter().copied().fold(0.0, f64::max),
             sigma_t,
             single,
+            columns,
         }
     }
 
@@ -391,7 +402,8 @@ impl<'a> Run<'a> {
                 light.emissions(ps, r1, r2, emissions);
                 for e in emissions.iter() {
                     rays += 1;
-                    let Some(hit) = self.interior.entry(ps, e.dir, e.dist) else {
+                    let cols = self.columns[l].as_ref();
+                    let Some(hit) = self.interior.entry_with(cols, ps, e.dir, e.dist) else {
                         continue;
                     };
                     let ci = e.dir.dot(hit.normal);

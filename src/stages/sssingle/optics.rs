@@ -104,7 +104,10 @@ pub fn cdf_single_inv(u: f64) -> f64 {
     if u <= 0.5 {
         let w = 0.5 * u;
         let y = newton(w + w * w * w, 0.0, 0.27, |y| {
-            (cdf_single(y) - u, 2.0 * (1.0 - y) * (1.0 - y) * (1.0 + 2.0 * y))
+            (
+                cdf_single(y) - u,
+                2.0 * (1.0 - y) * (1.0 - y) * (1.0 + 2.0 * y),
+            )
         });
         return y.clamp(0.0, 1.0);
     }
