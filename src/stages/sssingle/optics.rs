@@ -205,8 +205,11 @@ pub fn mixture_inv(u: f64, sigma: [f64; 3], mass: [f64; 3], d: f64) -> f64 {
         } else {
             lo = s;
         }
+        // A step onto the bracket's end is taken: at convergence the step
+        // returns `s`, which is one of the ends (rejecting it bisected
+        // the bracket for some 30 more rounds).
         let next = s * (-f / ds).exp();
-        let next = if next > lo && next < hi {
+        let next = if next >= lo && next <= hi {
             next
         } else {
             (lo * hi).sqrt()
