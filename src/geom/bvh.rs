@@ -479,6 +479,12 @@ impl Occluder {
         self.tris[j as usize].hit_t(ray, facing)
     }
 
+    /// The any-hit test of triangle `j` of the leaf order.
+    #[inline(always)]
+    pub(crate) fn hits_leaf(&self, j: u32, ray: &Ray) -> bool {
+        self.tris[j as usize].hits(ray)
+    }
+
     /// The mesh's index of triangle `j` of the leaf order.
     #[inline(always)]
     pub fn leaf_id(&self, j: u32) -> u32 {

@@ -31,7 +31,8 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::bvh::Occluder;
-use crate::lights::{Arrival, Light};
+use crate::geom::columns::{self, Columns};
+use crate::lights::{Arrival, Light, Shape};
 use crate::progress::Progress;
 
 /// What `illum` did.
@@ -79,6 +80,20 @@ pub fn illum(
             )));
         }
     }
+    // A distant light's shadow rays are parallel: a grid down its
+    // direction answers them as the BVH would, faster, when there are
+    // enough of them to repay its building (geom::columns).
+    let columns: Vec<Option<Columns>> = lights
+        .par_iter()
+        .map(|l| match (occluder, &l.shape) {
+            (Some(occ), Shape::Distant { to_light })
+                if columns::worth_it(occ, pos.len() as u64) =>
+            {
+                Columns::new(occ, *to_light)
+            }
+            _ => None,
+        })
+        .collect();
     progress.start("shading", pos.len() as u64);
     let chunks: Vec<(Vec<DVec3>, u64, u64, usize)> = pos
         .par_chunks(CHUNK)
@@ -93,7 +108,7 @@ pub fn illum(
                 let p = DVec3::from_array(*p);
                 let n = DVec3::from_array(*n).normalize();
                 let mut e = DVec3::ZERO;
-                for light in lights {
+                for (light, cols) in lights.iter().zip(&columns) {
                     if light.cl == DVec3::ZERO {
                         continue;
                     }
@@ -113,7 +128,11 @@ pub fn illum(
                         }
                         if let Some(occ) = occluder {
                             rays += 1;
-                            if occ.occluded(p, n, a.dir, a.dist) {
+                            let blocked_here = match cols {
+                                Some(c) => c.occluded(occ, p, n, a.dir, a.dist),
+                                None => occ.occluded(p, n, a.dir, a.dist),
+                            };
+                            if blocked_here {
                                 blocked += 1;
                                 continue;
                             }

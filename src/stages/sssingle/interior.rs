@@ -138,6 +138,11 @@ impl<'a> Interior<'a> {
         Columns::new(&self.occ, dir)
     }
 
+    /// Whether `rays` rays of one distant light repay a grid.
+    pub fn columns_worth_it(&self, rays: u64) -> bool {
+        crate::geom::columns::worth_it(&self.occ, rays)
+    }
+
     /// [`Interior::entry`], through `cols` (built by
     /// [`Interior::columns`] for `dir`) when there is one.
     pub fn entry_with(
@@ -148,10 +153,7 @@ impl<'a> Interior<'a> {
         max: f64,
     ) -> Option<Entry> {
         let (t, _) = match cols {
-            Some(c) => {
-                debug_assert_eq!(c.dir(), dir);
-                c.nearest(&self.occ, p, -self.behind, max, Facing::Leaving)?
-            }
+            Some(c) => c.nearest(&self.occ, p, dir, -self.behind, max, Facing::Leaving)?,
             None => self
                 .occ
                 .nearest(p, dir, -self.behind, max, Facing::Leaving)?,

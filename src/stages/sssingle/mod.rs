@@ -256,7 +256,8 @@ pub fn sssingle_values(
         }
     }
     let interior = Interior::new(mesh, p.cusp);
-    let run = Run::new(p, lights, &interior);
+    let wanted = want.map_or(pos.len(), |w| w.iter().filter(|&&x| x).count());
+    let run = Run::new(p, lights, &interior, wanted);
     progress.start("single scattering", pos.len() as u64);
     let per_point: Vec<([f64; 3], Outcome)> = (0..pos.len())
         .into_par_iter()
@@ -341,7 +342,15 @@ struct Run<'a> {
 }
 
 impl<'a> Run<'a> {
-    fn new(p: &'a Params, lights: &'a [Light], interior: &'a Interior<'a>) -> Run<'a> {
+    /// `points`: how many points the run computes (a light's rays are at
+    /// most these times the samples).
+    fn new(
+        p: &'a Params,
+        lights: &'a [Light],
+        interior: &'a Interior<'a>,
+        points: usize,
+    ) -> Run<'a> {
+        let rays = points as u64 * p.samples as u64;
         let lu = p.rd.map(|r| r * p.sd);
         let sigma_t = p.mfp.map(|m| 1.0 / m);
         let single = match p.model {
@@ -351,7 +360,9 @@ impl<'a> Run<'a> {
         let columns = lights
             .par_iter()
             .map(|l| match l.shape {
-                Shape::Distant { to_light } => interior.columns(to_light),
+                Shape::Distant { to_light } if interior.columns_worth_it(rays) => {
+                    interior.columns(to_light)
+                }
                 _ => None,
             })
             .collect();
