@@ -391,24 +391,39 @@ fn shadow_rays_through_columns_are_blocked_as_through_the_bvh() {
         let m = TriMesh::from_cloud(&mesh).unwrap();
         let occ = Occluder::new(&m);
         let (mut same, mut blocked, mut total) = (0, 0, 0);
-        for dir in [DVec3::new(0.8, -0.5, -0.35), DVec3::Y, DVec3::new(-0.3, -0.2, 1.0)] {
+        for dir in [
+            DVec3::new(0.8, -0.5, -0.35),
+            DVec3::Y,
+            DVec3::new(-0.3, -0.2, 1.0),
+        ] {
             let dir = dir.normalize();
             let cols = Columns::new(&occ, dir).unwrap();
             for k in 0..4000 {
                 // A point on a triangle, its normal towards the light.
                 let [a, b, c] = m.tri(k % m.tris.len());
                 let (u, v) = (unit(&mut r), unit(&mut r));
-                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
                 let p = a + (b - a) * u + (c - a) * v;
                 let n = (b - a).cross(c - a).normalize();
                 let n = if n.dot(dir) < 0.0 { -n } else { n };
-                let dist = if k % 2 == 0 { f64::INFINITY } else { (m.tri(0)[0] - p).length() };
+                let dist = if k % 2 == 0 {
+                    f64::INFINITY
+                } else {
+                    (m.tri(0)[0] - p).length()
+                };
                 let want = occ.occluded(p, n, dir, dist);
                 total += 1;
                 blocked += want as usize;
                 same += (cols.occluded(&occ, p, n, dir, dist) == want) as usize;
                 // Another direction goes through the BVH.
-                assert_eq!(cols.occluded(&occ, p, n, -dir, dist), occ.occluded(p, n, -dir, dist));
+                assert_eq!(
+                    cols.occluded(&occ, p, n, -dir, dist),
+                    occ.occluded(p, n, -dir, dist)
+                );
             }
         }
         assert!(same * 1000 >= total * 998, "{same} of {total} the same");
