@@ -32,6 +32,9 @@ const CELLS_PER_TRI: f64 = 2.0;
 const MAX_CELLS: usize = 1 << 24;
 /// At most this many entries per triangle on average, or no grid.
 const MAX_REFS_PER_TRI: usize = 24;
+/// At most this many entries in all (12 bytes each: 400 MB), or no grid:
+/// a mesh of tens of millions of triangles keeps the BVH alone.
+const MAX_ENTRIES: usize = 1 << 25;
 /// The margin around each triangle's projection and depth range, in the
 /// unit frame (coordinates within 1 of the origin): a hundred times the
 /// rounding of an f32 projection there.
@@ -112,10 +115,18 @@ impl Columns {
         let lo = lo.map(|x| x - 2.0 * PAD);
         let (w, h) = (hi[0] + 2.0 * PAD - lo[0], hi[1] + 2.0 * PAD - lo[1]);
         let cells = (CELLS_PER_TRI * tris.len() as f64).clamp(1.0, MAX_CELLS as f64);
-        let cell = ((w as f64 * h as f64 / cells).sqrt() as f32).max(w.max(h) / 4096.0);
-        let nx = ((w / cell).ceil() as usize).clamp(1, 4096 * 4);
-        let ny = ((h / cell).ceil() as usize).clamp(1, 4096 * 4);
-        if nx * ny > MAX_CELLS {
+        // Square cells, `cells` of them over the box; a box thinner than a
+        // cell in one direction (a flat mesh seen edge on, all of it one
+        // point) gets a row of `cells`: at most about 3 `cells` in all.
+        let cell = ((w as f64 * h as f64 / cells)
+            .sqrt()
+            .max(w.max(h) as f64 / cells)) as f32;
+        if !(cell > 0.0 && cell.is_finite()) {
+            return None;
+        }
+        let nx = ((w / cell).ceil() as usize).max(1);
+        let ny = ((h / cell).ceil() as usize).max(1);
+        if nx.saturating_mul(ny) > MAX_CELLS {
             return None;
         }
         let grid = Raster {
@@ -126,7 +137,7 @@ impl Columns {
             ny,
         };
         // Count, then fill: each triangle's cells row by row.
-        let budget = MAX_REFS_PER_TRI * tris.len();
+        let budget = (MAX_REFS_PER_TRI * tris.len()).min(MAX_ENTRIES);
         let mut start = vec![0u32; nx * ny + 1];
         let mut total = 0usize;
         for p in &proj {

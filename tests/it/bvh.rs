@@ -366,6 +366,18 @@ fn columns_decline_what_they_cannot_hold_and_hold_nothing_for_nothing() {
     assert!(Columns::new(&occ, DVec3::Z).is_none());
     // Edge on, the same stack is thin: a grid.
     assert!(Columns::new(&occ, DVec3::X).is_some());
+    // A flat mesh seen edge on projects to a segment: a row of cells, not
+    // a square of them.
+    let (mut p, mut faces) = (Vec::new(), Vec::new());
+    for k in 0..1000 {
+        let x = k as f64;
+        let b = p.len() as i32;
+        p.extend([[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 0.0, 1.0]]);
+        faces.push(vec![b, b + 1, b + 2]);
+    }
+    let occ = Occluder::new(&TriMesh::from_cloud(&mesh_from(&p, &faces)).unwrap());
+    let edge_on = Columns::new(&occ, DVec3::Z).unwrap();
+    assert!(edge_on.size().0 <= 3 * 2000 + 2, "{:?}", edge_on.size());
     // No triangle, or no direction: no grid.
     let flat = mesh_from(
         &[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
