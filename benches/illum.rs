@@ -16,6 +16,7 @@ use glam::DVec3;
 use obvhs::ray::Ray;
 use pcsss::formats::{self, Format};
 use pcsss::geom::bvh::Occluder;
+use pcsss::geom::columns::Columns;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::lights;
 use pcsss::Cloud;
@@ -115,6 +116,26 @@ fn main() {
     let (c1, cw_blocked) = trace(&rays, 1, cw_hit);
     let (c2, _) = trace(&rays, 2, cw_hit);
 
+    // The distant light's rays alone, through the BVH and through the
+    // grid down its direction that illum builds for them.
+    let key = match lights[0].shape {
+        lights::Shape::Distant { to_light } => to_light,
+        _ => unreachable!("the first light is distant"),
+    };
+    let t = Instant::now();
+    let cols = Columns::new(&occ, key).expect("a grid for the key light");
+    let cols_build = t.elapsed().as_secs_f64();
+    let key_dir = occ.shadow_ray(DVec3::ZERO, DVec3::Z, key, 1.0).direction;
+    let parallel: Vec<Ray> = rays
+        .iter()
+        .filter(|r| r.direction == key_dir)
+        .copied()
+        .collect();
+    let (k1, key_blocked) = trace(&parallel, 1, |r| occ.occluded_ray(r));
+    let (k2, _) = trace(&parallel, 2, |r| occ.occluded_ray(r));
+    let (g1, grid_blocked) = trace(&parallel, 1, |r| cols.occluded_ray(&occ, r));
+    let (g2, _) = trace(&parallel, 2, |r| cols.occluded_ray(&occ, r));
+
     // The same rays and triangles for Embree.
     let embree = embree(&dir, occ.triangles(), &rays, "occluded");
 
@@ -138,6 +159,19 @@ fn main() {
         "| obvhs CWBVH traversal ({cw_blocked} blocked), M rays/s | {cw_build:.3} | {:.2} | {:.2} |",
         nr / c1 / 1e6,
         nr / c2 / 1e6
+    ));
+    let np = parallel.len() as f64;
+    tab.row(format!(
+        "| the distant light's {} rays alone through the BVH ({key_blocked} blocked), M rays/s | | {:.2} | {:.2} |",
+        parallel.len(),
+        np / k1 / 1e6,
+        np / k2 / 1e6
+    ));
+    let (cells, entries) = cols.size();
+    tab.row(format!(
+        "| the same through illum's grid down the light ({cells} cells, {entries} entries; {grid_blocked} blocked), M rays/s | {cols_build:.3} | {:.2} | {:.2} |",
+        np / g1 / 1e6,
+        np / g2 / 1e6
     ));
     match &embree {
         Some(e) => {

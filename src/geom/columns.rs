@@ -40,16 +40,21 @@ const MAX_ENTRIES: usize = 1 << 25;
 /// rounding of an f32 projection there.
 const PAD: f32 = 1e-5;
 
-/// A grid costs about 0.6 us a triangle to build (by hand: 0.45-0.5 s for
-/// the dragon's 871k, serial) and saves 0.2-0.7 us a ray; illum on the
-/// dragon at 1M points (1.15 shadow rays a triangle a light) took 1.65 s
-/// with grids against 1.21 s without. Below this many rays a triangle, no
-/// grid.
-pub const RAYS_PER_TRIANGLE: u64 = 4;
+/// A grid costs about 0.6 us a triangle to build, serially (by hand: 0.45-0.5
+/// s for the dragon's 871k; `benches/illum.rs`: 0.058 s for 99k). A
+/// nearest-hit ray from inside the mesh (sssingle's) saves about 0.23 us
+/// of one thread's time (`benches/sssingle.rs`: 3.19 against 12.86 M
+/// rays/s), a shadow ray from the surface (illum's) about 0.16 us (3.84
+/// against 9.91 M rays/s), and the rays run on every thread: below these
+/// many rays a triangle, a grid does not repay its building.
+pub const NEAREST_RAYS_PER_TRIANGLE: u64 = 4;
+/// The same for shadow rays (any hit).
+pub const SHADOW_RAYS_PER_TRIANGLE: u64 = 16;
 
-/// Whether `rays` parallel rays through `occ` repay building a grid.
-pub fn worth_it(occ: &Occluder, rays: u64) -> bool {
-    rays >= RAYS_PER_TRIANGLE * occ.triangle_count() as u64
+/// Whether `rays` parallel rays through `occ`, `per_triangle` of them
+/// needed a triangle, repay building a grid.
+pub fn worth_it(occ: &Occluder, rays: u64, per_triangle: u64) -> bool {
+    rays >= per_triangle * occ.triangle_count() as u64
 }
 
 /// One triangle in a cell: its place in the occluder's leaf order and its
@@ -239,9 +244,14 @@ impl Columns {
         if dir != self.dir {
             return occ.occluded(origin, normal, dir, dist);
         }
-        let ray = occ.shadow_ray(origin, normal, dir, dist);
+        self.occluded_ray(occ, &occ.shadow_ray(origin, normal, dir, dist))
+    }
+
+    /// [`Occluder::occluded_ray`] for a ray along this grid's direction
+    /// (in `occ`'s unit frame, `occ` the occluder this was built from).
+    pub fn occluded_ray(&self, occ: &Occluder, ray: &Ray) -> bool {
         debug_assert_eq!(ray.direction, self.d);
-        let Some((cell, z0)) = self.cell(&ray) else {
+        let Some((cell, z0)) = self.cell(ray) else {
             return false;
         };
         let zeps = zeps(z0);
@@ -249,7 +259,7 @@ impl Columns {
             if e.zmin - z0 > ray.tmax + zeps {
                 break;
             }
-            if e.zmax - z0 >= ray.tmin - zeps && occ.hits_leaf(e.tri, &ray) {
+            if e.zmax - z0 >= ray.tmin - zeps && occ.hits_leaf(e.tri, ray) {
                 return true;
             }
         }

@@ -87,7 +87,7 @@ pub fn illum(
         .par_iter()
         .map(|l| match (occluder, &l.shape) {
             (Some(occ), Shape::Distant { to_light })
-                if columns::worth_it(occ, pos.len() as u64) =>
+                if columns::worth_it(occ, pos.len() as u64, columns::SHADOW_RAYS_PER_TRIANGLE) =>
             {
                 Columns::new(occ, *to_light)
             }

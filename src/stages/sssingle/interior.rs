@@ -140,7 +140,11 @@ impl<'a> Interior<'a> {
 
     /// Whether `rays` rays of one distant light repay a grid.
     pub fn columns_worth_it(&self, rays: u64) -> bool {
-        crate::geom::columns::worth_it(&self.occ, rays)
+        crate::geom::columns::worth_it(
+            &self.occ,
+            rays,
+            crate::geom::columns::NEAREST_RAYS_PER_TRIANGLE,
+        )
     }
 
     /// [`Interior::entry`], through `cols` (built by
