@@ -57,11 +57,7 @@ fn separation_runs_until_no_pair_is_too_close_whatever_the_seed() {
     // none is left (by more than its tolerance), not for a fixed number
     // of rounds: 12 rounds left pairs at 0.74-0.75 for some seeds at 1M
     // points on the bunny and the dragon, one pair in a million.
-    let bunny = pcsss::formats::read_cloud_file(
-        &fixtures().join("mesh/bunny.obj"),
-        &pcsss::formats::Select::All,
-    )
-    .unwrap();
+    let bunny = bunny();
     let sphere = uv_sphere(120, 240, 1.0, [0.0; 3]);
     for (mesh, n) in [(&bunny, 100_000), (&sphere, 20_000)] {
         for seed in 0..6 {

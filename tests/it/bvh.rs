@@ -34,20 +34,8 @@ fn hit64(o: DVec3, d: DVec3, tmax: f64, [a, b, c]: [DVec3; 3]) -> Option<(f64, f
 
 #[test]
 fn any_hit_agrees_with_brute_force() {
-    let mut r = Pcg32::new(5, 0);
-    // A soup of 400 triangles in the unit cube, some long and thin.
-    let mut p = Vec::new();
-    let mut faces = Vec::new();
-    for k in 0..400 {
-        let c = DVec3::new(unit(&mut r), unit(&mut r), unit(&mut r));
-        let s = if k % 7 == 0 { 0.5 } else { 0.08 };
-        for _ in 0..3 {
-            let q = c + DVec3::new(unit(&mut r) - 0.5, unit(&mut r) - 0.5, unit(&mut r) - 0.5) * s;
-            p.push(q.to_array());
-        }
-        faces.push(vec![3 * k, 3 * k + 1, 3 * k + 2]);
-    }
-    let mesh = mesh_from(&p, &faces);
+    let mesh = soup(5);
+    let mut r = Pcg32::new(5, 1);
     let m = TriMesh::from_cloud(&mesh).unwrap();
     let occ = Occluder::new(&m);
     assert_eq!(occ.triangle_count(), 400);
@@ -205,8 +193,7 @@ fn closest_points_through_the_bvh_match_brute_force_on_mixed_triangle_sizes() {
     }
 }
 
-/// The triangle soup of `any_hit_agrees_with_brute_force`: 400 triangles
-/// in the unit cube, one in seven long and thin.
+/// A soup of 400 triangles in the unit cube, one in seven long and thin.
 fn soup(seed: u64) -> pcsss::cloud::Cloud {
     let mut r = Pcg32::new(seed, 0);
     let mut p = Vec::new();
@@ -227,11 +214,7 @@ fn soup(seed: u64) -> pcsss::cloud::Cloud {
 fn parallel_rays_through_columns_find_the_bvh_hits_and_the_true_ones() {
     use pcsss::geom::bvh::Facing;
     use pcsss::geom::columns::Columns;
-    let bunny = pcsss::formats::read_cloud_file(
-        &fixtures().join("mesh/bunny.obj"),
-        &pcsss::formats::Select::All,
-    )
-    .unwrap();
+    let bunny = bunny();
     let meshes = [
         ("bunny", bunny),
         ("soup", soup(9)),
@@ -393,11 +376,7 @@ fn columns_decline_what_they_cannot_hold_and_hold_nothing_for_nothing() {
 #[test]
 fn shadow_rays_through_columns_are_blocked_as_through_the_bvh() {
     use pcsss::geom::columns::Columns;
-    let bunny = pcsss::formats::read_cloud_file(
-        &fixtures().join("mesh/bunny.obj"),
-        &pcsss::formats::Select::All,
-    )
-    .unwrap();
+    let bunny = bunny();
     let mut r = Pcg32::new(3, 0);
     for mesh in [bunny, soup(4), uv_sphere(24, 48, 1e-3, [1e6, -2e6, 5e5])] {
         let m = TriMesh::from_cloud(&mesh).unwrap();

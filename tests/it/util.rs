@@ -84,6 +84,12 @@ pub fn fixtures() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures")
 }
 
+/// The Stanford bunny fixture (3,674 triangles), read whole.
+pub fn bunny() -> Cloud {
+    formats::read_cloud_file(&fixtures().join("mesh/bunny.obj"), &formats::Select::All)
+        .expect("the bunny fixture")
+}
+
 /// Writes a cloud to bytes.
 pub fn to_bytes(c: &Cloud, f: Format) -> Vec<u8> {
     let mut v = Vec::new();
