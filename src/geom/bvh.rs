@@ -491,12 +491,6 @@ impl Occluder {
         self.ids[j as usize]
     }
 
-    /// `p` in the unit frame.
-    #[inline]
-    pub fn to_unit(&self, p: DVec3) -> Vec3A {
-        Vec3A::from(((p - self.centre) * self.inv_scale).as_vec3())
-    }
-
     /// A distance in the unit frame in mesh units.
     #[inline]
     pub fn mesh_dist(&self, t: f32) -> f64 {
