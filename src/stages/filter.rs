@@ -123,7 +123,8 @@ impl CloudIndex {
     }
 
     /// The cloud points a shade point at `s` with normal `n` reads, as
-    /// (index, distance), by index.
+    /// (index, distance), in the tree's order (nearest first for
+    /// `Reach::Nearest`).
     pub fn neighbours(&self, s: DVec3, n: Option<DVec3>, reach: Reach) -> Vec<(u32, f64)> {
         let total = self.tree.len();
         if total == 0 {
@@ -133,7 +134,7 @@ impl CloudIndex {
             (Some(nrm), Some(n)) => nrm[i as usize].dot(n) > 0.0,
             _ => true,
         };
-        let mut out: Vec<(u32, f64)> = match reach {
+        let out: Vec<(u32, f64)> = match reach {
             Reach::Radius(r) => self
                 .tree
                 .within(s, r)
@@ -159,7 +160,12 @@ impl CloudIndex {
                 }
             }
         };
-        out.sort_by_key(|a| a.0);
+        // In the tree's order, not sorted by index: the tree depends only
+        // on the cloud's points, so the sums are the same on any thread
+        // count, and sorting the lists took a fifth of `render` at 1M
+        // points (1.09 against 0.89-0.91 s by hand, the same image to
+        // 1e-6). A tile's tree is another: its sums may differ from the
+        // whole cloud's in the last bits.
         out
     }
 }
