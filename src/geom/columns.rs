@@ -10,9 +10,13 @@
 //! The answers are the BVH's: the same triangle test on the same f32 ray,
 //! and every triangle the ray can hit is in its cell (each is entered in
 //! every cell its projection, grown by a margin far above the rounding of
-//! the projection and of the test's edge tolerance, touches). A ray
-//! through an edge may take the other triangle of the edge, at the same
-//! distance up to rounding, where the BVH's order of visit decides.
+//! the projection and of the test's edge tolerance, touches). Equal
+//! distances go to the lowest triangle index, as in the BVH. Two
+//! departures, both at edges and corners: a ray through an edge may take
+//! the other triangle of the edge, at the same distance up to rounding;
+//! and a ray along an axis exactly through a corner of the mesh can hit
+//! there, where the BVH's box test (an empty slab) misses the box whose
+//! face the ray lies in.
 //!
 //! When the grid would hold too many entries (a mesh of huge triangles
 //! over tiny ones), [`Columns::new`] declines and the caller keeps the
@@ -204,11 +208,6 @@ impl Columns {
     /// The grid's cells: how many, and the entries in all.
     pub fn size(&self) -> (usize, usize) {
         (self.grid.nx * self.grid.ny, self.entries.len())
-    }
-
-    /// The direction of the rays.
-    pub fn dir(&self) -> DVec3 {
-        self.dir
     }
 
     /// The cell of the ray's origin (none: outside the grid, where no
