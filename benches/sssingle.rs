@@ -149,9 +149,10 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
         _ => unreachable!("the first light is distant"),
     };
     let cols = Columns::new(occ, key).expect("a grid for the key light");
+    let key_dir = occ.unit_ray(DVec3::ZERO, key, 0.0, 1.0).direction;
     let parallel: Vec<Ray> = rays
         .iter()
-        .filter(|r| r.direction == occ.unit_ray(DVec3::ZERO, key, 0.0, 1.0).direction)
+        .filter(|r| r.direction == key_dir)
         .copied()
         .collect();
     let (b1, bhits, bdist) = trace(&parallel, 1, nearest(Facing::Leaving));
