@@ -73,6 +73,26 @@ impl Progress {
     }
 }
 
+/// The process's resident memory now and at its peak, from
+/// /proc/self/status (`, rss N MB, peak M MB`; empty where that file is
+/// not there): memory first touched costs time (the kernel clears every
+/// new page), so a phase's time and the memory it adds go together.
+fn resident() -> String {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
+        return String::new();
+    };
+    let kb = |key: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(key))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+    };
+    match (kb("VmRSS:"), kb("VmHWM:")) {
+        (Some(now), Some(peak)) => format!(", rss {} MB, peak {} MB", now / 1024, peak / 1024),
+        _ => String::new(),
+    }
+}
+
 /// Wall-clock time of a stage's phases on stderr, one line a phase, when
 /// asked for (for finding where the time goes; the binaries ask when
 /// `PCSSS_TIMES` is set); nothing otherwise.
@@ -95,9 +115,10 @@ impl Phases {
     pub fn mark(&mut self, name: &str) {
         if let Some(t) = self.last {
             eprintln!(
-                "{} {name}: {:.2} ms",
+                "{} {name}: {:.2} ms{}",
                 self.what,
-                t.elapsed().as_secs_f64() * 1e3
+                t.elapsed().as_secs_f64() * 1e3,
+                resident()
             );
             self.last = Some(std::time::Instant::now());
         }

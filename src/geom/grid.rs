@@ -33,6 +33,17 @@ impl Cursor {
     }
 }
 
+/// An aligned cube of cells (`PointGrid::blocks`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Block {
+    /// Its occupied cells.
+    pub cells: Range<usize>,
+    /// Its points (sorted indices).
+    pub points: Range<usize>,
+    /// The parities of its coordinates (0..8).
+    pub colour: u8,
+}
+
 /// Points sorted into cubic cells.
 pub struct PointGrid {
     inv: f64,
@@ -194,12 +205,11 @@ impl PointGrid {
 
     /// The grid's occupied cells grouped into aligned cubes of `2^k`
     /// cells a side, `k` the smallest that puts at least `per_block`
-    /// points in a block on average: each block's run of sorted points
-    /// (Morton order keeps an aligned cube's cells together) and its
-    /// colour, the parities of its coordinates (0..8). Blocks of one
-    /// colour are a block apart or more, so with cells at least twice a
-    /// radius no point of one is within the radius of a point of another.
-    pub fn blocks(&self, per_block: usize) -> Vec<(Range<usize>, u8)> {
+    /// points in a block on average, in grid order (Morton order keeps an
+    /// aligned cube's cells together). Blocks of one colour are a block
+    /// apart or more, so with cells at least twice a radius no point of
+    /// one is within the radius of a point of another.
+    pub fn blocks(&self, per_block: usize) -> Vec<Block> {
         let mut shift = 0;
         while shift < 3 * BITS {
             let mut count = 0usize;
@@ -215,17 +225,23 @@ impl PointGrid {
             }
             shift += 3;
         }
-        let mut out: Vec<(Range<usize>, u8)> = Vec::new();
+        let mut out: Vec<Block> = Vec::new();
         let mut last = u64::MAX;
         for (c, &k) in self.keys.iter().enumerate() {
             let run = self.cell_points(c);
             if k >> shift == last {
-                out.last_mut().expect("a block is open").0.end = run.end;
+                let b = out.last_mut().expect("a block is open");
+                b.cells.end = c + 1;
+                b.points.end = run.end;
             } else {
                 last = k >> shift;
-                // The block's key: its coordinates' low bits are
-                // bits 0, 1, 2 of the shifted key (z, y, x).
-                out.push((run, (last & 7) as u8));
+                out.push(Block {
+                    cells: c..c + 1,
+                    points: run,
+                    // The block's key: its coordinates' low bits are
+                    // bits 0, 1, 2 of the shifted key (z, y, x).
+                    colour: (last & 7) as u8,
+                });
             }
         }
         out
@@ -615,11 +631,20 @@ mod tests {
         for per in [1, 50, 400, 100_000] {
             let blocks = grid.blocks(per);
             let mut next = 0;
-            for (b, _) in &blocks {
-                assert_eq!(b.start, next, "blocks follow each other");
-                assert!(!b.is_empty());
-                next = b.end;
+            let mut next_cell = 0;
+            for b in &blocks {
+                assert_eq!(b.points.start, next, "blocks follow each other");
+                assert_eq!(b.cells.start, next_cell, "blocks follow each other");
+                assert!(!b.points.is_empty());
+                assert_eq!(
+                    grid.cell_points(b.cells.start).start..grid.cell_points(b.cells.end - 1).end,
+                    b.points,
+                    "a block's points are its cells' points"
+                );
+                next = b.points.end;
+                next_cell = b.cells.end;
             }
+            assert_eq!(next_cell, grid.cells());
             assert_eq!(next, grid.len());
             if per > 1 && per < 100_000 {
                 assert!(
@@ -631,17 +656,17 @@ mod tests {
             // No point is within the reach of a point of another block of
             // its colour.
             let mut block_of = vec![0usize; grid.len()];
-            for (k, (b, _)) in blocks.iter().enumerate() {
-                for s in b.clone() {
+            for (k, b) in blocks.iter().enumerate() {
+                for s in b.points.clone() {
                     block_of[s] = k;
                 }
             }
             for s in 0..grid.len() {
-                let (k, c) = (block_of[s], blocks[block_of[s]].1);
+                let (k, c) = (block_of[s], blocks[block_of[s]].colour);
                 grid.for_each_within(grid.rel()[s], r, |t, _| {
                     let j = block_of[t];
                     assert!(
-                        j == k || blocks[j].1 != c,
+                        j == k || blocks[j].colour != c,
                         "{per}: point {s} of block {k} reaches block {j}, both colour {c}"
                     );
                 });

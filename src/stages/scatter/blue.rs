@@ -41,16 +41,11 @@
 //! Everything runs in a fixed order, so the result does not depend on
 //! the thread count.
 
-use std::ops::Range;
-
-use std::sync::atomic::Ordering::Relaxed;
-use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize};
-
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::geom::grid::PointGrid;
+use crate::geom::grid::{Block, PointGrid};
 
 /// The crowding exponent (the paper's alpha).
 const ALPHA: i32 = 8;
@@ -72,30 +67,51 @@ const BLOCK_LEVELS: usize = 1 << 12;
 /// The part of each block's removals made block by block (see the
 /// module's notes).
 const BLOCK_SHARE: f64 = 0.95;
-/// Grid cells handled by one task.
-const CELLS_PER_TASK: usize = 64;
 
-/// A neighbour within the reach and the pair's crowding term, packed
-/// (`pack`) in one word written once by whichever thread found the pair.
-struct Pair(AtomicU64);
+/// A neighbour within the reach and the pair's crowding term, packed in
+/// one word: the neighbour's index (sorted) above, the term's bits below.
+#[derive(Clone, Copy)]
+struct Pair(u64);
 
 impl Pair {
-    fn pack(other: u32, w: f32) -> u64 {
-        (other as u64) << 32 | w.to_bits() as u64
+    fn pack(other: u32, w: f32) -> Pair {
+        Pair((other as u64) << 32 | w.to_bits() as u64)
     }
 
-    fn get(&self) -> (u32, f32) {
-        let x = self.0.load(Relaxed);
-        ((x >> 32) as u32, f32::from_bits(x as u32))
+    fn get(self) -> (u32, f32) {
+        ((self.0 >> 32) as u32, f32::from_bits(self.0 as u32))
     }
 }
+
+/// One block's candidates' neighbour lists: candidate `i` of the block
+/// (sorted index `block.points.start + i`) has
+/// `pairs[start[i]..start[i + 1]]`, and its crowding summed in that order
+/// (moved out into one array before the elimination).
+struct Lists {
+    start: Vec<u32>,
+    pairs: Vec<Pair>,
+    crowd: Vec<f64>,
+}
+
+impl Lists {
+    fn of(&self, i: usize) -> &[Pair] {
+        &self.pairs[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
+
+/// Pairs reserved per candidate of a block before its scan: about 12
+/// within the reach at three candidates a point on a flat surface
+/// (`2 pi REACH^2 / sqrt(3)` times the candidates per point), so most
+/// blocks never grow their list; pages reserved and not written cost no
+/// memory.
+const PAIRS_RESERVED: usize = 8;
 
 /// Of the candidates `cand` (points on a surface of area `area`) keeps
 /// `n`: their indices, in the grid's (Morton) order, which keeps
 /// neighbours near each other in memory for what follows. `param` names the option that asked
 /// for the count, for the error when the pairs would not fit in memory.
 pub fn eliminate(
-    cand: &[DVec3],
+    cand: Vec<DVec3>,
     n: usize,
     area: f64,
     param: &str,
@@ -113,113 +129,66 @@ pub fn eliminate(
     let d_min = d_max * BETA * (1.0 - (n as f64 / m as f64).powf(GAMMA));
     let reach = REACH * d_max;
     // Cells of twice the reach (`PointGrid::scan`).
-    let grid = PointGrid::new(cand, 2.0 * reach);
+    let grid = PointGrid::new(&cand, 2.0 * reach);
+    // The grid holds its own copy, in its order.
+    drop(cand);
     ph.mark("grid");
-    let tasks: Vec<Range<usize>> = (0..grid.cells())
-        .step_by(CELLS_PER_TASK)
-        .map(|c| c..(c + CELLS_PER_TASK).min(grid.cells()))
-        .collect();
-    // Each task's pairs, each found once from its earlier candidate in
-    // grid order: (earlier, later, term). Grown with `try_reserve`: a
-    // surface folded onto itself many times has far more pairs than the
-    // usual few per candidate, and running out of memory is an error, not
-    // an abort.
-    let found: Vec<Option<Vec<(u32, u32, f32)>>> = tasks
+    let blocks = grid.blocks(BLOCK);
+    // Each block's lists, found in parallel block by block: every pair
+    // twice, once from each end (twice the distance tests of finding it
+    // once, but each list is written where it is kept, in an order that
+    // does not depend on the threads, with no second pass to spread the
+    // pairs). Grown with `try_reserve`: a surface folded onto itself many
+    // times has far more pairs than the usual few per candidate, and
+    // running out of memory is an error, not an abort.
+    let lists: Vec<Option<Lists>> = blocks
         .par_iter()
-        .map(|cells| {
-            let mut out: Vec<(u32, u32, f32)> = Vec::new();
+        .map(|b| {
+            let len = b.points.len();
+            let mut l = Lists {
+                start: Vec::with_capacity(len + 1),
+                pairs: Vec::new(),
+                crowd: Vec::with_capacity(len),
+            };
+            l.start.push(0);
             let mut near = Vec::with_capacity(64);
-            let mut full = false;
-            grid.scan_forward(cells.clone(), reach, &mut near, |s, near| {
-                if full || out.try_reserve(near.len()).is_err() {
+            let mut full = l.pairs.try_reserve(PAIRS_RESERVED * len).is_err();
+            grid.scan(b.cells.clone(), reach, &mut near, |_, near| {
+                if full
+                    || l.pairs.len() + near.len() > u32::MAX as usize
+                    || l.pairs.try_reserve(near.len()).is_err()
+                {
                     full = true;
                     return;
                 }
-                out.extend(near.iter().map(|&(t, d2)| {
+                let mut sum = 0.0;
+                l.pairs.extend(near.iter().map(|&(t, d2)| {
                     let d = d2.sqrt().max(d_min);
-                    (s as u32, t, (1.0 - d / d_max).powi(ALPHA) as f32)
+                    let w = (1.0 - d / d_max).powi(ALPHA) as f32;
+                    sum += w as f64;
+                    Pair::pack(t, w)
                 }));
+                l.start.push(l.pairs.len() as u32);
+                l.crowd.push(sum);
             });
-            (!full).then_some(out)
+            (!full).then_some(l)
         })
         .collect();
-    let too_big = || {
+    ph.mark("pairs");
+    let mut lists: Vec<Lists> = lists.into_iter().collect::<Option<_>>().ok_or_else(|| {
         crate::error::Error::param(
             param,
             format!("blue noise from {m} candidates needs more memory for their pairs than can be allocated here (a surface folded onto itself?)"),
         )
-    };
-    ph.mark("pairs");
-    // Both ends' lists (CSR), in parallel: each candidate's list holds
-    // the pairs found from the candidates before it (written through
-    // atomic cursors in any order, then sorted by candidate, so the lists
-    // are the same on any thread count), then those it found itself, in
-    // the order found.
-    let found: Vec<Vec<(u32, u32, f32)>> = found
-        .into_iter()
-        .collect::<Option<_>>()
-        .ok_or_else(too_big)?;
-    let before: Vec<AtomicU32> = (0..m).map(|_| AtomicU32::new(0)).collect();
-    let after: Vec<AtomicU32> = (0..m).map(|_| AtomicU32::new(0)).collect();
-    found.par_iter().for_each(|f| {
-        for &(s, t, _) in f {
-            after[s as usize].fetch_add(1, Relaxed);
-            before[t as usize].fetch_add(1, Relaxed);
-        }
-    });
-    let mut offsets = vec![0usize; m + 1];
-    for s in 0..m {
-        offsets[s + 1] =
-            offsets[s] + before[s].load(Relaxed) as usize + after[s].load(Relaxed) as usize;
+    })?;
+    let mut crowd: Vec<f64> = Vec::with_capacity(m);
+    for l in &mut lists {
+        crowd.append(&mut l.crowd);
     }
-    let total = offsets[m];
-    // Cursors: the next free slot of each candidate's earlier part, and
-    // of its own part.
-    let (low, high): (Vec<AtomicUsize>, Vec<AtomicUsize>) = (0..m)
-        .into_par_iter()
-        .map(|s| {
-            let own = offsets[s] + before[s].load(Relaxed) as usize;
-            (AtomicUsize::new(offsets[s]), AtomicUsize::new(own))
-        })
-        .unzip();
-    let mut pairs: Vec<Pair> = Vec::new();
-    pairs.try_reserve_exact(total).map_err(|_| too_big())?;
-    pairs.par_extend((0..total).into_par_iter().map(|_| Pair(AtomicU64::new(0))));
-    found.par_iter().for_each(|f| {
-        for &(s, t, w) in f {
-            let at = high[s as usize].fetch_add(1, Relaxed);
-            pairs[at].0.store(Pair::pack(t, w), Relaxed);
-            let at = low[t as usize].fetch_add(1, Relaxed);
-            pairs[at].0.store(Pair::pack(s, w), Relaxed);
-        }
-    });
-    drop(found);
-    ph.mark("lists");
-    // Only the earlier parts were written in an order that depends on the
-    // threads: each is sorted by candidate (insertion sort, a few pairs
-    // each), and then the crowding summed in list order.
-    let mut crowd: Vec<f64> = (0..m)
-        .into_par_iter()
-        .map(|s| {
-            let list = &pairs[offsets[s]..offsets[s + 1]];
-            let early = &list[..before[s].load(Relaxed) as usize];
-            for i in 1..early.len() {
-                let x = early[i].0.load(Relaxed);
-                let mut j = i;
-                while j > 0 && early[j - 1].0.load(Relaxed) > x {
-                    early[j].0.store(early[j - 1].0.load(Relaxed), Relaxed);
-                    j -= 1;
-                }
-                early[j].0.store(x, Relaxed);
-            }
-            list.iter().map(|p| p.get().1 as f64).sum()
-        })
-        .collect();
     ph.mark("crowding");
-    let blocks = grid.blocks(BLOCK);
-    let left = eliminate_blocks(&mut crowd, &pairs, &offsets, &blocks, n);
+    let left = eliminate_blocks(&mut crowd, &lists, &blocks, n);
     ph.mark("blocks");
-    eliminate_serial(&mut crowd, &pairs, &offsets, left, n);
+    eliminate_serial(&mut crowd, &lists, &blocks, left, n);
     ph.mark("serial");
     Ok((0..m)
         .filter(|&s| crowd[s] != DEAD)
@@ -241,14 +210,8 @@ const DEAD: f64 = f64::NEG_INFINITY;
 /// time, each alone in its cache; what a removal takes from a candidate
 /// of another block is applied after the phase, in block order). Returns
 /// how many candidates are left.
-fn eliminate_blocks(
-    crowd: &mut [f64],
-    pairs: &[Pair],
-    offsets: &[usize],
-    blocks: &[(Range<usize>, u8)],
-    n: usize,
-) -> usize {
-    let sizes: Vec<usize> = blocks.iter().map(|b| b.0.len()).collect();
+fn eliminate_blocks(crowd: &mut [f64], lists: &[Lists], blocks: &[Block], n: usize) -> usize {
+    let sizes: Vec<usize> = blocks.iter().map(|b| b.points.len()).collect();
     let quota = apportion(&sizes, n);
     let remove: Vec<usize> = sizes
         .iter()
@@ -263,7 +226,7 @@ fn eliminate_blocks(
             let mut slices: Vec<&mut [f64]> = Vec::with_capacity(blocks.len());
             let mut rest: &mut [f64] = &mut *crowd;
             for b in blocks {
-                let (head, tail) = rest.split_at_mut(b.0.len());
+                let (head, tail) = rest.split_at_mut(b.points.len());
                 slices.push(head);
                 rest = tail;
             }
@@ -271,9 +234,9 @@ fn eliminate_blocks(
                 .into_par_iter()
                 .zip(alive.par_iter())
                 .enumerate()
-                .filter(|(b, _)| blocks[*b].1 == colour)
+                .filter(|(b, _)| blocks[*b].colour == colour)
                 .map(|(b, (cr, &alive_b))| {
-                    let range = blocks[b].0.clone();
+                    let range = blocks[b].points.clone();
                     let goal = sizes[b] - (remove[b] * (pass + 1)).div_ceil(PASSES);
                     let mut deltas = Vec::new();
                     let mut left = alive_b;
@@ -287,8 +250,7 @@ fn eliminate_blocks(
                         };
                         cr[i] = DEAD;
                         left -= 1;
-                        let s = range.start + i;
-                        for p in &pairs[offsets[s]..offsets[s + 1]] {
+                        for p in lists[b].of(i) {
                             let (other, w) = p.get();
                             let t = other as usize;
                             if range.contains(&t) {
@@ -317,8 +279,8 @@ fn eliminate_blocks(
 /// crowding quantised to BUCKETS levels of the largest.
 fn eliminate_serial(
     crowd: &mut [f64],
-    pairs: &[Pair],
-    offsets: &[usize],
+    lists: &[Lists],
+    blocks: &[Block],
     mut left: usize,
     n: usize,
 ) {
@@ -333,7 +295,8 @@ fn eliminate_serial(
         };
         crowd[s] = DEAD;
         left -= 1;
-        for p in &pairs[offsets[s]..offsets[s + 1]] {
+        let b = blocks.partition_point(|b| b.points.end <= s);
+        for p in lists[b].of(s - blocks[b].points.start) {
             // DEAD stays DEAD.
             let (other, w) = p.get();
             crowd[other as usize] -= w as f64;

@@ -228,14 +228,27 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         &format!("{n} points"),
     )?;
     let mut ph = progress.phases("scatter");
-    let mut samples = stratified(&m, &cdf, &areas, cands, u0, p.seed);
-    ph.mark("candidates");
-    if cands > n {
-        let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
-        let keep = blue::eliminate(&pos, n, total, flag, progress)?;
-        samples = keep.iter().map(|&k| samples[k as usize]).collect();
+    let mut samples = if cands > n {
+        // Only the candidates' positions are kept (under half a sample's
+        // bytes): the points kept are made again from their indices.
+        let tri_of = stratified_tris(&cdf, &areas, cands, u0);
+        let pos: Vec<DVec3> = (0..cands)
+            .into_par_iter()
+            .map(|k| sample_at(&m, &tri_of, k, p.seed).p)
+            .collect();
+        ph.mark("candidates");
+        let keep = blue::eliminate(pos, n, total, flag, progress)?;
+        let samples = keep
+            .par_iter()
+            .map(|&k| sample_at(&m, &tri_of, k as usize, p.seed))
+            .collect();
         ph.mark("eliminate");
-    }
+        samples
+    } else {
+        let samples = stratified(&m, &cdf, &areas, cands, u0, p.seed);
+        ph.mark("candidates");
+        samples
+    };
     let relax_iters = if p.blue && p.relax == 0 {
         BLUE_RELAX
     } else {
@@ -318,6 +331,16 @@ fn stratified(
     u0: f64,
     seed: u64,
 ) -> Vec<Sample> {
+    let tri_of = stratified_tris(cdf, areas, n, u0);
+    (0..n)
+        .into_par_iter()
+        .map(|k| sample_at(m, &tri_of, k, seed))
+        .collect()
+}
+
+/// The triangle of each of `n` points stratified along `cdf` (see
+/// `stratified`).
+fn stratified_tris(cdf: &[f64], areas: &[f64], n: usize, u0: f64) -> Vec<u32> {
     let mut tri_of = Vec::with_capacity(n);
     let last = areas
         .iter()
@@ -331,20 +354,23 @@ fn stratified(
         }
         tri_of.push(t as u32);
     }
-    (0..n)
-        .into_par_iter()
-        .map(|k| {
-            let mut r = Pcg32::new(seed, k as u64);
-            let w = geom::sample_triangle(uniform53(&mut r), uniform53(&mut r));
-            let t = tri_of[k];
-            let [a, b, c] = m.tri(t as usize);
-            Sample {
-                p: geom::blend(w, a, b, c),
-                tri: t,
-                w,
-            }
-        })
-        .collect()
+    tri_of
+}
+
+/// Point `k` of `stratified`: uniform in its triangle `tri_of[k]` from
+/// the stream `Pcg32(seed, k)`, so any one point can be made again alone
+/// (blue noise keeps only its candidates' positions, and makes the
+/// points it keeps again).
+fn sample_at(m: &TriMesh, tri_of: &[u32], k: usize, seed: u64) -> Sample {
+    let mut r = Pcg32::new(seed, k as u64);
+    let w = geom::sample_triangle(uniform53(&mut r), uniform53(&mut r));
+    let t = tri_of[k];
+    let [a, b, c] = m.tri(t as usize);
+    Sample {
+        p: geom::blend(w, a, b, c),
+        tri: t,
+        w,
+    }
 }
 
 /// `pi r_k^2 / k` per point (k = 8 other points; fewer when the cloud is
