@@ -23,13 +23,23 @@ const BITS: u32 = 21;
 /// need more.
 const MAX_CELLS: f64 = ((1u64 << BITS) - 4) as f64;
 
-/// Where `runs27` found each neighbour last.
-struct Cursor([usize; 27]);
+/// What `runs27` found for the last cell: where each neighbour was (a
+/// hint for the next search), and the last cell's coordinates and runs,
+/// which the next cell reuses for the neighbours the two share.
+struct Cursor {
+    at: [usize; 27],
+    last: Option<[u64; 3]>,
+    runs: [Range<usize>; 27],
+}
 
 impl Cursor {
     /// No neighbour found yet.
     fn new() -> Cursor {
-        Cursor([usize::MAX; 27])
+        Cursor {
+            at: [usize::MAX; 27],
+            last: None,
+            runs: std::array::from_fn(|_| 0..0),
+        }
     }
 }
 
@@ -263,9 +273,29 @@ impl PointGrid {
         let own = self.keys[c];
         let at = coords(own);
         let top = (1u64 << BITS) - 1;
-        let cur = &mut cursor.0;
-        std::array::from_fn(|k| {
+        // The step from the last cell, when it is one cell or none along
+        // each axis: cells visited in Morton order mostly are neighbours,
+        // and then 9 to 27 of the 27 runs are the last cell's (a cell
+        // skipped by a forward scan before the last cell is before this
+        // one too).
+        let step = cursor.last.and_then(|l| {
+            let d = [0, 1, 2].map(|a| at[a] as i64 - l[a] as i64);
+            d.iter().all(|x| x.abs() <= 1).then_some(d)
+        });
+        let last_runs = std::mem::replace(&mut cursor.runs, std::array::from_fn(|_| 0..0));
+        let last_at = cursor.at;
+        let cur = &mut cursor.at;
+        let runs = std::array::from_fn(|k| {
             let d = [k / 9, k / 3 % 3, k % 3].map(|x| x as u64);
+            if let Some(e) = step {
+                // This cell's neighbour `d` is the last cell's `d + e`.
+                let o = [0, 1, 2].map(|a| d[a] as i64 + e[a]);
+                if o.iter().all(|x| (0..3).contains(x)) {
+                    let j = (9 * o[0] + 3 * o[1] + o[2]) as usize;
+                    cur[k] = last_at[j];
+                    return last_runs[j].clone();
+                }
+            }
             let mut q = [0u64; 3];
             for a in 0..3 {
                 let x = at[a] + d[a];
@@ -289,7 +319,10 @@ impl PointGrid {
                     0..0
                 }
             }
-        })
+        });
+        cursor.last = Some(at);
+        cursor.runs = runs.clone();
+        runs
     }
 
     /// The cell of key `k`, or where it would be, searched outwards from
