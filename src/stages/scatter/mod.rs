@@ -56,7 +56,7 @@ use crate::cloud::{Cloud, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
 use crate::geom::kdtree::PointTree;
-use crate::geom::mesh::TriMesh;
+use crate::geom::mesh::{Adjacency, TriMesh};
 use crate::geom::{self, Sum};
 use crate::progress::Progress;
 
@@ -227,8 +227,15 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         flag,
         &format!("{n} points"),
     )?;
+    let relax_iters = if p.blue && p.relax == 0 {
+        BLUE_RELAX
+    } else {
+        p.relax
+    };
+    let separate = if p.blue { SEPARATE_ROUNDS } else { 0 };
+    let polishing = relax_iters + separate > 0 && n > 1;
     let mut ph = progress.phases("scatter");
-    let mut samples = if cands > n {
+    let (mut samples, adjacency) = if cands > n {
         // Only the candidates' positions are kept (under half a sample's
         // bytes): the points kept are made again from their indices.
         let tri_of = stratified_tris(&cdf, &areas, cands, u0);
@@ -237,28 +244,30 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
             .map(|k| sample_at(&m, &tri_of, k, p.seed).p)
             .collect();
         ph.mark("candidates");
-        let keep = blue::eliminate(pos, n, total, flag, progress)?;
-        let samples = keep
+        // The mesh's adjacency, which only the polish needs, is built
+        // beside the elimination: it fills the elimination's serial
+        // stretches (its last removals, one at a time).
+        let (keep, adjacency) = rayon::join(
+            || blue::eliminate(pos, n, total, flag, progress),
+            || polishing.then(|| Adjacency::new(&m)),
+        );
+        let samples = keep?
             .par_iter()
             .map(|&k| sample_at(&m, &tri_of, k as usize, p.seed))
             .collect();
         ph.mark("eliminate");
-        samples
+        (samples, adjacency)
     } else {
         let samples = stratified(&m, &cdf, &areas, cands, u0, p.seed);
         ph.mark("candidates");
-        samples
+        (samples, None)
     };
-    let relax_iters = if p.blue && p.relax == 0 {
-        BLUE_RELAX
-    } else {
-        p.relax
-    };
-    let separate = if p.blue { SEPARATE_ROUNDS } else { 0 };
-    if relax_iters + separate > 0 && n > 1 {
+    if polishing {
+        let adjacency = adjacency.unwrap_or_else(|| Adjacency::new(&m));
         progress.start("relaxing", (relax_iters + separate) as u64);
         relax::polish(
             &m,
+            &adjacency,
             &mut samples,
             relax_iters,
             separate,

@@ -94,11 +94,13 @@ fn lists(samples: &mut Vec<Sample>, r: f64) -> Lists {
 }
 
 /// `relax` relaxation iterations, then up to `separate` separation rounds at
-/// `tau` spacings, on `samples` (points on `m`, of total area `total`);
+/// `tau` spacings, on `samples` (points on `m`, whose adjacency is `adj`,
+/// of total area `total`);
 /// the points come back in another order.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn polish(
     m: &TriMesh,
+    adj: &Adjacency,
     samples: &mut Vec<Sample>,
     relax: u32,
     separate: u32,
@@ -108,7 +110,7 @@ pub(super) fn polish(
     progress: &Progress,
 ) {
     polish_with(
-        m, samples, relax, separate, tau, seed, total, progress, true,
+        m, adj, samples, relax, separate, tau, seed, total, progress, true,
     )
 }
 
@@ -118,6 +120,7 @@ pub(super) fn polish(
 #[allow(clippy::too_many_arguments)]
 fn polish_with(
     m: &TriMesh,
+    adj: &Adjacency,
     samples: &mut Vec<Sample>,
     relax: u32,
     separate: u32,
@@ -132,7 +135,6 @@ fn polish_with(
         return;
     }
     let mut ph = progress.phases("scatter polish");
-    let adj = Adjacency::new(m);
     let normals: Vec<DVec3> = (0..m.tris.len())
         .into_par_iter()
         .map(|t| {
@@ -141,7 +143,7 @@ fn polish_with(
         })
         .collect();
     let d = hex_spacing(total, n);
-    ph.mark("adjacency");
+    ph.mark("normals");
     // The move of sample `s` (index `i`) for a force from the
     // neighbours `near`, or None if it stays.
     let step_of =
@@ -362,9 +364,13 @@ mod tests {
             let mut full = start.clone();
             let mut sparse = start.clone();
             let quiet = Progress::hidden();
-            polish_with(&m, &mut full, relax, separate, 0.8, 3, total, &quiet, false);
+            let adj = Adjacency::new(&m);
+            polish_with(
+                &m, &adj, &mut full, relax, separate, 0.8, 3, total, &quiet, false,
+            );
             polish_with(
                 &m,
+                &adj,
                 &mut sparse,
                 relax,
                 separate,
