@@ -18,15 +18,17 @@
 //! 1M points on the bunny the kept points' spacing statistics do not
 //! change, while there are 44% fewer pairs to find and update.
 //!
-//! Cost: the pairs are found once on a grid (about `2 M / N` a
-//! candidate), in parallel, each from its earlier candidate in grid
-//! order only (`PointGrid::scan_forward`: half the distance tests), then
-//! spread to both candidates' lists, in parallel too: at 1M on the bunny
-//! 0.35 s and 0.2 s, where finding each pair from both ends took 0.8 s
-//! in all (and a serial spread 0.27 s). The elimination works on blocks
-//! of about 4,000 candidates (aligned cubes of grid cells,
-//! `PointGrid::blocks`) in colour phases, the blocks of a colour in parallel, each with its
-//! data in cache, down to 95% of the way to its share of `N`; the last
+//! Cost: each candidate's pairs (about `2 M / N` of them) are found on
+//! a grid, block by block in parallel (`PointGrid::scan`), and written
+//! into its block's lists, which stay where they were made. Finding each
+//! pair from both ends makes twice the distance tests of finding it once
+//! (`PointGrid::scan_forward`), but the one-ended way then had to spread
+//! the pairs to both ends' lists through atomic cursors and sort them:
+//! at 1M on the dragon 0.43 + 0.26 + 0.05 s, with 180 MB of arrays in
+//! between, against 0.47-0.59 s (by hand, `PCSSS_TIMES=1`). The
+//! elimination works on the same blocks of about 4,000 candidates
+//! (aligned cubes of grid cells, `PointGrid::blocks`) in colour phases,
+//! the blocks of a colour in parallel, each with its data in cache, down to 95% of the way to its share of `N`; the last
 //! 5% of the removals go over all the candidates at once, most crowded
 //! first (`eliminate_serial`), so the counts can shift between blocks,
 //! whose shares follow their candidates' counts. Without that tail the
@@ -99,7 +101,7 @@ impl Lists {
     }
 }
 
-/// Pairs reserved per candidate of a block before its scan: about 12
+/// Pairs reserved per candidate of a block before its scan: about 6 are
 /// within the reach at three candidates a point on a flat surface
 /// (`2 pi REACH^2 / sqrt(3)` times the candidates per point), so most
 /// blocks never grow their list; pages reserved and not written cost no

@@ -220,8 +220,8 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         n
     };
     // About 200 bytes a point at the peak (samples, areas, the columns
-    // written, Voronoi's temporaries) and 100 a candidate (the sample, the
-    // grid); asked for before the work.
+    // written, Voronoi's temporaries) and 100 a candidate (its position, the
+    // grid, its pairs); asked for before the work.
     crate::memory::check_available(
         200 * n as u64 + if cands > n { 100 * cands as u64 } else { 0 },
         flag,
