@@ -648,8 +648,12 @@ fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(El
 }
 
 /// Lines of `def`'s rows, one row each, into columns; `None` at a line
-/// that is not exactly one valid row.
+/// that is not exactly one valid row, or at a byte that is not ASCII
+/// (the row-by-row reader then says where).
 fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
+    if !text.is_ascii() {
+        return None;
+    }
     let mut props = empty_props(def);
     // (Every chunk ends with its last line's newline.)
     for line in text
@@ -657,11 +661,8 @@ fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
         .unwrap_or(text)
         .split(|&b| b == b'\n')
     {
-        let mut tokens = line
-            .split(u8::is_ascii_whitespace)
-            .filter(|t| !t.is_empty())
-            .map(std::str::from_utf8);
-        let mut next = || tokens.next()?.ok();
+        let mut tokens = AsciiTokens(line);
+        let mut next = || tokens.next();
         for (pd, p) in def.props.iter().zip(props.iter_mut()) {
             match pd.kind {
                 PropKind::Scalar(_) => {
@@ -670,15 +671,7 @@ fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
                     }
                 }
                 PropKind::List(ct, _) => {
-                    let s = next()?;
-                    if s.parse::<i64>().is_ok_and(|n| n < 0) {
-                        return None;
-                    }
-                    let mut c = Column::empty(ct);
-                    if !c.push_token(s) {
-                        return None;
-                    }
-                    let n = count_value(&c);
+                    let n = list_count(ct, next()?)?;
                     let PropData::List(l) = p else { unreachable!() };
                     for _ in 0..n {
                         if !l.items.push_token(next()?) {
@@ -694,6 +687,51 @@ fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
         }
     }
     Some(props)
+}
+
+/// The whitespace-separated tokens of a line of ASCII bytes.
+struct AsciiTokens<'a>(&'a [u8]);
+
+impl<'a> Iterator for AsciiTokens<'a> {
+    type Item = &'a str;
+
+    fn next(&mut self) -> Option<&'a str> {
+        let rest = self.0;
+        let start = rest.iter().position(|b| !b.is_ascii_whitespace())?;
+        let len = rest[start..]
+            .iter()
+            .position(|b| b.is_ascii_whitespace())
+            .unwrap_or(rest.len() - start);
+        self.0 = &rest[start + len..];
+        // ASCII (checked by the caller) is UTF-8.
+        std::str::from_utf8(&rest[start..start + len]).ok()
+    }
+}
+
+/// A list's length token `s` read as the count type `ct`: `None` when it
+/// is not a count of that type (negative, too large, not a number).
+fn list_count(ct: ScalarType, s: &str) -> Option<usize> {
+    let max: u64 = match ct {
+        ScalarType::U8 => u8::MAX as u64,
+        ScalarType::I8 => i8::MAX as u64,
+        ScalarType::U16 => u16::MAX as u64,
+        ScalarType::I16 => i16::MAX as u64,
+        ScalarType::U32 => u32::MAX as u64,
+        ScalarType::I32 => i32::MAX as u64,
+        ScalarType::F32 | ScalarType::F64 => 0,
+    };
+    // Plain digits, the common case, without a column per row.
+    if max > 0 {
+        if let Ok(n) = s.parse::<u64>() {
+            return (n <= max).then_some(n as usize);
+        }
+    }
+    // Any other spelling the count type reads ("3.0", a float type).
+    if s.parse::<i64>().is_ok_and(|n| n < 0) {
+        return None;
+    }
+    let mut c = Column::empty(ct);
+    c.push_token(s).then(|| count_value(&c) as usize)
 }
 
 /// Whitespace-separated tokens of an ASCII body, with line numbers.
@@ -871,5 +909,53 @@ mod tests {
             assert!(lines_of(&(head(2) + body)).is_none(), "{body:?}");
         }
         assert!(lines_of(&(head(2) + "1 7 1\r\n2 7 8 2 \n")).is_some());
+        // A count spelled as a float reads as the count type reads it; a
+        // count too large for it, or a byte that is not ASCII, is left to
+        // the row reader.
+        let (el, _) = lines_of(&(head(2) + "1 7 1\n2.0 7 8 2\n")).expect("2.0 is 2");
+        let AttrData::List(l) = &el.attr("v").expect("the list").data else {
+            panic!("a list")
+        };
+        assert_eq!(l.offsets, [0, 1, 3]);
+        let big: String = (0..300).map(|_| " 1").collect();
+        assert!(lines_of(&(head(2) + &format!("300{big} 1\n0 1\n"))).is_none());
+        assert!(lines_of(&(head(2) + "1 7 1\n2 7 8 2\u{a0}\n")).is_none());
+    }
+
+    #[test]
+    fn list_counts_read_as_the_count_type_reads_them() {
+        use crate::column::ScalarType::*;
+        for ct in [I8, U8, I16, U16, I32, U32, F32, F64] {
+            for s in [
+                "0",
+                "3",
+                "+3",
+                "-0",
+                "-1",
+                "127",
+                "128",
+                "255",
+                "256",
+                "32767",
+                "65535",
+                "65536",
+                "2147483647",
+                "4294967295",
+                "4294967296",
+                "3.0",
+                "3.5",
+                "1e2",
+                "x",
+                "",
+            ] {
+                let mut c = Column::empty(ct);
+                let want = if s.parse::<i64>().is_ok_and(|n| n < 0) || !c.push_token(s) {
+                    None
+                } else {
+                    Some(count_value(&c) as usize)
+                };
+                assert_eq!(list_count(ct, s), want, "{ct:?} {s:?}");
+            }
+        }
     }
 }
