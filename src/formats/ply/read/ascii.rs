@@ -1,0 +1,409 @@
+//! ASCII bodies: one row a line parsed in parallel from a mapped file,
+//! or token by token, row by row, with line numbers for the errors.
+
+use std::io::{BufRead, Read};
+
+use super::{assemble, count_value, empty_props, scalar_mut, truncated, PropData, Source};
+use crate::cloud::Element;
+use crate::column::{Column, ScalarType};
+use crate::error::{Error, Result};
+use crate::formats::ply::header::{ElementDef, Layout, PropKind};
+
+/// Bytes of ASCII body parsed by one task of `read_ascii_lines`, about.
+const ASCII_TASK_BYTES: usize = 1 << 20;
+
+/// An ASCII element read from a mapped file by `read_ascii_lines`, when
+/// the reader stands at the start of a line; `None` leaves the reader
+/// where it was.
+pub(super) fn ascii_in_parallel<R: Source>(
+    r: &mut R,
+    tok: &mut Tokens,
+    def: &ElementDef,
+    lay: &[Layout],
+) -> Option<Element> {
+    if !tok.line[tok.pos..].trim().is_empty() {
+        return None;
+    }
+    let (el, bytes) = {
+        let (map, pos) = r.mapped()?;
+        read_ascii_lines(&map[pos..], def, lay)?
+    };
+    r.consume(bytes);
+    tok.lineno += el.len();
+    tok.line.clear();
+    tok.pos = 0;
+    Some(el)
+}
+
+/// The `def.count` rows of an ASCII element at the start of `body`, one
+/// row a line (as PLY writers lay them out), parsed in parallel: chunks
+/// of whole lines, each into columns of its own, joined in order; with
+/// the element's length in bytes. `None` when the rows are laid
+/// out otherwise (a row over two lines, two on one, a blank line) or
+/// anything is wrong (a bad token, a short body): the row-by-row reader
+/// then reads the element, or reports what is wrong at its line. Nothing
+/// is allocated before the lines are found in `body`.
+fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(Element, usize)> {
+    use rayon::prelude::*;
+    let count = usize::try_from(def.count).ok()?;
+    if count == 0 {
+        return None;
+    }
+    let end = memchr::memchr_iter(b'\n', body).nth(count - 1)? + 1;
+    // Chunks end after a newline: the first at or after each step.
+    let mut cuts = vec![0];
+    let mut last = 0;
+    while last + ASCII_TASK_BYTES < end {
+        let want = last + ASCII_TASK_BYTES;
+        last = want + memchr::memchr(b'\n', &body[want..end])? + 1;
+        cuts.push(last);
+    }
+    if last < end {
+        cuts.push(end);
+    }
+    let parts: Vec<Vec<PropData>> = cuts
+        .par_windows(2)
+        .map(|w| ascii_lines(&body[w[0]..w[1]], def))
+        .collect::<Option<_>>()?;
+    let mut props = empty_props(def);
+    for (i, p) in props.iter_mut().enumerate() {
+        match p {
+            PropData::Values(v) => {
+                let c = v.column_mut();
+                for part in &parts {
+                    let PropData::Values(pv) = &part[i] else {
+                        unreachable!("one layout")
+                    };
+                    c.append(pv.column());
+                }
+            }
+            PropData::List(l) => {
+                for part in &parts {
+                    let PropData::List(pl) = &part[i] else {
+                        unreachable!("one layout")
+                    };
+                    let base = l.items.len();
+                    l.items.append(&pl.items);
+                    l.offsets.extend(pl.offsets[1..].iter().map(|o| o + base));
+                }
+            }
+        }
+    }
+    let el = assemble(def, lay, props.into_iter().map(Some).collect(), count);
+    Some((el, end))
+}
+
+/// Lines of `def`'s rows, one row each, into columns; `None` at a line
+/// that is not exactly one valid row, or at a byte that is not ASCII
+/// (the row-by-row reader then says where).
+fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
+    if !text.is_ascii() {
+        return None;
+    }
+    let mut props = empty_props(def);
+    // (Every chunk ends with its last line's newline.)
+    for line in text
+        .strip_suffix(b"\n")
+        .unwrap_or(text)
+        .split(|&b| b == b'\n')
+    {
+        let mut tokens = AsciiTokens(line);
+        let mut next = || tokens.next();
+        for (pd, p) in def.props.iter().zip(props.iter_mut()) {
+            match pd.kind {
+                PropKind::Scalar(_) => {
+                    if !scalar_mut(p).push_token(next()?) {
+                        return None;
+                    }
+                }
+                PropKind::List(ct, _) => {
+                    let n = list_count(ct, next()?)?;
+                    let PropData::List(l) = p else { unreachable!() };
+                    for _ in 0..n {
+                        if !l.items.push_token(next()?) {
+                            return None;
+                        }
+                    }
+                    l.offsets.push(l.items.len());
+                }
+            }
+        }
+        if next().is_some() {
+            return None;
+        }
+    }
+    Some(props)
+}
+
+/// The whitespace-separated tokens of a line of ASCII bytes.
+struct AsciiTokens<'a>(&'a [u8]);
+
+impl<'a> Iterator for AsciiTokens<'a> {
+    type Item = &'a str;
+
+    fn next(&mut self) -> Option<&'a str> {
+        let rest = self.0;
+        let start = rest.iter().position(|b| !b.is_ascii_whitespace())?;
+        let len = rest[start..]
+            .iter()
+            .position(|b| b.is_ascii_whitespace())
+            .unwrap_or(rest.len() - start);
+        self.0 = &rest[start + len..];
+        // ASCII (checked by the caller) is UTF-8.
+        std::str::from_utf8(&rest[start..start + len]).ok()
+    }
+}
+
+/// A list's length token `s` read as the count type `ct`: `None` when it
+/// is not a count of that type (negative, too large, not a number).
+fn list_count(ct: ScalarType, s: &str) -> Option<usize> {
+    let max: u64 = match ct {
+        ScalarType::U8 => u8::MAX as u64,
+        ScalarType::I8 => i8::MAX as u64,
+        ScalarType::U16 => u16::MAX as u64,
+        ScalarType::I16 => i16::MAX as u64,
+        ScalarType::U32 => u32::MAX as u64,
+        ScalarType::I32 => i32::MAX as u64,
+        ScalarType::F32 | ScalarType::F64 => 0,
+    };
+    // Plain digits, the common case, without a column per row.
+    if max > 0 {
+        if let Ok(n) = s.parse::<u64>() {
+            return (n <= max).then_some(n as usize);
+        }
+    }
+    // Any other spelling the count type reads ("3.0", a float type).
+    if s.parse::<i64>().is_ok_and(|n| n < 0) {
+        return None;
+    }
+    let mut c = Column::empty(ct);
+    c.push_token(s).then(|| count_value(&c) as usize)
+}
+
+/// Whitespace-separated tokens of an ASCII body, with line numbers.
+pub(super) struct Tokens {
+    line: String,
+    pos: usize,
+    pub(super) lineno: usize,
+    raw: Vec<u8>,
+}
+
+impl Tokens {
+    pub(super) fn new() -> Self {
+        Tokens {
+            line: String::new(),
+            pos: 0,
+            lineno: 0,
+            raw: Vec::new(),
+        }
+    }
+
+    /// The next token, `None` at the end of input.
+    pub(super) fn next<R: BufRead>(&mut self, r: &mut R) -> Result<Option<&str>> {
+        loop {
+            let rest = &self.line[self.pos..];
+            let trimmed = rest.trim_start();
+            if !trimmed.is_empty() {
+                let start = self.pos + (rest.len() - trimmed.len());
+                let end = trimmed
+                    .find(|c: char| c.is_ascii_whitespace())
+                    .map_or(self.line.len(), |k| start + k);
+                self.pos = end;
+                return Ok(Some(&self.line[start..end]));
+            }
+            self.raw.clear();
+            if r.by_ref().take(1 << 24).read_until(b'\n', &mut self.raw)? == 0 {
+                return Ok(None);
+            }
+            self.lineno += 1;
+            self.line.clear();
+            match std::str::from_utf8(&self.raw) {
+                Ok(s) => self.line.push_str(s),
+                Err(_) => {
+                    return Err(Error::invalid(format!(
+                        "body line {} is not valid UTF-8 text",
+                        self.lineno
+                    )))
+                }
+            }
+            self.pos = 0;
+        }
+    }
+}
+
+pub(super) fn read_ascii<R: BufRead>(
+    r: &mut R,
+    tok: &mut Tokens,
+    def: &ElementDef,
+    rows: std::ops::Range<u64>,
+    lay: &[Layout],
+) -> Result<Element> {
+    let mut props = empty_props(def);
+    for row in rows.clone() {
+        for (pd, p) in def.props.iter().zip(props.iter_mut()) {
+            let bad = |t: &str, ty: ScalarType, line: usize| {
+                Error::invalid(format!(
+                    "body line {line}: element '{}' row {row} property '{}': '{t}' is not a valid {}",
+                    def.name,
+                    pd.name,
+                    ty.ply_name()
+                ))
+            };
+            match pd.kind {
+                PropKind::Scalar(t) => {
+                    let line = tok.lineno;
+                    let s = tok.next(r)?.ok_or_else(|| truncated(def, row))?;
+                    if !scalar_mut(p).push_token(s) {
+                        let s = s.to_string();
+                        return Err(bad(&s, t, line.max(tok.lineno)));
+                    }
+                }
+                PropKind::List(ct, it) => {
+                    let s = tok.next(r)?.ok_or_else(|| truncated(def, row))?;
+                    if s.parse::<i64>().is_ok_and(|n| n < 0) {
+                        let s = s.to_string();
+                        return Err(Error::invalid(format!(
+                            "body line {}: element '{}' row {row}: list '{}' has negative count {s}",
+                            tok.lineno, def.name, pd.name
+                        )));
+                    }
+                    let mut c = Column::empty(ct);
+                    if !c.push_token(s) {
+                        let s = s.to_string();
+                        return Err(bad(&s, ct, tok.lineno));
+                    }
+                    let n = count_value(&c);
+                    let PropData::List(l) = p else { unreachable!() };
+                    for _ in 0..n {
+                        let s = tok.next(r)?.ok_or_else(|| truncated(def, row))?;
+                        if !l.items.push_token(s) {
+                            let s = s.to_string();
+                            return Err(bad(&s, it, tok.lineno));
+                        }
+                    }
+                    l.offsets.push(l.items.len());
+                }
+            }
+        }
+    }
+    let len = (rows.end - rows.start) as usize;
+    Ok(assemble(
+        def,
+        lay,
+        props.into_iter().map(Some).collect(),
+        len,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::AttrData;
+    use crate::formats::ply::header::{layout, read_header, roles};
+
+    /// `read_ascii_lines` on `text` (a header and its body), for its
+    /// first element.
+    fn lines_of(text: &str) -> Option<(Element, usize)> {
+        let mut r = std::io::Cursor::new(text.as_bytes());
+        let h = read_header(&mut r).expect("a header");
+        let lay = layout(&h.elements[0], &roles(&h));
+        let body = &text.as_bytes()[r.position() as usize..];
+        read_ascii_lines(body, &h.elements[0], &lay)
+    }
+
+    #[test]
+    fn rows_one_a_line_are_read_in_chunks_and_others_left_to_the_row_reader() {
+        let head = |n: usize| {
+            format!("ply\nformat ascii 1.0\nelement face {n}\nproperty list uchar int v\nproperty float x\nend_header\n")
+        };
+        // Rows of 0 to 3 items over several chunks, then bytes that are
+        // not the element's.
+        let n = 300_000;
+        let mut text = head(n);
+        for i in 0..n {
+            let items: Vec<String> = (0..i % 4).map(|k| (i + k).to_string()).collect();
+            text += &format!("{} {} {}.5\n", i % 4, items.join(" "), i);
+        }
+        assert!(text.len() > 4 * ASCII_TASK_BYTES);
+        let rows = text.len();
+        text += "after\n";
+        let (el, bytes) = lines_of(&text).expect("one row a line");
+        assert_eq!((bytes, el.len()), (rows - head(n).len(), n));
+        let AttrData::List(l) = &el.attr("v").expect("the list").data else {
+            panic!("a list")
+        };
+        assert_eq!(l.offsets.len(), n + 1);
+        for i in [0, 1, 2, 3, n / 2 + 1, n - 1] {
+            let got: Vec<f64> = (l.offsets[i]..l.offsets[i + 1])
+                .map(|k| l.items.get_f64(k))
+                .collect();
+            let want: Vec<f64> = (0..i % 4).map(|k| (i + k) as f64).collect();
+            assert_eq!(got, want, "row {i}");
+        }
+        let x = el.attr("x").expect("x").components()[0]
+            .column()
+            .get_f64(n - 1);
+        assert_eq!(x, (n - 1) as f64 + 0.5);
+        // Laid out otherwise, or wrong: not here.
+        for body in [
+            "1 7 1\n2 7\n8 2\n",
+            "1 7 1 2 7 8 2\n\n",
+            "1 7 1\n\n2 7 8 2\n",
+            "1 7 1\n2 7 8 x\n",
+            "1 7 1\n2 7 8\n",
+            "1 7 1\n-1 2\n",
+            "1 7 1\n2 7 8 2",
+        ] {
+            assert!(lines_of(&(head(2) + body)).is_none(), "{body:?}");
+        }
+        assert!(lines_of(&(head(2) + "1 7 1\r\n2 7 8 2 \n")).is_some());
+        // A count spelled as a float reads as the count type reads it; a
+        // count too large for it, or a byte that is not ASCII, is left to
+        // the row reader.
+        let (el, _) = lines_of(&(head(2) + "1 7 1\n2.0 7 8 2\n")).expect("2.0 is 2");
+        let AttrData::List(l) = &el.attr("v").expect("the list").data else {
+            panic!("a list")
+        };
+        assert_eq!(l.offsets, [0, 1, 3]);
+        let big: String = (0..300).map(|_| " 1").collect();
+        assert!(lines_of(&(head(2) + &format!("300{big} 1\n0 1\n"))).is_none());
+        assert!(lines_of(&(head(2) + "1 7 1\n2 7 8 2\u{a0}\n")).is_none());
+    }
+
+    #[test]
+    fn list_counts_read_as_the_count_type_reads_them() {
+        use crate::column::ScalarType::*;
+        for ct in [I8, U8, I16, U16, I32, U32, F32, F64] {
+            for s in [
+                "0",
+                "3",
+                "+3",
+                "-0",
+                "-1",
+                "127",
+                "128",
+                "255",
+                "256",
+                "32767",
+                "65535",
+                "65536",
+                "2147483647",
+                "4294967295",
+                "4294967296",
+                "3.0",
+                "3.5",
+                "1e2",
+                "x",
+                "",
+            ] {
+                let mut c = Column::empty(ct);
+                let want = if s.parse::<i64>().is_ok_and(|n| n < 0) || !c.push_token(s) {
+                    None
+                } else {
+                    Some(count_value(&c) as usize)
+                };
+                assert_eq!(list_count(ct, s), want, "{ct:?} {s:?}");
+            }
+        }
+    }
+}
