@@ -267,17 +267,13 @@ impl PointGrid {
     /// keeps where each neighbour was found (start with `Cursor::new`):
     /// cells visited in order find their neighbours a few keys from the
     /// last ones, where a hash table's slot would be a cache miss.
-    /// With `forward`, the cells before `c` in grid order are left empty:
-    /// a forward scan never reads them, and half the searches are saved.
-    fn runs27(&self, c: usize, forward: bool, cursor: &mut Cursor) -> [Range<usize>; 27] {
+    fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
         let own = self.keys[c];
         let at = coords(own);
         let top = (1u64 << BITS) - 1;
         // The step from the last cell, when it is one cell or none along
         // each axis: cells visited in Morton order mostly are neighbours,
-        // and then 9 to 27 of the 27 runs are the last cell's (a cell
-        // skipped by a forward scan before the last cell is before this
-        // one too).
+        // and then 9 to 27 of the 27 runs are the last cell's.
         let step = cursor.last.and_then(|l| {
             let d = [0, 1, 2].map(|a| at[a] as i64 - l[a] as i64);
             d.iter().all(|x| x.abs() <= 1).then_some(d)
@@ -305,9 +301,6 @@ impl PointGrid {
                 q[a] = x - 1;
             }
             let kq = key(q);
-            if forward && kq < own {
-                return 0..0;
-            }
             let from = if cur[k] == usize::MAX { c } else { cur[k] };
             match self.find_from(from, kq) {
                 Ok(i) => {
@@ -471,37 +464,13 @@ impl PointGrid {
         cs: Range<usize>,
         r: f64,
         near: &mut Vec<(u32, f64)>,
-        f: impl FnMut(usize, &[(u32, f64)]),
-    ) {
-        self.scan_from(cs, r, false, near, f)
-    }
-
-    /// `scan` with only the neighbours after each point in grid order:
-    /// every pair once, for half the distance tests (a neighbour within
-    /// `r` is in a point's 8 cells whichever of the two looks).
-    pub fn scan_forward(
-        &self,
-        cs: Range<usize>,
-        r: f64,
-        near: &mut Vec<(u32, f64)>,
-        f: impl FnMut(usize, &[(u32, f64)]),
-    ) {
-        self.scan_from(cs, r, true, near, f)
-    }
-
-    fn scan_from(
-        &self,
-        cs: Range<usize>,
-        r: f64,
-        forward: bool,
-        near: &mut Vec<(u32, f64)>,
         mut f: impl FnMut(usize, &[(u32, f64)]),
     ) {
         let r2 = r * r;
         let half = 0.5 * self.cell;
         let mut cursor = Cursor::new();
         for c in cs {
-            let runs = self.runs27(c, forward, &mut cursor);
+            let runs = self.runs27(c, &mut cursor);
             let mid = self.cell_corner(c) + half;
             for s in self.cell_points(c) {
                 let q = self.rel[s];
@@ -513,10 +482,7 @@ impl PointGrid {
                 for dx in sx {
                     for dy in sy {
                         for dz in sz {
-                            let mut run = runs[9 * dx + 3 * dy + dz].clone();
-                            if forward {
-                                run.start = run.start.max(s + 1);
-                            }
+                            let run = runs[9 * dx + 3 * dy + dz].clone();
                             if near.len() < len + run.len() {
                                 near.resize(len + run.len(), (0, 0.0));
                             }
@@ -591,31 +557,38 @@ mod tests {
     }
 
     #[test]
-    fn scan_forward_finds_every_pair_of_scan_once() {
+    fn scan_finds_every_pair_brute_force_finds() {
+        // A thin slab and a sphere: cells visited in order are mostly
+        // neighbours (their runs reused), with jumps between.
         let mut g = Pcg32::new(4, 8);
         let mut u = || g.next_u32() as f64 / u32::MAX as f64;
-        let pts: Vec<DVec3> = (0..5000)
+        let mut pts: Vec<DVec3> = (0..4000)
             .map(|_| DVec3::new(u(), u(), u() * 0.05))
             .collect();
+        for _ in 0..2000 {
+            let d = DVec3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize_or_zero();
+            pts.push(DVec3::new(2.0, 0.5, 0.5) + 0.3 * d);
+        }
         let r = 0.03;
         let grid = PointGrid::new(&pts, 2.0 * r);
-        let mut all = Vec::new();
-        let mut once = Vec::new();
+        let mut got = Vec::new();
         let mut near = Vec::new();
         grid.scan(0..grid.cells(), r, &mut near, |s, nb| {
-            all.extend(nb.iter().map(|&(t, d2)| (s as u32, t, d2.to_bits())));
+            let a = grid.order()[s];
+            got.extend(nb.iter().map(|&(t, _)| (a, grid.order()[t as usize])));
         });
-        grid.scan_forward(0..grid.cells(), r, &mut near, |s, nb| {
-            for &(t, d2) in nb {
-                assert!(t as usize > s);
-                once.push((s as u32, t, d2.to_bits()));
-                once.push((t, s as u32, d2.to_bits()));
+        got.sort_unstable();
+        let rel: Vec<DVec3> = pts.iter().map(|&p| to_rel(&pts, p)).collect();
+        let mut want = Vec::new();
+        for (i, p) in rel.iter().enumerate() {
+            for (j, q) in rel.iter().enumerate() {
+                if i != j && (*p - *q).length_squared() <= r * r {
+                    want.push((i as u32, j as u32));
+                }
             }
-        });
-        all.sort_unstable();
-        once.sort_unstable();
-        assert!(all.len() > 10_000, "{} pairs", all.len());
-        assert_eq!(all, once);
+        }
+        assert!(want.len() > 10_000, "{} pairs", want.len());
+        assert_eq!(got, want);
     }
 
     #[test]

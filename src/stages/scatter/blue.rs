@@ -21,15 +21,16 @@
 //! Cost: each candidate's pairs (about `2 M / N` of them) are found on
 //! a grid, block by block in parallel (`PointGrid::scan`), and written
 //! into its block's lists, which stay where they were made. Finding each
-//! pair from both ends makes twice the distance tests of finding it once
-//! (`PointGrid::scan_forward`), but the one-ended way then had to spread
-//! the pairs to both ends' lists through atomic cursors and sort them:
-//! at 1M on the dragon 0.43 + 0.26 + 0.05 s, with 180 MB of arrays in
-//! between, against 0.47-0.59 s (by hand, `PCSSS_TIMES=1`). The
-//! elimination works on the same blocks of about 4,000 candidates
-//! (aligned cubes of grid cells, `PointGrid::blocks`) in colour phases,
-//! the blocks of a colour in parallel, each with its data in cache, down to 95% of the way to its share of `N`; the last
-//! 5% of the removals go over all the candidates at once, most crowded
+//! pair from both ends makes twice the distance tests of finding it once,
+//! but the one-ended way then had to spread the pairs to both ends' lists
+//! through atomic cursors and sort them: at 1M on the dragon 0.43 s, 0.26
+//! s and 0.05 s, with 180 MB of arrays in between, against 0.47-0.59 s
+//! (by hand, `PCSSS_TIMES=1`). The elimination works on the same blocks
+//! of about 4,000 candidates (aligned cubes of grid cells,
+//! `PointGrid::blocks`) in colour phases, the blocks of a colour in
+//! parallel, each with its data in cache, down to 95% of the way to its
+//! share of `N`; the last 5% of the removals go over all the candidates
+//! at once, most crowded
 //! first (`eliminate_serial`), so the counts can shift between blocks,
 //! whose shares follow their candidates' counts. Without that tail the
 //! spacing statistics do not change, but the ssmulti kernel error on the
