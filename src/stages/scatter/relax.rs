@@ -93,10 +93,9 @@ fn lists(samples: &mut Vec<Sample>, r: f64) -> Lists {
     }
 }
 
-/// `relax` relaxation iterations, then up to `separate` separation rounds at
-/// `tau` spacings, on `samples` (points on `m`, whose adjacency is `adj`,
-/// of total area `total`);
-/// the points come back in another order.
+/// `relax` relaxation iterations, then up to `separate` separation rounds
+/// at `tau` spacings, on `samples` (points on `m`, whose adjacency is
+/// `adj`, of total area `total`); the points come back in another order.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn polish(
     m: &TriMesh,
