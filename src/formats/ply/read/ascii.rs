@@ -260,19 +260,16 @@ pub(super) fn read_ascii<R: BufRead>(
                 }
                 PropKind::List(ct, it) => {
                     let s = tok.next(r)?.ok_or_else(|| truncated(def, row))?;
-                    if s.parse::<i64>().is_ok_and(|n| n < 0) {
+                    let Some(n) = list_count(ct, s) else {
                         let s = s.to_string();
-                        return Err(Error::invalid(format!(
-                            "body line {}: element '{}' row {row}: list '{}' has negative count {s}",
-                            tok.lineno, def.name, pd.name
-                        )));
-                    }
-                    let mut c = Column::empty(ct);
-                    if !c.push_token(s) {
-                        let s = s.to_string();
+                        if s.parse::<i64>().is_ok_and(|n| n < 0) {
+                            return Err(Error::invalid(format!(
+                                "body line {}: element '{}' row {row}: list '{}' has negative count {s}",
+                                tok.lineno, def.name, pd.name
+                            )));
+                        }
                         return Err(bad(&s, ct, tok.lineno));
-                    }
-                    let n = count_value(&c);
+                    };
                     let PropData::List(l) = p else { unreachable!() };
                     for _ in 0..n {
                         let s = tok.next(r)?.ok_or_else(|| truncated(def, row))?;
