@@ -281,6 +281,8 @@ fn ascii_rows_not_one_a_line_still_read_and_errors_name_the_same_line() {
         "1\n2\n3 4 5 6\n\n3 0 1 2\n2 1 2\n",
         // A list over lines.
         "1 2\n3 4\n5 6\n3 0\n1 2 2 1 2\n",
+        // A count spelled as a float.
+        "1 2\n3 4\n5 6\n3.0 0 1 2\n2 1 2\n",
     ];
     let want = from_bytes(format!("{head}1 2\n3 4\n5 6\n3 0 1 2\n2 1 2\n").as_bytes());
     for body in bodies {
@@ -303,5 +305,18 @@ fn ascii_rows_not_one_a_line_still_read_and_errors_name_the_same_line() {
             streamed.unwrap_err().to_string(),
         );
         assert_eq!(m, s, "{body:?}");
+    }
+    // A list's count: negative, or too large for its type, named as such.
+    for (body, says) in [
+        ("1 2\n3 4\n5 6\n3 0 1 2\n-2 1 2\n", "has negative count -2"),
+        (
+            "1 2\n3 4\n5 6\n3 0 1 2\n256 1 2\n",
+            "'256' is not a valid uchar",
+        ),
+    ] {
+        let (mapped, streamed) = mapped_and_streamed(format!("{head}{body}").as_bytes());
+        for e in [mapped.unwrap_err(), streamed.unwrap_err()] {
+            assert!(e.to_string().contains(says), "{body:?}: {e}");
+        }
     }
 }
