@@ -100,6 +100,19 @@ fn resident() -> String {
 pub struct Phases {
     what: &'static str,
     last: Option<std::time::Instant>,
+    /// The process's user and system time (all threads) at `last`.
+    cpu: [f64; 2],
+}
+
+/// The process's user and system time so far, in seconds (all threads).
+fn cpu_seconds() -> [f64; 2] {
+    // SAFETY: getrusage writes the struct it is given and nothing else.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
+        return [0.0; 2];
+    }
+    let t = |v: libc::timeval| v.tv_sec as f64 + v.tv_usec as f64 * 1e-6;
+    [t(u.ru_utime), t(u.ru_stime)]
 }
 
 impl Phases {
@@ -108,19 +121,27 @@ impl Phases {
         Phases {
             what,
             last: on.then(std::time::Instant::now),
+            cpu: if on { cpu_seconds() } else { [0.0; 2] },
         }
     }
 
-    /// Ends phase `name`: prints its time, starts the next.
+    /// Ends phase `name`: prints its time (wall clock, and CPU over all
+    /// threads: their ratio is how parallel the phase ran; the system's
+    /// part of it is mostly first touches of new memory), starts the
+    /// next.
     pub fn mark(&mut self, name: &str) {
         if let Some(t) = self.last {
+            let cpu = cpu_seconds();
             eprintln!(
-                "{} {name}: {:.2} ms{}",
+                "{} {name}: {:.2} ms, cpu {:.0} ms (system {:.0}){}",
                 self.what,
                 t.elapsed().as_secs_f64() * 1e3,
+                (cpu[0] + cpu[1] - self.cpu[0] - self.cpu[1]) * 1e3,
+                (cpu[1] - self.cpu[1]) * 1e3,
                 resident()
             );
             self.last = Some(std::time::Instant::now());
+            self.cpu = cpu;
         }
     }
 }

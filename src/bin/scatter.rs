@@ -47,13 +47,15 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("scatter");
     let name = args.io.input_name();
+    let progress = msg.progress();
+    let mut ph = progress.phases("scatter io");
     let mesh = args.io.read(&Select::only(&["P"]))?;
+    ph.mark("read");
     let amount = match (args.count, args.density) {
         (Some(n), _) => Amount::Count(n),
         (None, Some(d)) => Amount::Density(d),
         (None, None) => unreachable!("clap requires one"),
     };
-    let progress = msg.progress();
     let cloud = scatter::scatter_with(
         &mesh,
         &Params {
@@ -67,8 +69,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         &progress,
     )
     .map_err(cli::at(&name))?;
+    ph.mark("scatter");
     msg.info(format!("{} points", cloud.len()));
-    args.io.write(&cloud)
+    args.io.write(&cloud)?;
+    ph.mark("write");
+    Ok(())
 }
 
 fn main() -> ExitCode {

@@ -173,6 +173,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     if let Amount::Density(d) = p.amount {
         count_for_density(d, 0.0)?;
     }
+    let mut ph = progress.phases("scatter");
     let m = TriMesh::from_cloud(mesh)?;
     let areas = m.tri_areas();
     let total = areas.iter().copied().collect::<Sum>().value();
@@ -234,7 +235,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     };
     let separate = if p.blue { SEPARATE_ROUNDS } else { 0 };
     let polishing = relax_iters + separate > 0 && n > 1;
-    let mut ph = progress.phases("scatter");
+    ph.mark("setup");
     let (mut samples, adjacency) = if cands > n {
         // Only the candidates' positions are kept (under half a sample's
         // bytes): the points kept are made again from their indices.
