@@ -6,11 +6,14 @@
 //!
 //! Points are sorted by cell key in Morton order (then by index, so the
 //! grid is the same on any thread count) and kept in that order relative
-//! to the box's lower corner. Cells visited in order find their
-//! neighbours by galloping search from where the last ones were (a few
-//! keys away, in cache); single queries search the keys from scratch.
-//! Empty cells cost nothing, so a surface in a large box costs what its
-//! points cost.
+//! to the box's lower corner. Scans go group by group (aligned cubes of
+//! 16 cells a side, `GROUP`): a group's cells read their neighbours from a
+//! dense table of the group and the cells around it. Where a scan visits
+//! too few of a group's cells for a table to pay, cells visited in order
+//! find their neighbours by galloping search from where the last ones
+//! were (a few keys away, in cache); single queries search the keys from
+//! scratch. Empty cells cost nothing, so a surface in a large box costs
+//! what its points cost.
 
 use std::ops::Range;
 
@@ -43,6 +46,46 @@ impl Cursor {
     }
 }
 
+/// Groups: aligned cubes of `2^GROUP` cells a side. A scan through a
+/// group's cells reads their neighbours from a dense table of the group
+/// and the layer of cells around it (`Table`), filled once from the
+/// group's own cells and the facing cells of the 26 around it: a cell's
+/// 27 runs are then array reads, where searching the sorted keys for
+/// them cost more than the distance tests they serve (730 ns a cell
+/// over the dragon's 484,000 elimination cells, by hand).
+const GROUP: u32 = 4;
+/// A group's side, in cells.
+const SIDE: usize = 1 << GROUP;
+/// The table's side: the group and one cell on each side.
+const TSIDE: usize = SIDE + 2;
+/// Cells of a group a scan must visit for a table to pay: filling one
+/// tests every cell of up to 27 groups (a few hundred on a surface, one
+/// mask each), where a cell's 27 runs cost a few key searches each (a
+/// judgement, not measured: the scans of scatter visit whole groups).
+const MIN_TABLE: usize = 24;
+/// The key bits of one axis within a group (`x`; `y` and `z` are these
+/// shifted down by 1 and 2).
+const GROUP_X: u64 = 0b100_100_100_100;
+const _: () = assert!(GROUP == 4, "GROUP_X has GROUP bits");
+
+/// The runs of one group's cells and the layer around them, by
+/// coordinates relative to the group's lower corner, less one.
+struct Table {
+    /// The group's key (`key >> 3 GROUP`), or `u64::MAX` before the
+    /// first fill.
+    group: u64,
+    runs: Vec<[u32; 2]>,
+}
+
+impl Table {
+    fn new() -> Table {
+        Table {
+            group: u64::MAX,
+            runs: vec![[0, 0]; TSIDE * TSIDE * TSIDE],
+        }
+    }
+}
+
 /// An aligned cube of cells (`PointGrid::blocks`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Block {
@@ -66,6 +109,11 @@ pub struct PointGrid {
     keys: Vec<u64>,
     /// Cell `c` holds sorted points `start[c]..start[c + 1]`.
     start: Vec<u32>,
+    /// Each occupied group's key (`key >> 3 GROUP`), ascending, and its
+    /// first cell: group `g`'s cells are `group_start[g]..group_start[g +
+    /// 1]`.
+    group_keys: Vec<u64>,
+    group_start: Vec<u32>,
 }
 
 /// Spreads the low 21 bits of `x` to every third bit.
@@ -170,6 +218,15 @@ impl PointGrid {
             }
         }
         start.push(order.len() as u32);
+        let mut group_keys = Vec::new();
+        let mut group_start = Vec::new();
+        for (c, &k) in keys.iter().enumerate() {
+            if group_keys.last() != Some(&(k >> (3 * GROUP))) {
+                group_keys.push(k >> (3 * GROUP));
+                group_start.push(c as u32);
+            }
+        }
+        group_start.push(keys.len() as u32);
         let rel = order.par_iter().map(|&i| points[i as usize] - lo).collect();
         PointGrid {
             inv,
@@ -178,6 +235,8 @@ impl PointGrid {
             rel,
             keys,
             start,
+            group_keys,
+            group_start,
         }
     }
 
@@ -318,6 +377,68 @@ impl PointGrid {
         runs
     }
 
+    /// The cells of group `g` (`key >> 3 GROUP`), empty if none.
+    fn group_cells(&self, g: u64) -> Range<usize> {
+        match self.group_keys.binary_search(&g) {
+            Ok(i) => self.group_start[i] as usize..self.group_start[i + 1] as usize,
+            Err(_) => 0..0,
+        }
+    }
+
+    /// Fills `t` with group `g`'s cells and the cells facing it in the 26
+    /// groups around.
+    fn fill(&self, g: u64, t: &mut Table) {
+        t.group = g;
+        t.runs.fill([0, 0]);
+        let at = coords(g);
+        let top = ((1u64 << BITS) - 1) >> GROUP;
+        let low = (1u64 << (3 * GROUP)) - 1;
+        for d in 0..27 {
+            let d = [d / 9, d / 3 % 3, d % 3].map(|x| x as i64 - 1);
+            let mut n = [0u64; 3];
+            // A neighbour `-1` along an axis shows its cells at local
+            // coordinate SIDE - 1 there (all that axis's bits set), `+1`
+            // its cells at 0 (none set), `0` all of them.
+            let (mut mask, mut want) = (0u64, 0u64);
+            let mut outside = false;
+            for a in 0..3 {
+                let x = at[a] as i64 + d[a];
+                outside |= x < 0 || x > top as i64;
+                n[a] = x.max(0) as u64;
+                let bits = GROUP_X >> a;
+                if d[a] != 0 {
+                    mask |= bits;
+                }
+                if d[a] < 0 {
+                    want |= bits;
+                }
+            }
+            if outside {
+                continue;
+            }
+            for c in self.group_cells(key(n)) {
+                let k = self.keys[c];
+                if k & mask != want {
+                    continue;
+                }
+                let l = coords(k & low);
+                let i = [0, 1, 2].map(|a| (d[a] * SIDE as i64 + l[a] as i64 + 1) as usize);
+                t.runs[(i[0] * TSIDE + i[1]) * TSIDE + i[2]] = [self.start[c], self.start[c + 1]];
+            }
+        }
+    }
+
+    /// `runs27` from a table filled for cell `c`'s group.
+    fn runs_from(&self, c: usize, t: &Table) -> [Range<usize>; 27] {
+        let low = (1u64 << (3 * GROUP)) - 1;
+        let l = coords(self.keys[c] & low).map(|x| x as usize);
+        std::array::from_fn(|k| {
+            let i = (l[0] + k / 9) * TSIDE * TSIDE + (l[1] + k / 3 % 3) * TSIDE + l[2] + k % 3;
+            let [a, b] = t.runs[i];
+            a as usize..b as usize
+        })
+    }
+
     /// The cell of key `k`, or where it would be, searched outwards from
     /// cell `from` (galloping, then binary search).
     fn find_from(&self, from: usize, k: u64) -> std::result::Result<usize, usize> {
@@ -399,11 +520,7 @@ impl PointGrid {
             let mut w = init();
             self.scan(cs, r, near, |s, near| out.push(f(&mut w, s, near)));
         });
-        let mut all = Vec::with_capacity(self.len());
-        for p in parts {
-            all.extend(p);
-        }
-        all
+        crate::disjoint::concat(parts)
     }
 
     /// Every point's neighbours within `r` (at most half a cell), in grid
@@ -416,32 +533,55 @@ impl PointGrid {
                 out.1.extend(near.iter().map(|&(t, _)| t));
             });
         });
-        let mut start = Vec::with_capacity(self.len() + 1);
-        start.push(0);
-        let mut other = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
-        for (counts, o) in parts {
-            for c in counts {
-                let last = *start.last().expect("starts with 0");
-                start.push(last + c as usize);
-            }
-            other.extend_from_slice(&o);
+        // Each task's first list starts after the earlier tasks' lists.
+        let mut base = Vec::with_capacity(parts.len());
+        let mut at = 0usize;
+        for p in &parts {
+            base.push(at);
+            at += p.1.len();
         }
-        (start, other)
+        let mut start = vec![0usize; self.len() + 1];
+        let mut rest = &mut start[1..];
+        let mut dst = Vec::with_capacity(parts.len());
+        for p in &parts {
+            let (a, b) = rest.split_at_mut(p.0.len());
+            dst.push(a);
+            rest = b;
+        }
+        dst.into_par_iter()
+            .zip(&parts)
+            .zip(base)
+            .for_each(|((d, p), mut at)| {
+                for (d, &c) in d.iter_mut().zip(&p.0) {
+                    at += c as usize;
+                    *d = at;
+                }
+            });
+        let other: Vec<Vec<u32>> = parts.into_iter().map(|p| p.1).collect();
+        (start, crate::disjoint::concat(other))
     }
 
-    /// Runs `work` on tasks of 64 cells in parallel, each with its own
-    /// output, in cell order.
+    /// Runs `work` on tasks of whole groups (at least 64 cells unless a
+    /// group is the last) in parallel, each with its own output, in cell
+    /// order.
     fn per_task<O: Default + Send>(
         &self,
         r: f64,
         work: impl Fn(Range<usize>, &mut Vec<(u32, f64)>, &mut O) + Sync,
     ) -> Vec<O> {
         assert!(r <= 0.5 * self.cell, "the radius is at most half a cell");
-        let cells = self.cells();
-        let tasks: Vec<Range<usize>> = (0..cells)
-            .step_by(64)
-            .map(|c| c..(c + 64).min(cells))
-            .collect();
+        let mut tasks: Vec<Range<usize>> = Vec::new();
+        let mut from = 0;
+        for &end in &self.group_start[1..] {
+            let end = end as usize;
+            if end - from >= 64 {
+                tasks.push(from..end);
+                from = end;
+            }
+        }
+        if from < self.cells() {
+            tasks.push(from..self.cells());
+        }
         tasks
             .par_iter()
             .map(|cs| {
@@ -469,8 +609,23 @@ impl PointGrid {
         let r2 = r * r;
         let half = 0.5 * self.cell;
         let mut cursor = Cursor::new();
-        for c in cs {
-            let runs = self.runs27(c, &mut cursor);
+        let mut table: Option<Table> = None;
+        // The end of the current group's cells in `cs`, and whether they
+        // read a table.
+        let (mut group_end, mut tabled) = (0, false);
+        for c in cs.clone() {
+            if c >= group_end {
+                let g = self.keys[c] >> (3 * GROUP);
+                group_end = self.group_cells(g).end.min(cs.end);
+                tabled = group_end - c >= MIN_TABLE;
+                if tabled {
+                    self.fill(g, table.get_or_insert_with(Table::new));
+                }
+            }
+            let runs = match &table {
+                Some(t) if tabled => self.runs_from(c, t),
+                _ => self.runs27(c, &mut cursor),
+            };
             let mid = self.cell_corner(c) + half;
             for s in self.cell_points(c) {
                 let q = self.rel[s];
@@ -537,18 +692,17 @@ mod tests {
         let pts: Vec<DVec3> = (0..3000)
             .map(|_| DVec3::new(u(), u() * 0.3, u() * 2.0) + 1e6)
             .collect();
+        let rel: Vec<DVec3> = pts.iter().map(|&p| to_rel(&pts, p)).collect();
         for cell in [0.05, 0.13, 1.0, 10.0] {
             let grid = PointGrid::new(&pts, cell);
             assert_eq!(grid.len(), pts.len());
-            for (i, &q) in pts.iter().enumerate().step_by(97) {
+            for (i, &q) in rel.iter().enumerate().step_by(97) {
                 for r in [0.02, 0.1, 0.31] {
                     let mut got: Vec<u32> = Vec::new();
-                    grid.for_each_within(to_rel(&pts, q), r, |s, _| got.push(grid.order()[s]));
+                    grid.for_each_within(q, r, |s, _| got.push(grid.order()[s]));
                     got.sort_unstable();
                     let want: Vec<u32> = (0..pts.len() as u32)
-                        .filter(|&j| {
-                            (to_rel(&pts, pts[j as usize]) - to_rel(&pts, q)).length() <= r
-                        })
+                        .filter(|&j| (rel[j as usize] - q).length() <= r)
                         .collect();
                     assert_eq!(got, want, "cell {cell} r {r} point {i}");
                 }
@@ -589,6 +743,47 @@ mod tests {
         }
         assert!(want.len() > 10_000, "{} pairs", want.len());
         assert_eq!(got, want);
+    }
+
+    #[test]
+    fn scan_by_tables_and_by_searches_finds_what_within_finds() {
+        // Points filling a cube of 3 groups a side (every group has all
+        // 26 around it), scanned whole (each group's cells read a table)
+        // and in runs of 7 cells (too few for a table: searched).
+        let mut g = Pcg32::new(5, 1);
+        let mut u = || g.next_u32() as f64 / u32::MAX as f64;
+        let pts: Vec<DVec3> = (0..30_000).map(|_| DVec3::new(u(), u(), u())).collect();
+        let r = 0.5 / (3 * SIDE) as f64;
+        let grid = PointGrid::new(&pts, 2.0 * r);
+        assert!(
+            grid.group_keys.len() >= 27,
+            "{} groups",
+            grid.group_keys.len()
+        );
+        let mut want = Vec::new();
+        for s in 0..grid.len() {
+            let mut v = Vec::new();
+            grid.for_each_within(grid.rel()[s], r, |t, _| {
+                if t != s {
+                    v.push(t as u32)
+                }
+            });
+            v.sort_unstable();
+            want.push(v);
+        }
+        assert!(want.iter().map(Vec::len).sum::<usize>() > 3_000);
+        for step in [grid.cells(), 7] {
+            let mut got = vec![Vec::new(); grid.len()];
+            let mut near = Vec::new();
+            for from in (0..grid.cells()).step_by(step) {
+                let cs = from..(from + step).min(grid.cells());
+                grid.scan(cs, r, &mut near, |s, nb| {
+                    got[s] = nb.iter().map(|&(t, _)| t).collect();
+                    got[s].sort_unstable();
+                });
+            }
+            assert_eq!(got, want, "runs of {step} cells");
+        }
     }
 
     #[test]

@@ -82,14 +82,15 @@ struct Lists {
 /// Sorts `samples` into the grid's order and lists each one's
 /// neighbours within `r`.
 fn lists(samples: &mut Vec<Sample>, r: f64) -> Lists {
-    let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
+    let pos: Vec<DVec3> = samples.par_iter().map(|s| s.p).collect();
     let grid = PointGrid::new(&pos, 2.0 * r);
     let (start, other) = grid.near_lists(r);
-    *samples = grid.order().iter().map(|&i| samples[i as usize]).collect();
+    let order = grid.order();
+    *samples = order.par_iter().map(|&i| samples[i as usize]).collect();
     Lists {
         start,
         other,
-        at: samples.iter().map(|s| s.p).collect(),
+        at: order.par_iter().map(|&i| pos[i as usize]).collect(),
     }
 }
 
@@ -244,10 +245,14 @@ fn polish_with(
             // Points move up to half a spacing a round, so lists would
             // not outlast it: each point moves as its neighbours are
             // found in a grid.
-            let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
+            let pos: Vec<DVec3> = samples.par_iter().map(|s| s.p).collect();
             let grid = PointGrid::new(&pos, 2.0 * reach);
             drop(pos);
-            let sorted: Vec<Sample> = grid.order().iter().map(|&i| samples[i as usize]).collect();
+            let sorted: Vec<Sample> = grid
+                .order()
+                .par_iter()
+                .map(|&i| samples[i as usize])
+                .collect();
             ph.mark("relax grid");
             grid.map_near(reach, Vec::new, |ids: &mut Vec<u32>, i, near| {
                 ids.clear();
