@@ -152,10 +152,11 @@ impl PointGrid {
     /// at least `cell` (larger when the box would need more than 2^21
     /// cells along an axis).
     pub fn new(points: &[DVec3], cell: f64) -> PointGrid {
-        let (lo, hi) = points.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
+        let none = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (lo, hi) = points
+            .par_iter()
+            .fold(none, |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+            .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)));
         let extent = if points.is_empty() {
             0.0
         } else {
@@ -188,7 +189,22 @@ impl PointGrid {
             .max()
             .unwrap_or(0)
             .max(1);
-        let (keys_of, order): (Vec<u64>, Vec<u32>) = if 3 * axis_bits + index_bits <= 64 {
+        // The occupied cells' keys and first points, from the sorted
+        // points' keys.
+        let cells_of = |key_of: &dyn Fn(usize) -> u64, n: usize| {
+            let mut keys = Vec::new();
+            let mut start = Vec::new();
+            for s in 0..n {
+                let k = key_of(s);
+                if keys.last() != Some(&k) {
+                    keys.push(k);
+                    start.push(s as u32);
+                }
+            }
+            start.push(n as u32);
+            (keys, start)
+        };
+        let (order, (keys, start)): (Vec<u32>, _) = if 3 * axis_bits + index_bits <= 64 {
             let mut packed: Vec<u64> = points
                 .par_iter()
                 .enumerate()
@@ -196,10 +212,10 @@ impl PointGrid {
                 .collect();
             crate::radix::sort_bits(&mut packed, index_bits, index_bits + 3 * axis_bits);
             let mask = (1u64 << index_bits) - 1;
-            packed
-                .par_iter()
-                .map(|&k| (k >> index_bits, (k & mask) as u32))
-                .unzip()
+            rayon::join(
+                || packed.par_iter().map(|&k| (k & mask) as u32).collect(),
+                || cells_of(&|s| packed[s] >> index_bits, packed.len()),
+            )
         } else {
             let mut sorted: Vec<(u64, u32)> = points
                 .par_iter()
@@ -207,17 +223,11 @@ impl PointGrid {
                 .map(|(i, p)| (key(coord(*p)), i as u32))
                 .collect();
             sorted.par_sort_unstable();
-            sorted.into_par_iter().unzip()
+            rayon::join(
+                || sorted.par_iter().map(|&(_, i)| i).collect(),
+                || cells_of(&|s| sorted[s].0, sorted.len()),
+            )
         };
-        let mut keys = Vec::new();
-        let mut start = Vec::new();
-        for (s, &k) in keys_of.iter().enumerate() {
-            if keys.last() != Some(&k) {
-                keys.push(k);
-                start.push(s as u32);
-            }
-        }
-        start.push(order.len() as u32);
         let mut group_keys = Vec::new();
         let mut group_start = Vec::new();
         for (c, &k) in keys.iter().enumerate() {

@@ -2,6 +2,7 @@
 //! closest-point queries.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::cloud::{Cloud, ListColumn};
 use crate::error::{Error, Result};
@@ -189,6 +190,7 @@ impl TriMesh {
     /// The area of every triangle.
     pub fn tri_areas(&self) -> Vec<f64> {
         (0..self.tris.len())
+            .into_par_iter()
             .map(|t| {
                 let [a, b, c] = self.tri(t);
                 geom::tri_area(a, b, c)
