@@ -136,7 +136,7 @@ impl PointGrid {
             .max(1);
         // The occupied cells' keys and first points, from the sorted
         // points' keys.
-        let cells_of = |key_of: &dyn Fn(usize) -> u64, n: usize| {
+        fn cells_of(n: usize, key_of: impl Fn(usize) -> u64) -> (Vec<u64>, Vec<u32>) {
             let mut keys = Vec::new();
             let mut start = Vec::new();
             for s in 0..n {
@@ -148,7 +148,7 @@ impl PointGrid {
             }
             start.push(n as u32);
             (keys, start)
-        };
+        }
         let (order, (keys, start)): (Vec<u32>, _) = if 3 * axis_bits + index_bits <= 64 {
             let mut packed: Vec<u64> = points
                 .par_iter()
@@ -159,7 +159,7 @@ impl PointGrid {
             let mask = (1u64 << index_bits) - 1;
             rayon::join(
                 || packed.par_iter().map(|&k| (k & mask) as u32).collect(),
-                || cells_of(&|s| packed[s] >> index_bits, packed.len()),
+                || cells_of(packed.len(), |s| packed[s] >> index_bits),
             )
         } else {
             let mut sorted: Vec<(u64, u32)> = points
@@ -170,7 +170,7 @@ impl PointGrid {
             sorted.par_sort_unstable();
             rayon::join(
                 || sorted.par_iter().map(|&(_, i)| i).collect(),
-                || cells_of(&|s| sorted[s].0, sorted.len()),
+                || cells_of(sorted.len(), |s| sorted[s].0),
             )
         };
         let mut group_keys = Vec::new();

@@ -53,16 +53,12 @@ const _: () = assert!(GROUP == 4, "GROUP_X has GROUP bits");
 /// The runs of one group's cells and the layer around them, by
 /// coordinates relative to the group's lower corner, less one.
 pub(super) struct Table {
-    /// The group's key (`key >> 3 GROUP`), or `u64::MAX` before the
-    /// first fill.
-    group: u64,
     runs: Vec<[u32; 2]>,
 }
 
 impl Table {
     pub(super) fn new() -> Table {
         Table {
-            group: u64::MAX,
             runs: vec![[0, 0]; TSIDE * TSIDE * TSIDE],
         }
     }
@@ -136,7 +132,6 @@ impl PointGrid {
     /// Fills `t` with group `g`'s cells and the cells facing it in the 26
     /// groups around.
     pub(super) fn fill(&self, g: u64, t: &mut Table) {
-        t.group = g;
         t.runs.fill([0, 0]);
         let at = coords(g);
         let top = ((1u64 << BITS) - 1) >> GROUP;
