@@ -339,25 +339,21 @@ impl PointGrid {
                 out.1.extend(near.iter().map(|&(t, _)| t));
             });
         });
-        // Each task's first list starts after the earlier tasks' lists.
-        let mut base = Vec::with_capacity(parts.len());
-        let mut at = 0usize;
-        for p in &parts {
-            base.push(at);
-            at += p.1.len();
-        }
+        // Each task fills its points' list ends, counting from the end of
+        // the earlier tasks' lists.
         let mut start = vec![0usize; self.len() + 1];
         let mut rest = &mut start[1..];
         let mut dst = Vec::with_capacity(parts.len());
+        let mut base = 0usize;
         for p in &parts {
             let (a, b) = rest.split_at_mut(p.0.len());
-            dst.push(a);
+            dst.push((a, base));
             rest = b;
+            base += p.1.len();
         }
         dst.into_par_iter()
             .zip(&parts)
-            .zip(base)
-            .for_each(|((d, p), mut at)| {
+            .for_each(|((d, mut at), p)| {
                 for (d, &c) in d.iter_mut().zip(&p.0) {
                     at += c as usize;
                     *d = at;
@@ -367,9 +363,9 @@ impl PointGrid {
         (start, crate::disjoint::concat(other))
     }
 
-    /// Runs `work` on tasks of whole groups (at least 64 cells unless a
-    /// group is the last) in parallel, each with its own output, in cell
-    /// order.
+    /// Runs `work` on tasks of consecutive whole groups (64 cells or
+    /// more together; the last task may have fewer) in parallel, each
+    /// with its own output, in cell order.
     fn per_task<O: Default + Send>(
         &self,
         r: f64,
