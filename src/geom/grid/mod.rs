@@ -20,6 +20,7 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
+mod nearest;
 mod runs;
 #[cfg(test)]
 use runs::SIDE;
@@ -46,6 +47,10 @@ pub struct Block {
 pub struct PointGrid {
     inv: f64,
     cell: f64,
+    /// The points' lower corner: the grid's frame starts there.
+    lo: DVec3,
+    /// The highest cell coordinates holding points, along each axis.
+    top: [u64; 3],
     /// The caller's index of each point, in cell order.
     order: Vec<u32>,
     /// Positions relative to the box's lower corner, in cell order.
@@ -59,6 +64,75 @@ pub struct PointGrid {
     /// 1]`.
     group_keys: Vec<u64>,
     group_start: Vec<u32>,
+}
+
+/// Indices `0..n` sorted by a key, ties by index: packed as `key <<
+/// index_bits | index` and radix-sorted by the key's bits only (the
+/// indices are in order already) when both fit in 64 bits, as they do
+/// unless a box spans more than about 2^((64 - index bits) / 3) cells;
+/// else pairs, by a comparison sort.
+enum Sorted {
+    Packed { keys: Vec<u64>, index_bits: u32 },
+    Pairs(Vec<(u64, u32)>),
+}
+
+impl Sorted {
+    /// `0..n` (fewer than 2^32) sorted by `key_of`, whose keys have at
+    /// most `key_bits` bits.
+    fn new(n: usize, key_bits: u32, key_of: impl Fn(usize) -> u64 + Sync) -> Sorted {
+        let index_bits = (usize::BITS - n.leading_zeros()).max(1);
+        if key_bits + index_bits <= 64 {
+            let mut keys: Vec<u64> = (0..n)
+                .into_par_iter()
+                .map(|i| key_of(i) << index_bits | i as u64)
+                .collect();
+            crate::radix::sort_bits(&mut keys, index_bits, index_bits + key_bits);
+            Sorted::Packed { keys, index_bits }
+        } else {
+            let mut pairs: Vec<(u64, u32)> = (0..n)
+                .into_par_iter()
+                .map(|i| (key_of(i), i as u32))
+                .collect();
+            pairs.par_sort_unstable();
+            Sorted::Pairs(pairs)
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Sorted::Packed { keys, .. } => keys.len(),
+            Sorted::Pairs(p) => p.len(),
+        }
+    }
+
+    /// The key of the `s`-th in order.
+    #[inline]
+    fn key(&self, s: usize) -> u64 {
+        match self {
+            Sorted::Packed { keys, index_bits } => keys[s] >> index_bits,
+            Sorted::Pairs(p) => p[s].0,
+        }
+    }
+
+    /// The index of the `s`-th in order.
+    #[inline]
+    fn index(&self, s: usize) -> u32 {
+        match self {
+            Sorted::Packed { keys, index_bits } => (keys[s] & ((1u64 << index_bits) - 1)) as u32,
+            Sorted::Pairs(p) => p[s].1,
+        }
+    }
+
+    /// The indices in order.
+    fn order(&self) -> Vec<u32> {
+        match self {
+            Sorted::Packed { keys, index_bits } => {
+                let mask = (1u64 << index_bits) - 1;
+                keys.par_iter().map(|&k| (k & mask) as u32).collect()
+            }
+            Sorted::Pairs(p) => p.par_iter().map(|&(_, i)| i).collect(),
+        }
+    }
 }
 
 /// Spreads the low 21 bits of `x` to every third bit.
@@ -122,11 +196,6 @@ impl PointGrid {
             let clamp = |x: f64| x.clamp(0.0, MAX_CELLS) as u64;
             [clamp(c.x), clamp(c.y), clamp(c.z)]
         };
-        // Keys `cell << index_bits | index`, radix-sorted by the cell's
-        // bits only (the indices are in order already) when both fit in
-        // 64 bits, as they do unless the box spans more than about
-        // 2^((64 - index bits) / 3) cells; else a comparison sort.
-        let index_bits = (usize::BITS - points.len().leading_zeros()).max(1);
         let top = coord(hi.max(lo));
         let axis_bits = top
             .iter()
@@ -134,45 +203,25 @@ impl PointGrid {
             .max()
             .unwrap_or(0)
             .max(1);
+        let sorted = Sorted::new(points.len(), 3 * axis_bits, |i| key(coord(points[i])));
         // The occupied cells' keys and first points, from the sorted
         // points' keys.
-        fn cells_of(n: usize, key_of: impl Fn(usize) -> u64) -> (Vec<u64>, Vec<u32>) {
-            let mut keys = Vec::new();
-            let mut start = Vec::new();
-            for s in 0..n {
-                let k = key_of(s);
-                if keys.last() != Some(&k) {
-                    keys.push(k);
-                    start.push(s as u32);
+        let (order, (keys, start)): (Vec<u32>, _) = rayon::join(
+            || sorted.order(),
+            || {
+                let mut keys = Vec::new();
+                let mut start = Vec::new();
+                for s in 0..sorted.len() {
+                    let k = sorted.key(s);
+                    if keys.last() != Some(&k) {
+                        keys.push(k);
+                        start.push(s as u32);
+                    }
                 }
-            }
-            start.push(n as u32);
-            (keys, start)
-        }
-        let (order, (keys, start)): (Vec<u32>, _) = if 3 * axis_bits + index_bits <= 64 {
-            let mut packed: Vec<u64> = points
-                .par_iter()
-                .enumerate()
-                .map(|(i, p)| key(coord(*p)) << index_bits | i as u64)
-                .collect();
-            crate::radix::sort_bits(&mut packed, index_bits, index_bits + 3 * axis_bits);
-            let mask = (1u64 << index_bits) - 1;
-            rayon::join(
-                || packed.par_iter().map(|&k| (k & mask) as u32).collect(),
-                || cells_of(packed.len(), |s| packed[s] >> index_bits),
-            )
-        } else {
-            let mut sorted: Vec<(u64, u32)> = points
-                .par_iter()
-                .enumerate()
-                .map(|(i, p)| (key(coord(*p)), i as u32))
-                .collect();
-            sorted.par_sort_unstable();
-            rayon::join(
-                || sorted.par_iter().map(|&(_, i)| i).collect(),
-                || cells_of(sorted.len(), |s| sorted[s].0),
-            )
-        };
+                start.push(sorted.len() as u32);
+                (keys, start)
+            },
+        );
         let mut group_keys = Vec::new();
         let mut group_start = Vec::new();
         for (c, &k) in keys.iter().enumerate() {
@@ -186,6 +235,8 @@ impl PointGrid {
         PointGrid {
             inv,
             cell,
+            lo,
+            top,
             order,
             rel,
             keys,

@@ -62,6 +62,13 @@ impl Table {
             runs: vec![[0, 0]; TSIDE * TSIDE * TSIDE],
         }
     }
+
+    /// The run of the cell at `i` (each coordinate `0..=SIDE + 1`): the
+    /// coordinates relative to the group's lower corner, plus one.
+    pub(super) fn run(&self, i: [usize; 3]) -> Range<usize> {
+        let [a, b] = self.runs[(i[0] * TSIDE + i[1]) * TSIDE + i[2]];
+        a as usize..b as usize
+    }
 }
 
 impl PointGrid {
@@ -175,11 +182,7 @@ impl PointGrid {
     pub(super) fn runs_from(&self, c: usize, t: &Table) -> [Range<usize>; 27] {
         let low = (1u64 << (3 * GROUP)) - 1;
         let l = coords(self.keys[c] & low).map(|x| x as usize);
-        std::array::from_fn(|k| {
-            let i = (l[0] + k / 9) * TSIDE * TSIDE + (l[1] + k / 3 % 3) * TSIDE + l[2] + k % 3;
-            let [a, b] = t.runs[i];
-            a as usize..b as usize
-        })
+        std::array::from_fn(|k| t.run([l[0] + k / 9, l[1] + k / 3 % 3, l[2] + k % 3]))
     }
 
     /// The cell of key `k`, or where it would be, searched outwards from

@@ -48,6 +48,8 @@ mod voronoi;
 pub use voronoi::{voronoi_areas, voronoi_weights};
 
 use crate::maths::uniform53;
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use glam::DVec3;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
@@ -55,6 +57,7 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
+use crate::geom::grid::PointGrid;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::{Adjacency, TriMesh};
 use crate::geom::{self, Sum};
@@ -281,7 +284,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         ph.mark("polish");
     }
     let ptarea: Vec<f32> = match p.ptarea {
-        PtareaMode::Prim => prim_area(&m, &areas, &samples),
+        PtareaMode::Prim => prim_area(&m, &areas, total, &samples),
         PtareaMode::Knn => knn_area(&samples.iter().map(|s| s.p).collect::<Vec<_>>(), total),
         PtareaMode::Voronoi | PtareaMode::Centroid => {
             let pos: Vec<DVec3> = samples.iter().map(|s| s.p).collect();
@@ -414,28 +417,43 @@ struct Sample {
 /// points; a triangle that got no point (more triangles than points, or
 /// after relaxation) gives its area to the point nearest its centroid, so
 /// on a fine mesh this becomes a discrete Voronoi area and the sum is
-/// always the mesh's area.
-fn prim_area(m: &TriMesh, areas: &[f64], samples: &[Sample]) -> Vec<f32> {
-    let mut per = vec![0u32; areas.len()];
-    samples.iter().for_each(|s| per[s.tri as usize] += 1);
+/// always the mesh's area (`total`).
+fn prim_area(m: &TriMesh, areas: &[f64], total: f64, samples: &[Sample]) -> Vec<f32> {
+    let per: Vec<AtomicU32> = (0..areas.len()).map(|_| AtomicU32::new(0)).collect();
+    samples.par_iter().for_each(|s| {
+        per[s.tri as usize].fetch_add(1, Ordering::Relaxed);
+    });
+    let per: Vec<u32> = per.into_iter().map(AtomicU32::into_inner).collect();
     let mut acc: Vec<f64> = samples
-        .iter()
+        .par_iter()
         .map(|s| areas[s.tri as usize] / per[s.tri as usize] as f64)
         .collect();
     let empty: Vec<usize> = (0..areas.len())
+        .into_par_iter()
         .filter(|&t| per[t] == 0 && areas[t] > 0.0)
         .collect();
     if !empty.is_empty() && !samples.is_empty() {
-        let tree = PointTree::new(samples.iter().map(|s| s.p), samples[0].p);
-        let owner: Vec<u32> = empty
+        // Cells of 2 spacings, which answer at once the centroids with a
+        // point within one spacing: on blue noise all but a few in ten
+        // thousand (dragon, 1M: within 0.75 spacings), on random points
+        // all but 3 in a hundred. By hand, dragon 1M, `prim` took about
+        // 105 ms on blue noise with cells of 1.5, 2 or 3 spacings, and
+        // on random points 230, 115 and 115 ms (a k-d tree: 220-290 ms).
+        let pos: Vec<DVec3> = samples.par_iter().map(|s| s.p).collect();
+        let grid = PointGrid::new(&pos, 2.0 * hex_spacing(total, samples.len()));
+        drop(pos);
+        let centroids: Vec<DVec3> = empty
             .par_iter()
             .map(|&t| {
                 let [a, b, c] = m.tri(t);
-                tree.nearest_one((a + b + c) / 3.0).item
+                (a + b + c) / 3.0
             })
             .collect();
-        for (&t, &i) in empty.iter().zip(&owner) {
-            acc[i as usize] += areas[t];
+        let owner = grid.nearest(&centroids);
+        for (&t, s) in empty.iter().zip(owner) {
+            if let Some(s) = s {
+                acc[grid.order()[s as usize] as usize] += areas[t];
+            }
         }
     }
     acc.into_iter().map(|a| a as f32).collect()
