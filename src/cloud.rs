@@ -11,6 +11,7 @@
 
 use crate::column::{Column, Scalar, ScalarType, Values};
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 
 /// What a 3-vector means (Houdini's attribute type info).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -365,6 +366,7 @@ impl Element {
         let c = self.vec3_columns(name)?;
         let (x, y, z) = (c[0].column(), c[1].column(), c[2].column());
         Ok((0..self.len)
+            .into_par_iter()
             .map(|i| [x.get_f64(i), y.get_f64(i), z.get_f64(i)])
             .collect())
     }

@@ -5,6 +5,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::cloud::{Cloud, ListColumn};
+use crate::column::Scalar;
 use crate::error::{Error, Result};
 use crate::geom;
 
@@ -32,16 +33,28 @@ impl Polygons {
             .find_map(|n| faces.list(n).ok())
             .ok_or_else(|| Error::invalid("the 'face' element has no 'vertex_indices' list"))?;
         let n = cloud.len();
-        let mut indices = Vec::with_capacity(list.items.len());
-        for k in 0..list.items.len() {
-            let v = list.items.get_f64(k);
-            if !(v >= 0.0 && v < n as f64) || v.fract() != 0.0 {
+        // u32::MAX marks an index out of range or not whole (found again
+        // below for the message, unless it is a vertex's index).
+        let valid = |v: f64| v >= 0.0 && v < n as f64 && (v as u32) as f64 == v;
+        let indices: Vec<u32> = crate::with_column!(&list.items, items => items
+            .par_iter()
+            .map(|x| {
+                let v = x.to_f64();
+                if valid(v) {
+                    v as u32
+                } else {
+                    u32::MAX
+                }
+            })
+            .collect());
+        if indices.par_iter().any(|&i| i == u32::MAX) {
+            if let Some(k) = (0..list.items.len()).find(|&k| !valid(list.items.get_f64(k))) {
+                let v = list.items.get_f64(k);
                 let face = list.offsets.partition_point(|&o| o <= k) - 1;
                 return Err(Error::invalid(format!(
                     "face {face} refers to vertex {v}, but the mesh has {n} vertices"
                 )));
             }
-            indices.push(v as u32);
         }
         Ok(Polygons {
             offsets: list.offsets.clone(),
@@ -95,41 +108,61 @@ impl TriMesh {
         let positions: Vec<DVec3> = cloud
             .points()
             .vec3_f64("P")?
-            .into_iter()
+            .into_par_iter()
             .map(DVec3::from_array)
             .collect();
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        if let Some(i) = positions.par_iter().position_first(|p| !p.is_finite()) {
             return Err(Error::invalid(format!(
                 "vertex {i} has a non-finite position {:?}",
                 positions[i].to_array()
             )));
         }
-        let mut tris = Vec::with_capacity(polys.triangle_count());
+        // Chunks of faces triangulated in parallel, each giving its
+        // triangles and its faces' ends among them; the first error in
+        // face order is the one reported.
+        const CHUNK: usize = 1 << 14;
+        type Chunk = (Vec<[u32; 3]>, Vec<u32>);
+        let chunks: Vec<Result<Chunk>> = (0..polys.len().div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let faces = c * CHUNK..((c + 1) * CHUNK).min(polys.len());
+                let mut tris = Vec::with_capacity(faces.len());
+                let mut ends = Vec::with_capacity(faces.len());
+                let mut local = Vec::new();
+                let mut pts = Vec::new();
+                for f in faces {
+                    let poly = polys.polygon(f);
+                    pts.clear();
+                    pts.extend(poly.iter().map(|&v| positions[v as usize]));
+                    if pts.len() > geom::MAX_CONCAVE_CORNERS && !geom::is_convex(&pts) {
+                        return Err(Error::invalid(format!(
+                            "face {f} has {} corners and is not convex (a concave face has at most {})",
+                            pts.len(),
+                            geom::MAX_CONCAVE_CORNERS
+                        )));
+                    }
+                    local.clear();
+                    geom::triangulate(&pts, &mut local);
+                    let base = polys.offsets[f] as u32;
+                    tris.extend(
+                        local
+                            .iter()
+                            .map(|t| [base + t[0] as u32, base + t[1] as u32, base + t[2] as u32]),
+                    );
+                    ends.push(tris.len() as u32);
+                }
+                Ok((tris, ends))
+            })
+            .collect();
+        let chunks = chunks.into_iter().collect::<Result<Vec<_>>>()?;
         let mut face_tris = Vec::with_capacity(polys.len() + 1);
         face_tris.push(0u32);
-        let mut local = Vec::new();
-        let mut pts = Vec::new();
-        for f in 0..polys.len() {
-            let poly = polys.polygon(f);
-            pts.clear();
-            pts.extend(poly.iter().map(|&v| positions[v as usize]));
-            if pts.len() > geom::MAX_CONCAVE_CORNERS && !geom::is_convex(&pts) {
-                return Err(Error::invalid(format!(
-                    "face {f} has {} corners and is not convex (a concave face has at most {})",
-                    pts.len(),
-                    geom::MAX_CONCAVE_CORNERS
-                )));
-            }
-            local.clear();
-            geom::triangulate(&pts, &mut local);
-            let base = polys.offsets[f] as u32;
-            tris.extend(
-                local
-                    .iter()
-                    .map(|t| [base + t[0] as u32, base + t[1] as u32, base + t[2] as u32]),
-            );
-            face_tris.push(tris.len() as u32);
+        let mut base = 0u32;
+        for (tris, ends) in &chunks {
+            face_tris.extend(ends.iter().map(|e| base + e));
+            base += tris.len() as u32;
         }
+        let tris = crate::disjoint::concat(chunks.into_iter().map(|c| c.0).collect());
         Ok(TriMesh {
             positions,
             polys,

@@ -2,7 +2,7 @@
 
 use crate::util::*;
 use pcsss::formats::{self, Select};
-use pcsss::geom::mesh::Polygons;
+use pcsss::geom::mesh::{Polygons, TriMesh};
 
 fn read(path: &str) -> pcsss::Cloud {
     let b = std::fs::read(fixtures().join(path)).unwrap();
@@ -76,4 +76,75 @@ fn obj_sniffing_and_bad_obj() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("OBJ"), "{e}");
+}
+
+/// An OBJ grid of `w` x `h` cells, each a quad, or two triangles where
+/// `split(cell)`, faces in order.
+fn grid_obj(w: usize, h: usize, split: impl Fn(usize) -> bool) -> String {
+    let mut s = String::new();
+    for y in 0..=h {
+        for x in 0..=w {
+            s += &format!("v {x} {y} 0\n");
+        }
+    }
+    let v = |x: usize, y: usize| y * (w + 1) + x + 1;
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b, c, d) = (v(x, y), v(x + 1, y), v(x + 1, y + 1), v(x, y + 1));
+            if split(y * w + x) {
+                s += &format!("f {a} {b} {c}\nf {a} {c} {d}\n");
+            } else {
+                s += &format!("f {a} {b} {c} {d}\n");
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn many_faces_triangulate_in_order_and_cover_the_mesh() {
+    // More faces than one parallel chunk of triangulation (16,384),
+    // quads and triangles mixed.
+    let (w, h) = (200, 120);
+    let split = |c: usize| c % 7 == 3;
+    let c = formats::read_cloud(grid_obj(w, h, split).as_bytes(), &Select::All).unwrap();
+    let m = TriMesh::from_cloud(&c).unwrap();
+    let faces = m.polys.len();
+    assert_eq!(faces, w * h + (0..w * h).filter(|&c| split(c)).count());
+    // Each face owns its polygon's n - 2 triangles, in face order, and
+    // they use its corners only.
+    assert_eq!(m.face_tris.len(), faces + 1);
+    for f in 0..faces {
+        let ts = m.face_tris[f] as usize..m.face_tris[f + 1] as usize;
+        let corners = m.polys.offsets[f] as u32..m.polys.offsets[f + 1] as u32;
+        assert_eq!(ts.len(), corners.len() - 2, "face {f}");
+        for t in ts {
+            assert!(m.tris[t].iter().all(|k| corners.contains(k)), "face {f}");
+        }
+    }
+    // The triangles tile the grid: every cell's area once.
+    let area: f64 = m.tri_areas().iter().sum();
+    assert!((area - (w * h) as f64).abs() < 1e-9, "{area}");
+}
+
+#[test]
+fn the_first_face_at_fault_is_named() {
+    // 20,001 triangles over 3 vertices; faces 20,000 and 19,000 (in
+    // different parallel chunks) point past the vertices: the earlier is
+    // named.
+    let faces = 20_001;
+    let mut text = format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
+    for f in 0..faces {
+        text += match f {
+            19_000 => "3 0 1 8\n",
+            20_000 => "3 0 1 9\n",
+            _ => "3 0 1 2\n",
+        };
+    }
+    let c = formats::read_cloud(text.as_bytes(), &Select::All).unwrap();
+    let e = Polygons::of(&c).unwrap_err().to_string();
+    assert!(
+        e.contains("face 19000 refers to vertex 8, but the mesh has 3 vertices"),
+        "{e}"
+    );
 }
