@@ -184,16 +184,19 @@ pub fn eliminate(
             format!("blue noise from {m} candidates needs more memory for their pairs than can be allocated here (a surface folded onto itself?)"),
         )
     })?;
-    let mut crowd: Vec<f64> = Vec::with_capacity(m);
-    for l in &mut lists {
-        crowd.append(&mut l.crowd);
-    }
+    let mut crowd: Vec<f64> = crate::disjoint::concat(
+        lists
+            .iter_mut()
+            .map(|l| std::mem::take(&mut l.crowd))
+            .collect(),
+    );
     ph.mark("crowding");
     let left = eliminate_blocks(&mut crowd, &lists, &blocks, n);
     ph.mark("blocks");
     eliminate_serial(&mut crowd, &lists, &blocks, left, n);
     ph.mark("serial");
     Ok((0..m)
+        .into_par_iter()
         .filter(|&s| crowd[s] != DEAD)
         .map(|s| grid.order()[s])
         .collect())
