@@ -44,11 +44,11 @@ impl PointGrid {
             let found: Vec<Option<u32>> = rest
                 .par_iter()
                 .map(|&i| {
-                    let mut best = (f64::INFINITY, u32::MAX);
+                    let mut best = NONE;
                     self.for_each_within(queries[i] - self.lo, reach, |s, d2| {
-                        best = closer(best, (d2, s as u32));
+                        best = best.min(packed(d2, s as u32));
                     });
-                    (best.1 != u32::MAX).then_some(best.1)
+                    unpacked(best).map(|(_, s)| s)
                 })
                 .collect();
             for (&i, f) in rest.iter().zip(found) {
@@ -77,15 +77,17 @@ impl PointGrid {
         // A query's cell, clamped into the box: with `r` at most half a
         // cell, one more than a cell outside has no point within `r`, and
         // one less than that reaches only the cells next to its own.
+        // (Truncation, not `floor`, which is a call into libm on the
+        // baseline target: from -1 on, `x + 1` truncates to the floor plus
+        // one.)
         let cell_of = |q: DVec3| -> Option<[u64; 3]> {
-            let c = ((q - self.lo) * self.inv).floor().to_array();
+            let c = ((q - self.lo) * self.inv).to_array();
             let mut at = [0u64; 3];
             for a in 0..3 {
-                let hi = top[a] as f64;
-                if !(c[a] >= -1.0 && c[a] <= hi + 1.0) {
+                if !(c[a] >= -1.0 && c[a] < top[a] as f64 + 2.0) {
                     return None;
                 }
-                at[a] = c[a].clamp(0.0, hi) as u64;
+                at[a] = ((c[a] + 1.0) as u64).saturating_sub(1).min(top[a]);
             }
             Some(at)
         };
@@ -145,7 +147,7 @@ impl PointGrid {
                                 1
                             }
                         });
-                        let mut best = (f64::INFINITY, u32::MAX);
+                        let mut best = NONE;
                         for o in 0..8 {
                             let d = [o >> 2 & 1, o >> 1 & 1, o & 1].map(|x| x as u64);
                             let n = [0, 1, 2].map(|a| side[a] + d[a]);
@@ -159,10 +161,11 @@ impl PointGrid {
                             };
                             for t in run {
                                 let d2 = (self.rel[t] - q).length_squared();
-                                best = closer(best, (d2, t as u32));
+                                best = best.min(packed(d2, t as u32));
                             }
                         }
-                        out.push((i, (best.0 <= r2).then_some(best.1)));
+                        let near = unpacked(best).filter(|&(d2, _)| d2 <= r2);
+                        out.push((i, near.map(|(_, s)| s)));
                     }
                     s = e;
                 }
@@ -195,15 +198,21 @@ impl PointGrid {
     }
 }
 
-/// The closer of two (squared distance, index), the lower index of two
-/// as close.
-fn closer(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
-    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
-        b
-    } else {
-        a
-    }
+/// A (squared distance, index) packed so that the smaller of two is the
+/// nearer, or of two as near the lower index: a squared distance is not
+/// negative, and then its bits are in the order of its values (a `min`
+/// without a branch to mispredict).
+fn packed(d2: f64, s: u32) -> u128 {
+    (d2.to_bits() as u128) << 32 | s as u128
 }
+
+/// The squared distance and index of `packed`'s value, None for `NONE`.
+fn unpacked(p: u128) -> Option<(f64, u32)> {
+    (p != NONE).then(|| (f64::from_bits((p >> 32) as u64), p as u32))
+}
+
+/// Nothing found yet.
+const NONE: u128 = u128::MAX;
 
 #[cfg(test)]
 mod tests {
