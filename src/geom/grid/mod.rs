@@ -166,6 +166,32 @@ fn coords(k: u64) -> [u64; 3] {
     [compact(k >> 2), compact(k >> 1), compact(k)]
 }
 
+/// The bits the keys of cells up to `top` along each axis need.
+fn key_bits(top: [u64; 3]) -> u32 {
+    let axis = top
+        .iter()
+        .map(|&x| u64::BITS - x.leading_zeros())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    3 * axis
+}
+
+/// The cell at `at` plus `n` less one along each axis (`n` in `0..3`),
+/// None off the grid's coordinates.
+fn neighbour(at: [u64; 3], n: [u64; 3]) -> Option<[u64; 3]> {
+    let top = (1u64 << BITS) - 1;
+    let mut c = [0u64; 3];
+    for a in 0..3 {
+        let x = at[a] + n[a];
+        if x == 0 || x - 1 > top {
+            return None;
+        }
+        c[a] = x - 1;
+    }
+    Some(c)
+}
+
 impl PointGrid {
     /// The grid of `points` (finite, fewer than 2^32) with cells of side
     /// at least `cell` (larger when the box would need more than 2^21
@@ -201,13 +227,7 @@ impl PointGrid {
             [cell(c.x), cell(c.y), cell(c.z)]
         };
         let top = coord(hi.max(lo));
-        let axis_bits = top
-            .iter()
-            .map(|&x| u64::BITS - x.leading_zeros())
-            .max()
-            .unwrap_or(0)
-            .max(1);
-        let sorted = Sorted::new(points.len(), 3 * axis_bits, |i| key(coord(points[i])));
+        let sorted = Sorted::new(points.len(), key_bits(top), |i| key(coord(points[i])));
         // The occupied cells' keys and first points, from the sorted
         // points' keys.
         let (order, (keys, start)): (Vec<u32>, _) = rayon::join(

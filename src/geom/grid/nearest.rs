@@ -11,7 +11,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::runs::{Table, GROUP, MIN_TABLE};
-use super::{coords, key, PointGrid, Sorted, BITS};
+use super::{coords, key, key_bits, neighbour, PointGrid, Sorted};
 use crate::geom::kdtree::PointTree;
 
 /// Queries a parallel task answers, at least (whole groups of cells).
@@ -96,13 +96,7 @@ impl PointGrid {
             .filter(|&i| cells[i as usize].is_some())
             .collect();
         let cell_key = |j: usize| key(cells[live[j] as usize].expect("live"));
-        let axis_bits = top
-            .iter()
-            .map(|&x| u64::BITS - x.leading_zeros())
-            .max()
-            .unwrap_or(0)
-            .max(1);
-        let sorted = Sorted::new(live.len(), 3 * axis_bits, cell_key);
+        let sorted = Sorted::new(live.len(), key_bits(top), cell_key);
         // Tasks of whole groups of the sorted queries.
         let mut tasks: Vec<Range<usize>> = Vec::new();
         let mut from = 0;
@@ -182,15 +176,9 @@ impl PointGrid {
     /// The points of the cell at `at` plus `n` less one along each axis
     /// (`n` in `0..3`), by a search of the keys.
     fn run_at(&self, at: [u64; 3], n: [u64; 3]) -> Range<usize> {
-        let top = (1u64 << BITS) - 1;
-        let mut c = [0u64; 3];
-        for a in 0..3 {
-            let x = at[a] + n[a];
-            if x == 0 || x - 1 > top {
-                return 0..0;
-            }
-            c[a] = x - 1;
-        }
+        let Some(c) = neighbour(at, n) else {
+            return 0..0;
+        };
         match self.keys.binary_search(&key(c)) {
             Ok(c) => self.cell_points(c),
             Err(_) => 0..0,

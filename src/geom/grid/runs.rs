@@ -6,7 +6,7 @@
 
 use std::ops::Range;
 
-use super::{coords, key, PointGrid, BITS};
+use super::{coords, key, neighbour, PointGrid, BITS};
 
 /// What `runs27` found for the last cell: where each neighbour was (a
 /// hint for the next search), and the last cell's coordinates and runs,
@@ -80,7 +80,6 @@ impl PointGrid {
     pub(super) fn runs27(&self, c: usize, cursor: &mut Cursor) -> [Range<usize>; 27] {
         let own = self.keys[c];
         let at = coords(own);
-        let top = (1u64 << BITS) - 1;
         // The step from the last cell, when it is one cell or none along
         // each axis: cells visited in Morton order mostly are neighbours,
         // and then 9 to 27 of the 27 runs are the last cell's.
@@ -102,14 +101,9 @@ impl PointGrid {
                     return last_runs[j].clone();
                 }
             }
-            let mut q = [0u64; 3];
-            for a in 0..3 {
-                let x = at[a] + d[a];
-                if x == 0 || x - 1 > top {
-                    return 0..0;
-                }
-                q[a] = x - 1;
-            }
+            let Some(q) = neighbour(at, d) else {
+                return 0..0;
+            };
             let kq = key(q);
             let from = if cur[k] == usize::MAX { c } else { cur[k] };
             match self.find_from(from, kq) {
