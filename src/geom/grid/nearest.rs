@@ -26,8 +26,12 @@ impl PointGrid {
     /// Queries with a point within `r`, half a cell, are answered from
     /// the 8 cells on their side of their cell's middle: cells should be
     /// large enough for most. The rest search the cells within `2 r`, `4
-    /// r`, then `8 r`, and the last few a k-d tree of all the points
-    /// (built only for them).
+    /// r`, then `8 r` (27, 125 and 729 key searches each), and what is
+    /// left a k-d tree of all the points, built only for them. A widening
+    /// that would cost more key searches than there are points (a tree's
+    /// build costs about that) is skipped for the tree: a far part of a
+    /// mesh with no point on it, all of whose triangles are queries,
+    /// costs a tree, not a search of hundreds of cells each.
     pub fn nearest(&self, queries: &[DVec3]) -> Vec<Option<u32>> {
         let r = 0.5 * self.cell;
         if self.is_empty() {
@@ -37,8 +41,9 @@ impl PointGrid {
         let mut rest: Vec<usize> = (0..queries.len())
             .filter(|&i| out[i].is_none() && queries[i].is_finite())
             .collect();
-        for reach in [2.0 * r, 4.0 * r, 8.0 * r] {
-            if rest.is_empty() {
+        let budget = self.len().max(1 << 16);
+        for (reach, searches) in [(2.0 * r, 27), (4.0 * r, 125), (8.0 * r, 729)] {
+            if rest.is_empty() || rest.len().saturating_mul(searches) > budget {
                 break;
             }
             let found: Vec<Option<u32>> = rest
@@ -229,12 +234,16 @@ mod tests {
         queries.push(centre + DVec3::new(-30.0, 0.0, 0.0));
         queries.push(centre + DVec3::new(0.0, 1.0 + 1e-9, 0.0));
         queries.push(DVec3::new(f64::NAN, 0.0, 0.0));
+        // Many queries far from every point: straight to the k-d tree.
+        let far: Vec<DVec3> = (0..3000)
+            .map(|_| centre + DVec3::new(-100.0, 0.0, 0.0) + dir(&mut u) * 5.0)
+            .collect();
         // A few queries at a time are answered by searches of the keys
         // (too few in a group for a table).
         let few: Vec<DVec3> = queries.iter().copied().step_by(40).collect();
         for (cell, queries) in [0.03, 0.1, 0.2, 1.0]
             .into_iter()
-            .flat_map(|c| [(c, &queries), (c, &few)])
+            .flat_map(|c| [(c, &queries), (c, &few), (c, &far)])
         {
             let grid = PointGrid::new(&pts, cell);
             let got = grid.nearest(queries);
