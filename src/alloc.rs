@@ -11,10 +11,15 @@
 //! mapped, and [`keep_freed_memory`] tells it never to give memory back
 //! before the process ends: 1M points took 2.34 s on the bunny and 3.01 s
 //! on the dragon, against 2.58 and 3.25 s with glibc (medians of 6 runs
-//! by hand). It is built without transparent huge pages: with them the
-//! medians were lower (2.17 and 2.92 s), but the system time of a run
-//! on the dragon went from 0.6 to 1.5 s and back from one run to the
-//! next, where without them it stayed at 0.5-0.7 s.
+//! by hand). It uses transparent huge pages where the system offers them
+//! (mimalloc advises them for its arenas): a first touch of a 4 KiB page
+//! costs about 3 us of system time on the virtual machine the benchmarks
+//! run on, and 1M blue-noise points on the dragon touch 200,000 pages
+//! (0.6 s of system time; 0.3 s with huge pages, and 2.98 s against
+//! 3.38 s whole process, 5 runs each interleaved by hand). On an earlier
+//! machine huge pages had made the system time swing from 0.6 to 1.5 s
+//! from one run to the next; `MIMALLOC_ALLOW_THP=0` in the environment
+//! turns them off.
 
 #[cfg(feature = "mimalloc")]
 #[global_allocator]
