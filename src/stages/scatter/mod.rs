@@ -47,7 +47,6 @@ mod voronoi;
 
 pub use voronoi::{voronoi_areas, voronoi_weights};
 
-use crate::maths::uniform53;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::DVec3;
@@ -61,6 +60,7 @@ use crate::geom::grid::PointGrid;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::{Adjacency, TriMesh};
 use crate::geom::{self, Sum};
+use crate::maths::uniform53;
 use crate::progress::Progress;
 
 /// How `ptarea` is estimated.
@@ -353,21 +353,36 @@ fn stratified(
 
 /// The triangle of each of `n` points stratified along `cdf` (see
 /// `stratified`).
+///
+/// Point `k` goes to the first triangle with area whose `cdf` is above
+/// `(k + u0) / n` (the last with area if none is): the targets rise with
+/// `k`, so a walk from the last point's triangle finds it, and each
+/// chunk of points starts its walk from a binary search (the areas are
+/// not negative, so `cdf` never falls).
 fn stratified_tris(cdf: &[f64], areas: &[f64], n: usize, u0: f64) -> Vec<u32> {
-    let mut tri_of = Vec::with_capacity(n);
+    const CHUNK: usize = 1 << 16;
     let last = areas
         .iter()
         .rposition(|&a| a > 0.0)
         .expect("total area > 0");
-    let mut t = 0usize;
-    for k in 0..n {
-        let target = (k as f64 + u0) / n as f64;
-        while t < last && (cdf[t] <= target || areas[t] == 0.0) {
-            t += 1;
-        }
-        tri_of.push(t as u32);
-    }
-    tri_of
+    let parts: Vec<Vec<u32>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let ks = c * CHUNK..((c + 1) * CHUNK).min(n);
+            let mut out = Vec::with_capacity(ks.len());
+            let first = (ks.start as f64 + u0) / n as f64;
+            let mut t = cdf.partition_point(|&x| x <= first).min(last);
+            for k in ks {
+                let target = (k as f64 + u0) / n as f64;
+                while t < last && (cdf[t] <= target || areas[t] == 0.0) {
+                    t += 1;
+                }
+                out.push(t as u32);
+            }
+            out
+        })
+        .collect();
+    crate::disjoint::concat(parts)
 }
 
 /// Point `k` of `stratified`: uniform in its triangle `tri_of[k]` from
@@ -509,5 +524,62 @@ pub fn spacing(positions: &[DVec3], area: f64) -> Spacing {
         mean: mean / h,
         min: d.iter().copied().fold(f64::INFINITY, f64::min) / h,
         cv: var.sqrt() / mean,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::RngCore;
+
+    #[test]
+    fn stratified_triangles_in_chunks_are_the_serial_walks() {
+        // The walk all in one, as the chunks must reproduce it.
+        let serial = |cdf: &[f64], areas: &[f64], n: usize, u0: f64| -> Vec<u32> {
+            let last = areas.iter().rposition(|&a| a > 0.0).unwrap();
+            let mut t = 0usize;
+            (0..n)
+                .map(|k| {
+                    let target = (k as f64 + u0) / n as f64;
+                    while t < last && (cdf[t] <= target || areas[t] == 0.0) {
+                        t += 1;
+                    }
+                    t as u32
+                })
+                .collect()
+        };
+        let mut g = Pcg32::new(11, 3);
+        for tris in [1usize, 7, 1000, 300_000] {
+            // Zero areas first, last and in runs between; a few huge.
+            let mut areas: Vec<f64> = (0..tris)
+                .map(|i| match g.next_u32() % 10 {
+                    _ if tris > 1 && (i == 0 || i + 1 == tris) => 0.0,
+                    0..=2 => 0.0,
+                    3 => 1e3,
+                    _ => (g.next_u32() % 1000) as f64 * 1e-3,
+                })
+                .collect();
+            if areas.iter().all(|&a| a == 0.0) {
+                areas[tris / 2] = 1.0;
+            }
+            let total: f64 = areas.iter().sum();
+            let mut acc = 0.0;
+            let cdf: Vec<f64> = areas
+                .iter()
+                .map(|&a| {
+                    acc += a;
+                    acc / total
+                })
+                .collect();
+            for n in [1usize, 5, (1 << 16) - 1, (1 << 16) + 3, 3 * (1 << 16) + 17] {
+                for u0 in [0.0, 0.37, 0.999_999] {
+                    assert_eq!(
+                        stratified_tris(&cdf, &areas, n, u0),
+                        serial(&cdf, &areas, n, u0),
+                        "{tris} triangles, {n} points, u0 {u0}"
+                    );
+                }
+            }
+        }
     }
 }
