@@ -6,7 +6,9 @@
 //! Poisson-disk sampling and `--relax 10`. `cargo bench --bench geometry`;
 //! results in target/bench/geometry.txt and blue_noise.txt
 //! (BENCH_PART=speed or blue: one of the two; BENCH_PCU_1M=1 adds
-//! point-cloud-utils at a million points, five to six minutes a mesh).
+//! point-cloud-utils at a million points, five to six minutes a mesh;
+//! BENCH_MESHES=dragon or bunny: the blue-noise table of that mesh
+//! alone).
 
 mod common;
 
@@ -42,6 +44,9 @@ fn blue_noise() {
         meshes.push(("dragon", dragon));
     } else {
         eprintln!("no dragon: `make -C pipelines fetch-dragon` fetches it");
+    }
+    if let Ok(only) = std::env::var("BENCH_MESHES") {
+        meshes.retain(|(name, _)| only.split(',').any(|o| o == *name));
     }
     let mut t = Table::new(
         &format!("blue noise: nearest-neighbour distance over the hexagonal spacing sqrt(2A / (sqrt(3) N)) of the N points made (targets: min >= 0.75, cv <= 0.07); {}; whole process, best of 5 (pcu and relax: 1 run)", machine()),
