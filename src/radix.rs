@@ -54,12 +54,22 @@ pub fn sort_bits(keys: &mut Vec<u64>, lo: u32, hi: u32) {
         buckets.push(head);
         rest = tail;
     }
-    buckets
+    // A bucket the top digit did not split (points crowded in one corner
+    // of a box an outlier stretches) is sorted by all threads, as a sort
+    // of its own; the rest one bucket a thread.
+    let (big, small): (Vec<&mut [u64]>, Vec<&mut [u64]>) =
+        buckets.into_iter().partition(|b| b.len() >= MSD_MIN);
+    for b in big {
+        let mut v = b.to_vec();
+        lsd(&mut v, lo, shift);
+        b.copy_from_slice(&v);
+    }
+    small
         .into_par_iter()
         .for_each_init(Vec::new, |scratch, b| sort_small(b, scratch, lo, shift));
 }
 
-/// `keys` (a bucket of a few thousand, in cache) sorted stably by bits
+/// `keys` (a bucket, mostly of a few thousand, in cache) sorted stably by bits
 /// `lo..hi`, on one thread, with `scratch` as the second buffer.
 fn sort_small(keys: &mut [u64], scratch: &mut Vec<u64>, lo: u32, hi: u32) {
     let n = keys.len();
