@@ -327,50 +327,41 @@ mod tests {
             assert_eq!(a, b, "{name}");
         }
         for code_bits in [12, 16, 27, 40] {
-            let codes = keys(n, code_bits as u64, code_bits);
-            let mut a: Vec<u64> = codes
-                .iter()
-                .enumerate()
-                .map(|(i, c)| c << 20 | i as u64)
-                .collect();
-            let mut b = a.clone();
-            sort_bits(&mut a, 20, 20 + code_bits);
-            b.sort_unstable();
-            assert_eq!(a, b, "code bits {code_bits}");
+            assert_sorts_codes_stably(&keys(n, code_bits as u64, code_bits), code_bits);
         }
         // Buckets of a few equal codes (sorted by insertion) beside one
         // of all the rest.
-        let mut a: Vec<u64> = (0..n)
+        let codes: Vec<u64> = (0..n)
             .map(|i| {
-                let code = if i % 50 == 0 {
+                if i % 50 == 0 {
                     (((i / 50) % 2000 + 1) as u64) << 9
                 } else {
                     rng.next_u64() >> 55
-                };
-                code << 20 | i as u64
+                }
             })
             .collect();
+        assert_sorts_codes_stably(&codes, 20);
+    }
+
+    /// `code << 20 | index`, sorted by the code's bits only, must come
+    /// out in full order: codes in order, equal codes by index.
+    fn assert_sorts_codes_stably(codes: &[u64], code_bits: u32) {
+        let mut a: Vec<u64> = codes
+            .iter()
+            .enumerate()
+            .map(|(i, c)| c << 20 | i as u64)
+            .collect();
         let mut b = a.clone();
-        sort_bits(&mut a, 20, 40);
+        sort_bits(&mut a, 20, 20 + code_bits);
         b.sort_unstable();
-        assert_eq!(a, b, "small buckets");
+        assert_eq!(a, b, "{} keys, code bits {code_bits}", codes.len());
     }
 
     #[test]
     fn sorting_high_bits_is_stable() {
-        // code << 20 | index, codes with many repeats: sorting only the
-        // code bits must give the full order.
+        // Codes with many repeats.
         for n in [3000, 200_000] {
-            let codes = keys(n, 7, 9);
-            let mut a: Vec<u64> = codes
-                .iter()
-                .enumerate()
-                .map(|(i, c)| c << 20 | i as u64)
-                .collect();
-            let mut b = a.clone();
-            sort_bits(&mut a, 20, 29);
-            b.sort_unstable();
-            assert_eq!(a, b);
+            assert_sorts_codes_stably(&keys(n, 7, 9), 9);
         }
     }
 }
