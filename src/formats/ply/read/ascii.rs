@@ -94,14 +94,13 @@ fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(El
 }
 
 /// Lines of `def`'s rows, one row each, into columns; `None` at a line
-/// that is not exactly one valid row, or at a byte that is not ASCII
-/// (the row-by-row reader then says where).
+/// that is not exactly one valid row, or at bytes that are not UTF-8
+/// (the row-by-row reader then says where). A character that is not
+/// ASCII falls inside a token (tokens end at ASCII whitespace only), and
+/// no number parses with one.
 fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
-    if !text.is_ascii() {
-        return None;
-    }
-    // Checked once for the chunk (ASCII is UTF-8), where a check per
-    // token cost a quarter of the parse (by hand, the dragon's faces).
+    // Checked once for the chunk, where a check per token cost a quarter
+    // of the parse (by hand, the dragon's faces).
     let text = std::str::from_utf8(text).ok()?;
     let mut props = empty_props(def);
     // (Every chunk ends with its last line's newline.)
