@@ -66,12 +66,16 @@ pub fn sort_bits(keys: &mut Vec<u64>, lo: u32, hi: u32) {
     }
     small
         .into_par_iter()
-        .for_each_init(Vec::new, |scratch, b| sort_small(b, scratch, lo, shift));
+        .for_each_init(Default::default, |scratch, b| {
+            sort_small(b, scratch, lo, shift)
+        });
 }
 
 /// `keys` (a bucket, mostly of a few thousand, in cache) sorted stably by bits
-/// `lo..hi`, on one thread, with `scratch` as the second buffer.
-fn sort_small(keys: &mut [u64], scratch: &mut Vec<u64>, lo: u32, hi: u32) {
+/// `lo..hi`, on one thread, with `scratch`'s keys as the second buffer
+/// and its counters for the digits (kept from bucket to bucket).
+fn sort_small(keys: &mut [u64], scratch: &mut (Vec<u64>, Vec<usize>), lo: u32, hi: u32) {
+    let (scratch, counts) = scratch;
     let n = keys.len();
     if hi <= lo || n < 2 {
         return;
@@ -96,7 +100,9 @@ fn sort_small(keys: &mut [u64], scratch: &mut Vec<u64>, lo: u32, hi: u32) {
     let width = (hi - lo).div_ceil(passes);
     scratch.clear();
     scratch.resize(n, 0);
-    let mut counts = vec![0usize; 1 << width];
+    if counts.len() < 1 << width {
+        counts.resize(1 << width, 0);
+    }
     let (mut src, mut dst): (&mut [u64], &mut [u64]) = (keys, &mut scratch[..]);
     let mut swapped = false;
     for p in 0..passes {
