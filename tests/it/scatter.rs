@@ -230,8 +230,9 @@ fn relax_with_voronoi_weights_cuts_the_kernel_error() {
     assert!(relaxed_centroid < 0.001, "{relaxed_centroid}");
     // Why `--blue` relaxes twice (`scatter::BLUE_RELAX`): one round is
     // as accurate over wide kernels but not over narrow ones. Measured
-    // (seeds 1-4): 1.07e-3 after two rounds, 1.31e-3 after one, 2.83e-3
-    // without relaxation.
+    // here (seed 1, printed): 1.03e-3 after two rounds, 1.27e-3 after
+    // one; over seeds 1-4, by hand, 1.07e-3 and 1.31e-3
+    // (benches/results/HISTORY.md).
     let blue_one_round = measure(PtareaMode::Centroid, 1, true);
     assert!(
         blue_one_round > blue_centroid * 1.1,
