@@ -103,22 +103,22 @@ fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
     // of the parse (by hand, the dragon's faces).
     let text = std::str::from_utf8(text).ok()?;
     let mut props = empty_props(def);
-    // (Every chunk ends with its last line's newline.)
-    for line in text.strip_suffix('\n').unwrap_or(text).split('\n') {
-        let mut tokens = AsciiTokens(line);
-        let mut next = || tokens.next();
+    // One pass over the bytes finds the tokens and the lines' ends
+    // together (every chunk ends with its last line's newline).
+    let mut tokens = LineTokens { text, pos: 0 };
+    while tokens.pos < text.len() {
         for (pd, p) in def.props.iter().zip(props.iter_mut()) {
             match pd.kind {
                 PropKind::Scalar(_) => {
-                    if !scalar_mut(p).push_token(next()?) {
+                    if !scalar_mut(p).push_token(tokens.next()?) {
                         return None;
                     }
                 }
                 PropKind::List(ct, _) => {
-                    let n = list_count(ct, next()?)?;
+                    let n = list_count(ct, tokens.next()?)?;
                     let PropData::List(l) = p else { unreachable!() };
                     for _ in 0..n {
-                        if !l.items.push_token(next()?) {
+                        if !l.items.push_token(tokens.next()?) {
                             return None;
                         }
                     }
@@ -126,31 +126,57 @@ fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
                 }
             }
         }
-        if next().is_some() {
+        if !tokens.end_line() {
             return None;
         }
     }
     Some(props)
 }
 
-/// The whitespace-separated tokens of a line.
-struct AsciiTokens<'a>(&'a str);
+/// ASCII whitespace that separates tokens on a line (all but the
+/// newline, which ends the line).
+fn blank(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | b'\x0c')
+}
 
-impl<'a> Iterator for AsciiTokens<'a> {
-    type Item = &'a str;
+/// The tokens of a chunk's lines, a line at a time: `next` gives the
+/// current line's tokens, then `None` at its newline, where `end_line`
+/// moves on to the next line.
+struct LineTokens<'a> {
+    text: &'a str,
+    pos: usize,
+}
 
+impl<'a> LineTokens<'a> {
     fn next(&mut self) -> Option<&'a str> {
-        let rest = self.0;
-        let bytes = rest.as_bytes();
-        let start = bytes.iter().position(|b| !b.is_ascii_whitespace())?;
-        let len = bytes[start..]
-            .iter()
-            .position(|b| b.is_ascii_whitespace())
-            .unwrap_or(bytes.len() - start);
+        let b = self.text.as_bytes();
+        let mut i = self.pos;
+        while i < b.len() && blank(b[i]) {
+            i += 1;
+        }
+        let start = i;
+        while i < b.len() && !blank(b[i]) && b[i] != b'\n' {
+            i += 1;
+        }
+        self.pos = i;
         // ASCII whitespace ends a character: both cuts fall between
         // characters.
-        self.0 = &rest[start + len..];
-        Some(&rest[start..start + len])
+        (i > start).then(|| &self.text[start..i])
+    }
+
+    /// Past the current line's newline (or the end of the text): false
+    /// when a token is left on the line.
+    fn end_line(&mut self) -> bool {
+        let b = self.text.as_bytes();
+        let mut i = self.pos;
+        while i < b.len() && blank(b[i]) {
+            i += 1;
+        }
+        if i < b.len() && b[i] != b'\n' {
+            return false;
+        }
+        self.pos = i + 1;
+        true
     }
 }
 
@@ -168,8 +194,8 @@ fn list_count(ct: ScalarType, s: &str) -> Option<usize> {
     };
     // Plain digits, the common case, without a column per row.
     if max > 0 {
-        if let Ok(n) = s.parse::<u64>() {
-            return (n <= max).then_some(n as usize);
+        if let Some(n) = crate::column::plain_int(s) {
+            return (0..=max as i64).contains(&n).then_some(n as usize);
         }
     }
     // Any other spelling the count type reads ("3.0", a float type).
