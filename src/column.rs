@@ -101,6 +101,8 @@ pub trait Scalar: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + '
     fn wrap(v: Vec<Self>) -> Column;
     /// The column's vector when it has this type.
     fn slice(c: &Column) -> Option<&[Self]>;
+    /// The column's vector, taken, when it has this type.
+    fn take(c: Column) -> Option<Vec<Self>>;
 }
 
 /// A token of plain decimal digits (at most 18, with an optional sign)
@@ -166,6 +168,12 @@ macro_rules! impl_scalar {
                 Column::$ty(v)
             }
             fn slice(c: &Column) -> Option<&[Self]> {
+                match c {
+                    Column::$ty(v) => Some(v),
+                    _ => None,
+                }
+            }
+            fn take(c: Column) -> Option<Vec<Self>> {
                 match c {
                     Column::$ty(v) => Some(v),
                     _ => None,
@@ -339,6 +347,29 @@ impl Column {
             v.extend_from_slice(other.as_slice::<T>().expect("columns of one type"))
         }
         with_column!(self, v => app(v, other))
+    }
+
+    /// Columns of type `ty` one after another, copied in parallel (a
+    /// serial join of a large file's parts left a core idle).
+    pub fn concat(ty: ScalarType, parts: Vec<Column>) -> Column {
+        fn cat<T: Scalar>(parts: Vec<Column>) -> Column {
+            T::wrap(crate::disjoint::concat(
+                parts
+                    .into_iter()
+                    .map(|c| T::take(c).expect("columns of one type"))
+                    .collect(),
+            ))
+        }
+        match ty {
+            ScalarType::I8 => cat::<i8>(parts),
+            ScalarType::U8 => cat::<u8>(parts),
+            ScalarType::I16 => cat::<i16>(parts),
+            ScalarType::U16 => cat::<u16>(parts),
+            ScalarType::I32 => cat::<i32>(parts),
+            ScalarType::U32 => cat::<u32>(parts),
+            ScalarType::F32 => cat::<f32>(parts),
+            ScalarType::F64 => cat::<f64>(parts),
+        }
     }
 
     /// Appends one value parsed from an ASCII token; false when invalid.

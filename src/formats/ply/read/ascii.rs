@@ -4,8 +4,8 @@
 use std::io::{BufRead, Read};
 
 use super::{assemble, count_value, empty_props, scalar_mut, truncated, PropData, Source};
-use crate::cloud::Element;
-use crate::column::{Column, ScalarType};
+use crate::cloud::{Element, ListColumn};
+use crate::column::{Column, ScalarType, Values};
 use crate::error::{Error, Result};
 use crate::formats::ply::header::{ElementDef, Layout, PropKind};
 
@@ -65,30 +65,50 @@ fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(El
         .par_windows(2)
         .map(|w| ascii_lines(&body[w[0]..w[1]], def))
         .collect::<Option<_>>()?;
-    let mut props = empty_props(def);
-    for (i, p) in props.iter_mut().enumerate() {
-        match p {
-            PropData::Values(v) => {
-                let c = v.column_mut();
-                for part in &parts {
-                    let PropData::Values(pv) = &part[i] else {
-                        unreachable!("one layout")
-                    };
-                    c.append(pv.column());
+    // Joined property by property, each in parallel: a serial join
+    // copied (and faulted in) the whole element on one core.
+    let mut parts: Vec<std::vec::IntoIter<PropData>> =
+        parts.into_iter().map(Vec::into_iter).collect();
+    let props: Vec<PropData> = def
+        .props
+        .iter()
+        .map(|pd| {
+            let mine: Vec<PropData> = parts
+                .iter_mut()
+                .map(|p| p.next().expect("a part has every property"))
+                .collect();
+            match pd.kind {
+                PropKind::Scalar(t) => PropData::Values(Values::owned(Column::concat(
+                    t,
+                    mine.into_iter().map(|p| p.values().into_column()).collect(),
+                ))),
+                PropKind::List(ct, it) => {
+                    let lists: Vec<ListColumn> = mine.into_iter().map(PropData::list).collect();
+                    let mut base = 0;
+                    let bases: Vec<usize> = lists
+                        .iter()
+                        .map(|l| {
+                            let b = base;
+                            base += l.items.len();
+                            b
+                        })
+                        .collect();
+                    let mut offsets: Vec<Vec<usize>> = vec![vec![0]];
+                    offsets.extend(
+                        lists
+                            .par_iter()
+                            .zip(bases)
+                            .map(|(l, b)| l.offsets[1..].iter().map(|o| o + b).collect())
+                            .collect::<Vec<Vec<usize>>>(),
+                    );
+                    let mut out = ListColumn::new(ct, it);
+                    out.offsets = crate::disjoint::concat(offsets);
+                    out.items = Column::concat(it, lists.into_iter().map(|l| l.items).collect());
+                    PropData::List(out)
                 }
             }
-            PropData::List(l) => {
-                for part in &parts {
-                    let PropData::List(pl) = &part[i] else {
-                        unreachable!("one layout")
-                    };
-                    let base = l.items.len();
-                    l.items.append(&pl.items);
-                    l.offsets.extend(pl.offsets[1..].iter().map(|o| o + base));
-                }
-            }
-        }
-    }
+        })
+        .collect();
     let el = assemble(def, lay, props.into_iter().map(Some).collect(), count);
     Some((el, end))
 }
