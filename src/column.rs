@@ -130,6 +130,70 @@ pub(crate) fn plain_int(s: &str) -> Option<i64> {
     Some(if neg { -v } else { v })
 }
 
+/// A token of plain decimal digits with at most one point and an
+/// optional sign (no exponent): the sign, the digits as one integer and
+/// how many of them follow the point; `None` for any other spelling or
+/// more than 19 digits.
+fn plain_decimal(s: &str) -> Option<(bool, u64, usize)> {
+    let b = s.as_bytes();
+    let (neg, rest) = match b.first() {
+        Some(b'-') => (true, &b[1..]),
+        Some(b'+') => (false, &b[1..]),
+        _ => (false, b),
+    };
+    let (mut m, mut digits, mut after) = (0u64, 0usize, None);
+    for (i, &c) in rest.iter().enumerate() {
+        let d = c.wrapping_sub(b'0');
+        if d <= 9 {
+            m = m.wrapping_mul(10).wrapping_add(d as u64);
+            digits += 1;
+        } else if c == b'.' && after.is_none() {
+            after = Some(i + 1);
+        } else {
+            return None;
+        }
+    }
+    if digits == 0 || digits > 19 {
+        return None;
+    }
+    Some((neg, m, after.map_or(0, |a| rest.len() - a)))
+}
+
+/// Decimal tokens read exactly where the digits and the power of ten are
+/// both exact in the type: one correctly rounded division then gives
+/// what `str::parse` gives (Clinger's fast path), at a fraction of its
+/// time (the dragon's vertices: by hand, 39 ns a token for `str::parse`).
+trait PlainFloat: Sized {
+    fn plain(s: &str) -> Option<Self>;
+}
+
+impl PlainFloat for f32 {
+    fn plain(s: &str) -> Option<f32> {
+        const POW: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+        let (neg, m, k) = plain_decimal(s)?;
+        if m > 1 << 24 || k >= POW.len() {
+            return None;
+        }
+        let v = m as f32 / POW[k];
+        Some(if neg { -v } else { v })
+    }
+}
+
+impl PlainFloat for f64 {
+    fn plain(s: &str) -> Option<f64> {
+        const POW: [f64; 23] = [
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+            1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+        ];
+        let (neg, m, k) = plain_decimal(s)?;
+        if m > 1 << 53 || k >= POW.len() {
+            return None;
+        }
+        let v = m as f64 / POW[k];
+        Some(if neg { -v } else { v })
+    }
+}
+
 macro_rules! impl_scalar {
     ($t:ty, $ty:ident, $is_float:tt) => {
         impl Scalar for $t {
@@ -199,7 +263,7 @@ macro_rules! impl_scalar {
         }
     }};
     (@parse $t:ty, $s:ident, true) => {{
-        $s.parse::<$t>().ok()
+        <$t>::plain($s).or_else(|| $s.parse::<$t>().ok())
     }};
     (@fmt $v:ident, $out:ident, false) => {{
         let _ = write!($out, "{}", $v);
@@ -621,6 +685,63 @@ mod tests {
             T::try_from(f as i64).ok()
         } else {
             None
+        }
+    }
+
+    #[test]
+    fn decimal_tokens_read_as_str_parse_reads_them() {
+        use rand_core::RngCore;
+        let mut g = rand_pcg::Pcg32::new(9, 1);
+        let mut tokens: Vec<String> = [
+            "0",
+            "-0",
+            "0.0",
+            "-0.0",
+            "+1.5",
+            ".5",
+            "5.",
+            ".",
+            "-",
+            "",
+            "1e3",
+            "1.5e-3",
+            "inf",
+            "nan",
+            "1..2",
+            "0x1",
+            "16777216",
+            "16777217",
+            "9007199254740993",
+            "0.1",
+            "0.2",
+            "0.3",
+            "1234567.8",
+            "0.0000000001",
+            "12345678901234567890",
+            "1.0000000000000000000",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        for _ in 0..200_000 {
+            let digits = 1 + g.next_u32() as usize % 20;
+            let mut t: String = (0..digits)
+                .map(|_| char::from(b'0' + (g.next_u32() % 10) as u8))
+                .collect();
+            let point = g.next_u32() as usize % (digits + 2);
+            if point <= digits {
+                t.insert(point, '.');
+            }
+            if g.next_u32() % 2 == 0 {
+                t.insert(0, '-');
+            }
+            tokens.push(t);
+        }
+        for t in &tokens {
+            let (a, b) = (f32::parse(t), t.parse::<f32>().ok());
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "{t:?} as f32");
+            let (a, b) = (f64::parse(t), t.parse::<f64>().ok());
+            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{t:?} as f64");
         }
     }
 
