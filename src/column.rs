@@ -732,7 +732,7 @@ mod tests {
             if point <= digits {
                 t.insert(point, '.');
             }
-            if g.next_u32() % 2 == 0 {
+            if g.next_u32().is_multiple_of(2) {
                 t.insert(0, '-');
             }
             tokens.push(t);
