@@ -280,9 +280,8 @@ impl PointGrid {
         self.order.is_empty()
     }
 
-    /// The side of a cell.
-    #[cfg(test)]
-    fn cell(&self) -> f64 {
+    /// The side of a cell (at least what was asked for).
+    pub fn cell(&self) -> f64 {
         self.cell
     }
 
@@ -404,6 +403,24 @@ impl PointGrid {
         crate::disjoint::concat(parts)
     }
 
+    /// `map_near`, where `f` also gets the runs of the 27 cells around the
+    /// point's cell (every point within a cell's side of it is in them),
+    /// for a point that needs to look farther than `r`.
+    pub fn map_near_runs<W, T: Send>(
+        &self,
+        r: f64,
+        init: impl Fn() -> W + Sync,
+        f: impl Fn(&mut W, usize, &[(u32, f64)], &[Range<usize>; 27]) -> T + Sync,
+    ) -> Vec<T> {
+        let parts = self.per_task(r, |cs, near, out: &mut Vec<T>| {
+            let mut w = init();
+            self.scan_with_runs(cs, r, near, |s, near, runs| {
+                out.push(f(&mut w, s, near, runs))
+            });
+        });
+        crate::disjoint::concat(parts)
+    }
+
     /// Every point's neighbours within `r` (at most half a cell), in grid
     /// order: point `s`'s are `other[start[s]..start[s + 1]]` (sorted
     /// indices).
@@ -483,6 +500,19 @@ impl PointGrid {
         near: &mut Vec<(u32, f64)>,
         mut f: impl FnMut(usize, &[(u32, f64)]),
     ) {
+        self.scan_with_runs(cs, r, near, |s, near, _| f(s, near))
+    }
+
+    /// `scan`, where `f` also gets the runs of the 27 cells around the
+    /// point's cell (indexed as `runs27`'s), which hold every point
+    /// within a cell's side of it.
+    fn scan_with_runs(
+        &self,
+        cs: Range<usize>,
+        r: f64,
+        near: &mut Vec<(u32, f64)>,
+        mut f: impl FnMut(usize, &[(u32, f64)], &[Range<usize>; 27]),
+    ) {
         let r2 = r * r;
         let half = 0.5 * self.cell;
         let mut cursor = Cursor::new();
@@ -526,7 +556,7 @@ impl PointGrid {
                         }
                     }
                 }
-                f(s, &near[..len]);
+                f(s, &near[..len], &runs);
             }
         }
     }

@@ -298,10 +298,16 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
                     geom::tri_cross(a, b, c)
                 })
                 .collect();
-            if p.ptarea == PtareaMode::Centroid {
-                voronoi_weights(&pos, &nrm, total)
+            // Blue noise's cells close within a shorter first reach.
+            let reach = if p.blue {
+                voronoi::SPACED_REACH
             } else {
-                voronoi_areas(&pos, &nrm, total)
+                voronoi::REACH
+            };
+            if p.ptarea == PtareaMode::Centroid {
+                voronoi::voronoi_weights_within(&pos, &nrm, total, reach)
+            } else {
+                voronoi::voronoi_areas_within(&pos, &nrm, total, reach)
             }
         }
     };
