@@ -25,8 +25,11 @@ pub fn remove_temps_on_signals() {
         };
         std::thread::spawn(move || {
             if let Some(sig) = signals.forever().next() {
-                let paths = IN_FLIGHT.lock().map(|v| v.clone()).unwrap_or_default();
-                for p in paths {
+                // The lock is held until the process dies: a temp file is
+                // created under it (`Staged::create`), so none can appear
+                // after this sweep, and none exists unregistered.
+                let paths = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
+                for p in paths.iter() {
                     let _ = std::fs::remove_file(p);
                 }
                 let _ = signal_hook::low_level::emulate_default_handler(sig);
@@ -39,20 +42,10 @@ pub fn remove_temps_on_signals() {
 /// A temp file registered as in flight until dropped.
 struct InFlight(PathBuf);
 
-impl InFlight {
-    fn new(p: &Path) -> InFlight {
-        if let Ok(mut v) = IN_FLIGHT.lock() {
-            v.push(p.to_path_buf());
-        }
-        InFlight(p.to_path_buf())
-    }
-}
-
 impl Drop for InFlight {
     fn drop(&mut self) {
-        if let Ok(mut v) = IN_FLIGHT.lock() {
-            v.retain(|p| *p != self.0);
-        }
+        let mut v = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
+        v.retain(|p| *p != self.0);
     }
 }
 
@@ -146,12 +139,21 @@ impl Staged {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
-        let tmp = tempfile::Builder::new()
-            .prefix(".pcsss-")
-            .suffix(".tmp")
-            .tempfile_in(dir)
-            .with_context(|| name.clone())?;
-        let in_flight = InFlight::new(tmp.path());
+        // Created and registered under the lock the signal handler takes:
+        // a signal between the two would otherwise leave the file behind
+        // (seen once in the signal test, on a machine losing time to its
+        // hypervisor).
+        let (tmp, in_flight) = {
+            let mut v = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
+            let tmp = tempfile::Builder::new()
+                .prefix(".pcsss-")
+                .suffix(".tmp")
+                .tempfile_in(dir)
+                .with_context(|| name.clone())?;
+            v.push(tmp.path().to_path_buf());
+            let in_flight = InFlight(tmp.path().to_path_buf());
+            (tmp, in_flight)
+        };
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
