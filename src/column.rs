@@ -404,15 +404,6 @@ impl Column {
         with_column!(self, v => v.push(Scalar::read(b, big)))
     }
 
-    /// Appends the values of `other`, a column of this one's type (panics
-    /// otherwise).
-    pub fn append(&mut self, other: &Column) {
-        fn app<T: Scalar>(v: &mut Vec<T>, other: &Column) {
-            v.extend_from_slice(other.as_slice::<T>().expect("columns of one type"))
-        }
-        with_column!(self, v => app(v, other))
-    }
-
     /// Columns of type `ty` one after another, copied in parallel (a
     /// serial join of a large file's parts left a core idle).
     pub fn concat(ty: ScalarType, parts: Vec<Column>) -> Column {
