@@ -25,7 +25,8 @@ pub(super) struct PseudoSource {
 /// groups are copied (`n` lanes), each with its bounding sphere (in the
 /// leaf's frame) and its source lanes (a bit a lane); each group of
 /// receivers then lists in `idx` the lanes it sums (those within reach
-/// of its bounding sphere). Columns a run does not use are not written.
+/// of its bounding sphere), in tiers by distance when the channels have
+/// reaches of their own. Columns a run does not use are not written.
 #[derive(Default)]
 pub(super) struct Gathered {
     pub(super) n: usize,
@@ -45,15 +46,25 @@ pub(super) struct Gathered {
     pub(super) sz: Vec<f32>,
     pub(super) sr: Vec<f32>,
     pub(super) valid: Vec<u32>,
-    /// The lanes summed, `m` of them.
-    pub(super) idx: Vec<u32>,
-    pub(super) m: usize,
+    /// The lanes summed, `m[t]` of them in tier `t` (see `select`;
+    /// pseudo-sources and a single reach use tier 0 only).
+    pub(super) idx: [Vec<u32>; TIERS],
+    pub(super) m: [usize; TIERS],
 }
+
+/// Lists of lanes by distance: one a channel reach.
+pub(super) const TIERS: usize = 3;
 
 impl Gathered {
     pub(super) fn clear(&mut self) {
         self.n = 0;
-        self.m = 0;
+        self.m = [0; TIERS];
+    }
+
+    /// Tier `t`'s lanes.
+    #[inline(always)]
+    pub(super) fn list(&self, t: usize) -> &[u32] {
+        &self.idx[t][..self.m[t]]
     }
 
     /// Room for `more` lanes after the first `n`.
@@ -77,7 +88,9 @@ impl Gathered {
                 v.resize(len, 0.0);
             }
             // (`select` writes eight at a time.)
-            self.idx.resize(len + LANES, 0);
+            for v in &mut self.idx {
+                v.resize(len + LANES, 0);
+            }
             // A sphere a group, padded to whole lanes (`seal`).
             let groups = len / LANES + LANES;
             for v in [&mut self.sx, &mut self.sy, &mut self.sz, &mut self.sr] {
@@ -146,21 +159,34 @@ impl Gathered {
         }
     }
 
-    /// Lists in `idx` the lanes within `reach` of `centre` (leaf frame):
-    /// the groups whose spheres come within reach, then their lanes that
-    /// do.
+    /// Lists in `idx` the lanes within reach of `centre` (leaf frame):
+    /// the groups whose spheres come within `reach`, then their lanes
+    /// within distance `r2[0]` (squared; descending). With `T` tiers,
+    /// tier `t` gets the lanes within `r2[t]` but not within `r2[t + 1]`,
+    /// so that a pair loop sums tier `t` for the channels whose reach
+    /// covers it. A negative `r2[t]` takes nothing into tier `t` (and
+    /// leaves its lanes to the tier before).
     #[inline(always)]
-    pub(super) fn select<I: Isa>(&mut self, isa: I, centre: [f32; 3], reach: f32) {
+    pub(super) fn select<I: Isa, const T: usize>(
+        &mut self,
+        isa: I,
+        centre: [f32; 3],
+        reach: f32,
+        r2: [f32; T],
+    ) {
         let [cx, cy, cz] = centre;
-        self.m = 0;
+        self.m = [0; TIERS];
         if self.n == 0 {
             return;
         }
         let n = self.n;
         let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
-        let idx = &mut self.idx[..n + LANES];
-        let reach2 = [reach * reach; LANES];
-        let mut m = 0;
+        let mut r2l = [[0.0; LANES]; T];
+        for t in 0..T {
+            r2l[t] = [r2[t]; LANES];
+        }
+        let r2 = r2l;
+        let mut m = [0; T];
         let ng = padded(n / LANES);
         for j0 in (0..ng).step_by(LANES) {
             let g = |v: &[f32]| -> Lanes { v[j0..j0 + LANES].try_into().expect("sealed") };
@@ -187,17 +213,32 @@ impl Gathered {
                     let (ex, ey, ez) = (gx[i] - cx, gy[i] - cy, gz[i] - cz);
                     e2[i] = ex * ex + ey * ey + ez * ez;
                 }
-                // The lanes within reach, packed to the front (branch
-                // free: eight written, as many kept as there are bits).
-                let bits = isa.le_mask(&e2, &reach2) & valid;
-                let (to, from) = (&mut idx[m..m + LANES], &SET_BIT_POSITIONS[bits as usize]);
-                for i in 0..LANES {
-                    to[i] = (base + from[i] as usize) as u32;
+                // (A loop, not `map`: its closure would not be inlined
+                // into the AVX2 code, nor the intrinsics into it.)
+                let mut within = [0u32; T];
+                for t in 0..T {
+                    within[t] = isa.le_mask(&e2, &r2[t]) & valid;
                 }
-                m += bits.count_ones() as usize;
+                for t in 0..T {
+                    let bits = if t + 1 < T {
+                        within[t] & !within[t + 1]
+                    } else {
+                        within[t]
+                    };
+                    // The lanes, packed to the front (branch free: eight
+                    // written, as many kept as there are bits).
+                    let (to, from) = (
+                        &mut self.idx[t][m[t]..m[t] + LANES],
+                        &SET_BIT_POSITIONS[bits as usize],
+                    );
+                    for i in 0..LANES {
+                        to[i] = (base + from[i] as usize) as u32;
+                    }
+                    m[t] += bits.count_ones() as usize;
+                }
             }
         }
-        self.m = m;
+        self.m[..T].copy_from_slice(&m);
     }
 
     /// Adds a pseudo-source, every column filled, summed by every
@@ -218,9 +259,9 @@ impl Gathered {
         }
         (self.nx[i], self.ny[i], self.nz[i]) = (n[0], n[1], n[2]);
         (self.a[i], self.rmin[i]) = (a, rmin);
-        self.idx[i] = i as u32;
+        self.idx[0][i] = i as u32;
         self.n += 1;
-        self.m += 1;
+        self.m[0] += 1;
     }
 }
 

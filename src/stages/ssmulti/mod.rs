@@ -396,6 +396,13 @@ fn sum_all(
         ld1: dist.ld1 as f32,
         inv_ld1: (1.0 / dist.ld1) as f32,
         reach: far as f32,
+        reaches: dist.ld.map(|l| reach(p.falloff, l) as f32),
+        by_reach: {
+            let mut ord = [0, 1, 2];
+            // (Stable: equal distances keep the channels' order.)
+            ord.sort_by(|&a, &b| dist.ld[b].total_cmp(&dist.ld[a]));
+            ord
+        },
         bounce: p.bounce as f32,
         single,
         grey: inp.grey,

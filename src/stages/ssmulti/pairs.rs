@@ -3,7 +3,9 @@
 //! sums the sources within reach of its bounding sphere, one source
 //! broadcast to the eight lanes at a time. The f32 lanes are added into
 //! f64 every [`FLUSH`] sources: the rounding does not grow with the
-//! neighbour count.
+//! neighbour count. Channels of different reaches (t_rgb) take the
+//! sources in tiers, so that a short channel evaluates only the pairs
+//! its reach covers.
 
 use super::columns::{Columns, Leaf};
 use super::gather::Gathered;
@@ -20,6 +22,10 @@ pub(super) struct Setup {
     pub inv_ld1: f32,
     /// How far a source can add anything: `reach(falloff, ld1)`.
     pub reach: f32,
+    /// Each channel's own reach, `reach(falloff, ld[c])`.
+    pub reaches: [f32; 3],
+    /// The channels by reach, the longest first.
+    pub by_reach: [usize; 3],
     pub bounce: f32,
     /// One kernel for all channels (not t_rgb, or equal distances).
     pub single: bool,
@@ -50,32 +56,46 @@ struct ReceiverSums {
 /// Sources summed in f32 before a flush into f64.
 const FLUSH: usize = 64;
 
-/// Adds, for the eight receivers `r`, every source of `g`: a receiver
-/// beyond reach of a source gets a zero term from it (the kernel clips
-/// itself or is masked). `K` is the kernel at `ld1` (`SINGLE`) or per
-/// channel; `I` is the instruction set. Returns the pairs evaluated.
+/// Adds, for the eight receivers `r`, the sources of `g` in `list`: a
+/// receiver beyond reach of a source gets a zero term from it (the
+/// kernel clips itself or is masked). `K` is the kernel at `ld1`
+/// (`SINGLE`: every channel) or per channel, then for the first `NCH`
+/// channels of `ord` only (those whose reach covers the list; the
+/// accumulators are in `ord`'s order). `I` is the instruction set.
+/// Returns the pairs evaluated.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn sum_sources<
     K: Kernel,
     const SINGLE: bool,
     const GREY: bool,
     const BOUNCE: bool,
     const LOCAL: bool,
+    const NCH: usize,
     I: Isa,
 >(
     s: &Setup,
     ks: &[K; 3],
+    ord: [usize; 3],
     g: &Gathered,
+    list: &[u32],
     r: &Receivers,
     acc: &mut ReceiverSums,
 ) -> u64 {
     let n = g.n;
     let r2max = s.ld1 * s.ld1;
-    let d2 = [s.ld[0] * s.ld[0], s.ld[1] * s.ld[1], s.ld[2] * s.ld[2]];
-    let (x, y, z) = (&g.x[..n], &g.y[..n], &g.z[..n]);
-    // (Grey: only the first channel is gathered and summed.)
-    let q0 = &g.q[0][..n];
-    let (q1, q2) = (&g.q[1][..n * !GREY as usize], &g.q[2][..n * !GREY as usize]);
+    // (Grey: only the first channel is gathered and summed; one kernel
+    // takes the channels in their own order.)
+    let ord = if SINGLE { [0, 1, 2] } else { ord };
+    // (No closures over arrays here, `map` included: not inlined into
+    // the AVX2 loop, they hide the columns' lengths and the distances,
+    // and the loop then runs a lane at a time.)
+    let (c0, c1, c2) = (ord[0], ord[1], ord[2]);
+    let all = !GREY as usize;
+    let (q0, q1, q2) = (&g.q[c0][..n], &g.q[c1][..n * all], &g.q[c2][..n * all]);
+    let ld = [s.ld[c0], s.ld[c1], s.ld[c2]];
+    let d2 = [ld[0] * ld[0], ld[1] * ld[1], ld[2] * ld[2]];
+    let kc = [ks[c0], ks[c1], ks[c2]];
     // Columns a run does not use are empty: sliced only when used.
     let used = |v: &'_ [f32], on: bool| -> usize {
         if on {
@@ -91,8 +111,11 @@ fn sum_sources<
     );
     let ar = &g.a[..used(&g.a, LOCAL)];
     let rm = &g.rmin[..used(&g.rmin, K::RMIN)];
+    let (x, y, z) = (&g.x[..n], &g.y[..n], &g.z[..n]);
     let z8: Lanes = [0.0; LANES];
-    for chunk in g.idx[..g.m].chunks(FLUSH) {
+    for chunk in list.chunks(FLUSH) {
+        // The channels' sums and the area sums, in `ord`'s order (named
+        // lanes: arrays of them keep the loop from vectorising).
         let (mut s0, mut s1, mut s2, mut a0, mut a1, mut a2) = (z8, z8, z8, z8, z8, z8);
         for &i in chunk {
             let i = i as usize;
@@ -125,7 +148,7 @@ fn sum_sources<
                     m
                 };
                 if SINGLE {
-                    let w = ks[0].w2::<I>(r2c, rmi);
+                    let w = kc[0].w2::<I>(r2c, rmi);
                     wl[k] = w;
                     let kw = kb * w;
                     s0[k] = madd::<I>(q0[i], kw, s0[k]);
@@ -139,18 +162,24 @@ fn sum_sources<
                 } else {
                     // Per channel: inside its own distance (0 costs
                     // nothing: its kernel is never used, its mask is 0).
-                    let mc = |c: usize| if K::CLIPS || r2 <= d2[c] { 1.0f32 } else { 0.0 };
-                    let wc = |c: usize| {
-                        if s.ld[c] > 0.0 {
-                            ks[c].w::<I>(d, rmi) * mc(c)
+                    let mc = |j: usize| if K::CLIPS || r2 <= d2[j] { 1.0f32 } else { 0.0 };
+                    let wc = |j: usize| {
+                        if ld[j] > 0.0 {
+                            kc[j].w::<I>(d, rmi) * mc(j)
                         } else {
                             0.0
                         }
                     };
-                    let (w0, w1, w2) = (wc(0), wc(1), wc(2));
+                    let w0 = wc(0);
                     s0[k] = madd::<I>(q0[i], kb * w0, s0[k]);
-                    s1[k] = madd::<I>(q1[i], kb * w1, s1[k]);
-                    s2[k] = madd::<I>(q2[i], kb * w2, s2[k]);
+                    let w1 = if NCH >= 2 { wc(1) } else { 0.0 };
+                    if NCH >= 2 {
+                        s1[k] = madd::<I>(q1[i], kb * w1, s1[k]);
+                    }
+                    let w2 = if NCH >= 3 { wc(2) } else { 0.0 };
+                    if NCH >= 3 {
+                        s2[k] = madd::<I>(q2[i], kb * w2, s2[k]);
+                    }
                     if LOCAL {
                         (wl[k], wl1[k], wl2[k]) = (w0, w1, w2);
                     }
@@ -166,8 +195,12 @@ fn sum_sources<
                         a0[k] = madd::<I>(ar[i], ml[k] * wl[k], a0[k]);
                     } else {
                         a0[k] = madd::<I>(ar[i], wl[k], a0[k]);
-                        a1[k] = madd::<I>(ar[i], wl1[k], a1[k]);
-                        a2[k] = madd::<I>(ar[i], wl2[k], a2[k]);
+                        if NCH >= 2 {
+                            a1[k] = madd::<I>(ar[i], wl1[k], a1[k]);
+                        }
+                        if NCH >= 3 {
+                            a2[k] = madd::<I>(ar[i], wl2[k], a2[k]);
+                        }
                     }
                 }
             }
@@ -176,13 +209,14 @@ fn sum_sources<
         // lanes to the f64 sums' four-wide vectors and runs the whole
         // loop four lanes at a time.)
         let lanes = std::hint::black_box([s0, s1, s2, a0, a1, a2]);
-        for (t, v) in acc.total.iter_mut().zip(lanes) {
+        for (j, v) in lanes.into_iter().enumerate() {
+            let t = &mut acc.total[ord[j % 3] + j / 3 * 3];
             for k in 0..LANES {
                 t[k] += v[k] as f64;
             }
         }
     }
-    (g.m * LANES) as u64
+    (list.len() * LANES) as u64
 }
 
 /// Sums every receiver of the task's leaf `rl`: the source leaves `near`
@@ -251,10 +285,30 @@ fn sum_leaf_as<
         }
     }
     gat.seal();
+    // The channels by reach, longest first, and the reaches' tiers: the
+    // sources of tier `t` are summed for the channels `ord[..=t]`.
+    let ord = s.by_reach;
     for gs in (rl.col..end).step_by(LANES) {
         let h = &cols.hot[gs / LANES];
         let [cx, cy, cz, cr] = [0, 1, 2, 3].map(|a| cols.sph[a][gs / LANES]);
-        gat.select(isa, [cx, cy, cz], reach + cr);
+        let within = |t: usize| {
+            let d = s.reaches[ord[t]] * (1.0 + 1e-6) + cr;
+            if s.ld[ord[t]] > 0.0 {
+                d * d
+            } else {
+                -1.0
+            }
+        };
+        if SINGLE {
+            gat.select(isa, [cx, cy, cz], reach + cr, [(reach + cr) * (reach + cr)]);
+        } else {
+            gat.select(
+                isa,
+                [cx, cy, cz],
+                reach + cr,
+                [within(0), within(1), within(2)],
+            );
+        }
         assert!(gs + LANES <= len);
         let lanes = |v: &[f32]| -> Lanes { v[gs..gs + LANES].try_into().expect("a group") };
         let zero = [0.0; LANES];
@@ -269,9 +323,56 @@ fn sum_leaf_as<
         let mut acc = ReceiverSums {
             total: [[0.0; LANES]; 6],
         };
-        pairs += sum_sources::<K, SINGLE, GREY, BOUNCE, LOCAL, I>(s, ks, gat, &r, &mut acc);
+        if SINGLE {
+            pairs += sum_sources::<K, true, GREY, BOUNCE, LOCAL, 1, I>(
+                s,
+                ks,
+                ord,
+                gat,
+                gat.list(0),
+                &r,
+                &mut acc,
+            );
+        } else {
+            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 1, I>(
+                s,
+                ks,
+                ord,
+                gat,
+                gat.list(0),
+                &r,
+                &mut acc,
+            );
+            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 2, I>(
+                s,
+                ks,
+                ord,
+                gat,
+                gat.list(1),
+                &r,
+                &mut acc,
+            );
+            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 3, I>(
+                s,
+                ks,
+                ord,
+                gat,
+                gat.list(2),
+                &r,
+                &mut acc,
+            );
+        }
         if let Some(ps) = ps {
-            pairs += sum_sources::<K, SINGLE, GREY, BOUNCE, LOCAL, I>(s, ks, ps, &r, &mut acc);
+            // (Every channel: pseudo-sources are not in tiers.)
+            pairs += sum_sources::<K, SINGLE, GREY, BOUNCE, LOCAL, 3, I>(
+                s,
+                ks,
+                ord,
+                ps,
+                ps.list(0),
+                &r,
+                &mut acc,
+            );
         }
         if GREY {
             // (The other channels' sums would be the same numbers.)

@@ -19,6 +19,8 @@ fn exact_method_equals_the_f64_double_loop_for_every_setting() {
                 (true, [0.8, 0.5, 0.3]),
                 (true, [0.6, 0.6, 0.6]),
                 (true, [0.7, 0.0, 0.35]),
+                // (The channels summed longest reach first.)
+                (true, [0.3, 0.8, 0.5]),
             ] {
                 for bounce in [0.0, 0.5, 1.0] {
                     let p = Params {
