@@ -72,17 +72,12 @@ impl<'a> Interior<'a> {
     /// The distance from `o` along unit `dir` to triangle `t`'s plane, in
     /// f64 (`None` parallel to it).
     fn plane_dist(&self, t: usize, o: DVec3, dir: DVec3) -> Option<f64> {
-        let [a, b, c] = self.mesh.tri(t);
-        let n = geom::tri_cross(a, b, c);
-        let den = n.dot(dir);
-        let d = n.dot(a - o) / den;
-        d.is_finite().then_some(d)
+        plane_dist(self.mesh.tri(t), o, dir)
     }
 
-    /// The mesh's normal on triangle `t` at point `p`: its corners'
-    /// normals interpolated, the face's where they cancel.
-    fn normal_at(&self, t: usize, p: DVec3) -> DVec3 {
-        let [a, b, c] = self.mesh.tri(t);
+    /// The mesh's normal on triangle `t` (corners `abc`) at point `p`:
+    /// its corners' normals interpolated, the face's where they cancel.
+    fn normal_on(&self, t: usize, [a, b, c]: [DVec3; 3], p: DVec3) -> DVec3 {
         let w = geom::closest_on_triangle(p, a, b, c);
         let k = self.mesh.tris[t];
         let n = self.corner_n[k[0] as usize] * w[0]
@@ -162,10 +157,12 @@ impl<'a> Interior<'a> {
                 .occ
                 .nearest(p, dir, -self.behind, max, Facing::Leaving)?,
         };
-        let dist = self.plane_dist(t, p, dir)?.max(0.0);
+        // (The corners fetched once for the plane and the normal.)
+        let tri = self.mesh.tri(t);
+        let dist = plane_dist(tri, p, dir)?.max(0.0);
         Some(Entry {
             dist,
-            normal: self.normal_at(t, p + dir * dist),
+            normal: self.normal_on(t, tri, p + dir * dist),
         })
     }
 
@@ -190,4 +187,13 @@ impl<'a> Interior<'a> {
             .count();
         inside >= 2
     }
+}
+
+/// The distance from `o` along unit `dir` to the plane of triangle `abc`,
+/// in f64 (`None` parallel to it).
+fn plane_dist([a, b, c]: [DVec3; 3], o: DVec3, dir: DVec3) -> Option<f64> {
+    let n = geom::tri_cross(a, b, c);
+    let den = n.dot(dir);
+    let d = n.dot(a - o) / den;
+    d.is_finite().then_some(d)
 }

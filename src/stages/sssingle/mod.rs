@@ -34,7 +34,6 @@ use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
 use crate::maths::uniform24;
 use crate::progress::Progress;
-use crate::stages::ssmulti::{falloff, Falloff};
 
 use self::interior::{Entry, Interior};
 use self::optics::*;
@@ -333,6 +332,11 @@ struct Run<'a> {
     /// Seed model: the channels' distances and the largest.
     lu: [f64; 3],
     lu1: f64,
+    /// Their reciprocals (0 for a distance of 0), and `1 / eta^2`: the
+    /// pair loop multiplies.
+    inv_lu: [f64; 3],
+    inv_lu1: f64,
+    inv_eta2: f64,
     /// Physical model: extinction per channel.
     sigma_t: [f64; 3],
     /// One kernel or density serves every channel.
@@ -352,6 +356,8 @@ impl<'a> Run<'a> {
     ) -> Run<'a> {
         let rays = points as u64 * p.samples as u64;
         let lu = p.rd.map(|r| r * p.sd);
+        let lu1 = lu.iter().copied().fold(0.0, f64::max);
+        let inv = |d: f64| if d > 0.0 { 1.0 / d } else { 0.0 };
         let sigma_t = p.mfp.map(|m| 1.0 / m);
         let single = match p.model {
             Model::Seed => !p.rgb || (lu[0] == lu[1] && lu[1] == lu[2]),
@@ -371,7 +377,10 @@ impl<'a> Run<'a> {
             lights,
             interior,
             lu,
-            lu1: lu.iter().copied().fold(0.0, f64::max),
+            lu1,
+            inv_lu: lu.map(inv),
+            inv_lu1: inv(lu1),
+            inv_eta2: 1.0 / (p.eta * p.eta),
             sigma_t,
             single,
             columns,
@@ -504,25 +513,39 @@ impl<'a> Run<'a> {
     fn pair(&self, v: &View, e: &Arrival, hit: &Entry, ci: f64, w: [f64; 3]) -> [f64; 3] {
         let p = self.p;
         // The refracted cosine inside; none: the light is totally reflected.
-        let cos_t2 = 1.0 - (1.0 - ci * ci) / (p.eta * p.eta);
+        let cos_t2 = 1.0 - (1.0 - ci * ci) * self.inv_eta2;
         if cos_t2.is_nan() || cos_t2 <= 0.0 {
             return [0.0; 3];
         }
         let cos_ti = cos_t2.sqrt();
         let si = hit.dist * ci / cos_ti;
-        let kti = 1.0 - fresnel(ci, p.eta);
+        // (`fresnel(ci, eta)`, its refracted cosine `cos_ti` already
+        // known: the same bits for `ci <= 1`.)
+        let kti = if ci <= 1.0 {
+            1.0 - fresnel_at(ci, cos_ti, p.eta)
+        } else {
+            1.0 - fresnel(ci, p.eta)
+        };
         let cl = e.e.to_array();
         match p.model {
             Model::Seed => {
                 let ph = hg_peak1(p.g, (-e.dir).dot(v.wpo));
                 let common = ci * kti * v.kto * ph;
-                let wf = |d: f64| falloff(Falloff::Smooth, si, d, 0.0);
+                // The smooth falloff at `si` (ssmulti's `falloff`, multiplying by
+                // the distance's reciprocal).
+                let wf = |d: f64, inv: f64| {
+                    if si > d || d <= 0.0 {
+                        return 0.0;
+                    }
+                    let t = (si * inv).clamp(0.0, 1.0);
+                    1.0 - t * t * (3.0 - 2.0 * t)
+                };
                 if !self.single {
-                    [0, 1, 2].map(|c| cl[c] * common * wf(self.lu[c]))
+                    [0, 1, 2].map(|c| cl[c] * common * wf(self.lu[c], self.inv_lu[c]))
                 } else {
                     // One kernel: t_rgb with equal distances (no Rd), or
                     // Rd times the kernel at lu1.
-                    let w1 = common * wf(self.lu1);
+                    let w1 = common * wf(self.lu1, self.inv_lu1);
                     let k = if p.rgb { [1.0; 3] } else { p.rd };
                     [0, 1, 2].map(|c| cl[c] * k[c] * w1)
                 }
