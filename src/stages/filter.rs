@@ -179,13 +179,20 @@ pub fn pcfilter_weight(d: f64, maxd: f64) -> f64 {
     1.0 - smoothstep(0.0, e, d)
 }
 
-/// Weighted average of `values` over the neighbours, with the weights'
-/// sum; `None` with no neighbour.
-pub fn average(nb: &[(u32, f64)], values: &[[f32; 3]]) -> Option<[f64; 3]> {
+/// Turns a shade point's neighbours' distances into their `pcfilter`
+/// weights, in place: once for every attribute averaged with them.
+pub fn weigh(nb: &mut [(u32, f64)]) {
     let maxd = nb.iter().map(|a| a.1).fold(0.0, f64::max);
+    for a in nb {
+        a.1 = pcfilter_weight(a.1, maxd);
+    }
+}
+
+/// Weighted average of `values` over the neighbours and their weights
+/// ([`weigh`]); `None` with no neighbour (or no weight).
+pub fn average(nb: &[(u32, f64)], values: &[[f32; 3]]) -> Option<[f64; 3]> {
     let (mut s, mut ws) = ([0.0f64; 3], 0.0f64);
-    for &(i, d) in nb {
-        let w = pcfilter_weight(d, maxd);
+    for &(i, w) in nb {
         let v = values[i as usize];
         for c in 0..3 {
             s[c] += w * v[c] as f64;
@@ -521,7 +528,8 @@ pub fn filter(
     let (mut used, mut receivers) = (0usize, 0usize);
     progress.start("filtering", sp.len() as u64);
     for c in &chunks {
-        let nbs = neighbours(c);
+        let mut nbs = neighbours(c);
+        nbs.par_iter_mut().for_each(|nb| weigh(nb));
         for (k, v) in values.iter().enumerate() {
             out[k].par_extend(
                 nbs.par_iter()
