@@ -87,9 +87,9 @@ fn sum_sources<
     // (Grey: only the first channel is gathered and summed; one kernel
     // takes the channels in their own order.)
     let ord = if SINGLE { [0, 1, 2] } else { ord };
-    // (No closures over arrays here, `map` included: not inlined into
-    // the AVX2 loop, they hide the columns' lengths and the distances,
-    // and the loop then runs a lane at a time.)
+    // (Plain indexing, not `array::map`: its closures are not inlined
+    // into the AVX2 loop, which then cannot see the columns' lengths or
+    // the distances and runs a lane at a time.)
     let (c0, c1, c2) = (ord[0], ord[1], ord[2]);
     let all = !GREY as usize;
     let (q0, q1, q2) = (&g.q[c0][..n], &g.q[c1][..n * all], &g.q[c2][..n * all]);
