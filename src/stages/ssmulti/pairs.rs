@@ -323,56 +323,25 @@ fn sum_leaf_as<
         let mut acc = ReceiverSums {
             total: [[0.0; LANES]; 6],
         };
+        // The sources of `g` in `list`, for the first `nch` channels
+        // by reach (one kernel: all).
+        macro_rules! sum {
+            ($single:tt, $nch:literal, $g:expr, $list:expr) => {
+                sum_sources::<K, $single, GREY, BOUNCE, LOCAL, $nch, I>(
+                    s, ks, ord, $g, $list, &r, &mut acc,
+                )
+            };
+        }
         if SINGLE {
-            pairs += sum_sources::<K, true, GREY, BOUNCE, LOCAL, 1, I>(
-                s,
-                ks,
-                ord,
-                gat,
-                gat.list(0),
-                &r,
-                &mut acc,
-            );
+            pairs += sum!(true, 1, gat, gat.list(0));
         } else {
-            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 1, I>(
-                s,
-                ks,
-                ord,
-                gat,
-                gat.list(0),
-                &r,
-                &mut acc,
-            );
-            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 2, I>(
-                s,
-                ks,
-                ord,
-                gat,
-                gat.list(1),
-                &r,
-                &mut acc,
-            );
-            pairs += sum_sources::<K, false, GREY, BOUNCE, LOCAL, 3, I>(
-                s,
-                ks,
-                ord,
-                gat,
-                gat.list(2),
-                &r,
-                &mut acc,
-            );
+            pairs += sum!(false, 1, gat, gat.list(0));
+            pairs += sum!(false, 2, gat, gat.list(1));
+            pairs += sum!(false, 3, gat, gat.list(2));
         }
         if let Some(ps) = ps {
             // (Every channel: pseudo-sources are not in tiers.)
-            pairs += sum_sources::<K, SINGLE, GREY, BOUNCE, LOCAL, 3, I>(
-                s,
-                ks,
-                ord,
-                ps,
-                ps.list(0),
-                &r,
-                &mut acc,
-            );
+            pairs += sum!(SINGLE, 3, ps, ps.list(0));
         }
         if GREY {
             // (The other channels' sums would be the same numbers.)
