@@ -531,8 +531,8 @@ impl<'a> Run<'a> {
             Model::Seed => {
                 let ph = hg_peak1(p.g, (-e.dir).dot(v.wpo));
                 let common = ci * kti * v.kto * ph;
-                // The smooth falloff at `si` (ssmulti's `falloff`, multiplying by
-                // the distance's reciprocal).
+                // The smooth falloff at `si`: ssmulti's `falloff`, with
+                // the distance's reciprocal multiplied in.
                 let wf = |d: f64, inv: f64| {
                     if si > d || d <= 0.0 {
                         return 0.0;
