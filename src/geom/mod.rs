@@ -1,7 +1,8 @@
 //! Geometry as pure free functions: triangle and polygon measures,
 //! polygon triangulation, triangle sampling, closest points; and the
 //! structures built over geometry: meshes ([`mesh`]), a BVH for rays
-//! ([`bvh`]), a k-d tree over points ([`kdtree`]).
+//! ([`bvh`]), a k-d tree over points ([`kdtree`]), grids over points
+//! ([`grid`]).
 //!
 //! Everything is f64 and takes positions relative to a triangle's first
 //! vertex before crossing, so results hold at large coordinates.

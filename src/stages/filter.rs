@@ -30,6 +30,7 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, Role};
 use crate::error::{Error, Result};
+use crate::geom::grid::dense::RadiusGrid;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::TriMesh;
 use crate::lights::Light;
@@ -73,16 +74,24 @@ pub struct Report {
     pub lazy: Vec<(String, usize, usize)>,
 }
 
-/// The cloud's positions in a k-d tree (relative to its bounding box's
-/// centre, so that a cloud far from the origin keeps its precision).
+/// The cloud's positions indexed for one kind of reach: a dense grid for
+/// a radius (built on every thread, read without a search), a k-d tree
+/// for the nearest (relative to the cloud's box's centre, so that a
+/// cloud far from the origin keeps its precision).
 pub struct CloudIndex {
-    tree: PointTree,
+    points: Index,
     nrm: Option<Vec<DVec3>>,
 }
 
+enum Index {
+    Radius(RadiusGrid),
+    /// The tree and how many are read.
+    Nearest(PointTree, usize),
+}
+
 impl CloudIndex {
-    /// Indexes `cloud`'s `P` (and `N` when `with_normals`).
-    pub fn new(cloud: &Cloud, with_normals: bool) -> Result<CloudIndex> {
+    /// Indexes `cloud`'s `P` (and `N` when `with_normals`) for `reach`.
+    pub fn new(cloud: &Cloud, with_normals: bool, reach: Reach) -> Result<CloudIndex> {
         let p = cloud.points().vec3_f64("P")?;
         if let Some(i) = p.iter().position(|q| !q.iter().all(|x| x.is_finite())) {
             return Err(Error::invalid(format!(
@@ -116,37 +125,41 @@ impl CloudIndex {
         } else {
             None
         };
-        Ok(CloudIndex {
-            tree: PointTree::new(p.iter().map(|q| DVec3::from_array(*q)), centre),
-            nrm,
-        })
+        let pts = p.iter().map(|q| DVec3::from_array(*q));
+        let points = match reach {
+            Reach::Radius(r) => Index::Radius(RadiusGrid::new(&pts.collect::<Vec<_>>(), r)),
+            Reach::Nearest(k) => Index::Nearest(PointTree::new(pts, centre), k),
+        };
+        Ok(CloudIndex { points, nrm })
     }
 
     /// The cloud points a shade point at `s` with normal `n` reads, as
-    /// (index, distance), in the tree's order (nearest first for
-    /// `Reach::Nearest`).
-    pub fn neighbours(&self, s: DVec3, n: Option<DVec3>, reach: Reach) -> Vec<(u32, f64)> {
-        let total = self.tree.len();
-        if total == 0 {
-            return Vec::new();
-        }
+    /// (index, distance): with a radius, in the grid's order; the nearest,
+    /// nearest first.
+    pub fn neighbours(&self, s: DVec3, n: Option<DVec3>) -> Vec<(u32, f64)> {
         let faces = |i: u32| match (&self.nrm, n) {
             (Some(nrm), Some(n)) => nrm[i as usize].dot(n) > 0.0,
             _ => true,
         };
-        let out: Vec<(u32, f64)> = match reach {
-            Reach::Radius(r) => self
-                .tree
-                .within(s, r)
-                .into_iter()
-                .filter(|nb| faces(nb.item))
-                .map(|nb| (nb.item, nb.distance.sqrt()))
-                .collect(),
-            Reach::Nearest(k) => {
+        let out: Vec<(u32, f64)> = match &self.points {
+            Index::Radius(grid) => {
+                let mut out = Vec::new();
+                grid.for_each_within(s, |i, d2| {
+                    if faces(i) {
+                        out.push((i, d2.sqrt()));
+                    }
+                });
+                out
+            }
+            &Index::Nearest(ref tree, k) => {
+                let total = tree.len();
+                if total == 0 {
+                    return Vec::new();
+                }
                 // Nearest facing ones: ask for more until there are k.
                 let mut ask = k.min(total);
                 loop {
-                    let near = self.tree.nearest(s, ask);
+                    let near = tree.nearest(s, ask);
                     let f: Vec<(u32, f64)> = near
                         .iter()
                         .filter(|nb| faces(nb.item))
@@ -160,11 +173,11 @@ impl CloudIndex {
                 }
             }
         };
-        // In the tree's order, not sorted by index: the tree depends only
-        // on the cloud's points, so the sums are the same on any thread
-        // count, and sorting the lists took a fifth of `render` at 1M
-        // points (1.09 against 0.89-0.91 s by hand, the same image to
-        // 1e-6). A tile's tree is another: its sums may differ from the
+        // In the index's order, not sorted by point: the index depends
+        // only on the cloud's points, so the sums are the same on any
+        // thread count, and sorting the lists took a fifth of `render` at
+        // 1M points (1.09 against 0.89-0.91 s by hand, the same image to
+        // 1e-6). A tile's index is another: its sums may differ from the
         // whole cloud's in the last bits.
         out
     }
@@ -453,7 +466,7 @@ pub fn filter(
     .map_err(about_cloud)?;
     let own = crate::tiles::owned(shade)?;
     let owns = |i: usize| own.as_ref().is_none_or(|o| o[i]);
-    let index = CloudIndex::new(cloud, p.facing).map_err(about_cloud)?;
+    let index = CloudIndex::new(cloud, p.facing, p.reach).map_err(about_cloud)?;
     // Shade points are done a chunk at a time: their neighbour lists
     // (16 bytes a neighbour) would otherwise all be held at once, 6 GB for
     // 1M shade points reading 400 each. Lazy sources need to know first
@@ -473,7 +486,7 @@ pub fn filter(
                     return Vec::new();
                 }
                 let q = DVec3::from_array(sp[i]);
-                index.neighbours(q, sn.as_ref().map(|n| n[i]), p.reach)
+                index.neighbours(q, sn.as_ref().map(|n| n[i]))
             })
             .collect();
         progress.inc(c.len() as u64);

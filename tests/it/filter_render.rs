@@ -124,13 +124,13 @@ fn a_linear_ramp_comes_back_at_the_weighted_centroid() {
     let jittered = plane(40, 0.1, 0.8, field);
     let s = strewn(40, 0.1, 300);
     let shade = shade_at(&s);
-    let index = filter::CloudIndex::new(&jittered, false).unwrap();
     let pos = jittered.points().vec3_f64("P").unwrap();
     let val = jittered.points().vec3_f32("ssM").unwrap();
     for reach in [Reach::Nearest(12), Reach::Radius(0.25)] {
         let (v, _) = filt(&jittered, &shade, reach, false);
+        let index = filter::CloudIndex::new(&jittered, false, reach).unwrap();
         for (i, q) in s.iter().enumerate() {
-            let nb = index.neighbours(DVec3::from_array(*q), None, reach);
+            let nb = index.neighbours(DVec3::from_array(*q), None);
             let maxd = nb.iter().map(|a| a.1).fold(0.0, f64::max);
             let (mut c, mut ws) = (DVec3::ZERO, 0.0);
             for &(j, d) in &nb {

@@ -20,6 +20,7 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
+pub mod dense;
 mod nearest;
 mod runs;
 #[cfg(test)]
