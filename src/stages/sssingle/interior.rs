@@ -98,6 +98,16 @@ impl<'a> Interior<'a> {
     /// the triangles the ray enters, then leaves, through are taken, so a
     /// point rounded to either side of its surface finds the same.
     pub fn view(&self, xo: DVec3, dir: DVec3) -> (DVec3, f64) {
+        self.view_within(xo, dir, f64::INFINITY)
+    }
+
+    /// [`Interior::view`] for a caller that needs the distance only up to
+    /// `far`: a ray that leaves farther (or not at all) may say infinite.
+    /// Every distance up to `far` is the one `view` finds: the search goes
+    /// a little beyond it, past the rounding of the BVH's f32 distances.
+    /// (The seed model's depths stop at the longest scattering distance,
+    /// a small part of most objects: the BVH then skips every box beyond.)
+    pub fn view_within(&self, xo: DVec3, dir: DVec3, far: f64) -> (DVec3, f64) {
         let start = xo - dir * self.margin;
         let on = match self
             .occ
@@ -109,9 +119,10 @@ impl<'a> Interior<'a> {
             },
             None => xo,
         };
+        let reach = far * (1.0 + 1e-3) + 2.0 * self.margin;
         let exit = self
             .occ
-            .nearest(on, dir, -self.behind, f64::INFINITY, Facing::Leaving)
+            .nearest(on, dir, -self.behind, reach, Facing::Leaving)
             .and_then(|(t, _)| self.plane_dist(t, on, dir))
             .map_or(f64::INFINITY, |d| d.max(0.0));
         (on, exit)

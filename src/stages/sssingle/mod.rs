@@ -403,7 +403,13 @@ impl<'a> Run<'a> {
             wpo: -to,
             kto: 1.0 - fresnel(cos_o, p.eta),
         };
-        let (x0, d) = self.interior.view(xo, to);
+        // (Seed: depths stop at the longest distance, so the exit
+        // farther away need not be found.)
+        let far = match p.model {
+            Model::Seed => self.lu1,
+            Model::Physical => f64::INFINITY,
+        };
+        let (x0, d) = self.interior.view_within(xo, to, far);
         let mut rng = Pcg32::new(p.seed, i);
         let k = p.samples as usize;
         let Scratch { emissions, sums } = scratch;
