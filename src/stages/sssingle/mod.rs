@@ -525,6 +525,12 @@ impl<'a> Run<'a> {
         }
         let cos_ti = cos_t2.sqrt();
         let si = hit.dist * ci / cos_ti;
+        // Seed: beyond the longest distance every channel's falloff is 0
+        // (about half the pairs of a bake: light entering across the
+        // object); the pair still counts in the mean.
+        if p.model == Model::Seed && si >= self.lu1 {
+            return [0.0; 3];
+        }
         // (`fresnel(ci, eta)`, its refracted cosine `cos_ti` already
         // known: the same bits for `ci <= 1`.)
         let kti = if ci <= 1.0 {
