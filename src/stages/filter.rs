@@ -137,49 +137,56 @@ impl CloudIndex {
     /// (index, distance): with a radius, in the grid's order; the nearest,
     /// nearest first.
     pub fn neighbours(&self, s: DVec3, n: Option<DVec3>) -> Vec<(u32, f64)> {
+        let mut out = Vec::new();
+        self.neighbours_into(s, n, &mut out);
+        out
+    }
+
+    /// [`CloudIndex::neighbours`] into `out` (cleared first): a caller
+    /// that reuses one list saves growing a new one every shade point.
+    pub fn neighbours_into(&self, s: DVec3, n: Option<DVec3>, out: &mut Vec<(u32, f64)>) {
+        out.clear();
         let faces = |i: u32| match (&self.nrm, n) {
             (Some(nrm), Some(n)) => nrm[i as usize].dot(n) > 0.0,
             _ => true,
         };
-        let out: Vec<(u32, f64)> = match &self.points {
+        match &self.points {
             Index::Radius(grid) => {
-                let mut out = Vec::new();
                 grid.for_each_within(s, |i, d2| {
                     if faces(i) {
                         out.push((i, d2.sqrt()));
                     }
                 });
-                out
             }
             &Index::Nearest(ref tree, k) => {
                 let total = tree.len();
                 if total == 0 {
-                    return Vec::new();
+                    return;
                 }
                 // Nearest facing ones: ask for more until there are k.
                 let mut ask = k.min(total);
                 loop {
                     let near = tree.nearest(s, ask);
-                    let f: Vec<(u32, f64)> = near
-                        .iter()
-                        .filter(|nb| faces(nb.item))
-                        .map(|nb| (nb.item, nb.distance.sqrt()))
-                        .take(k)
-                        .collect();
-                    if f.len() >= k || ask >= total {
-                        break f;
+                    out.clear();
+                    out.extend(
+                        near.iter()
+                            .filter(|nb| faces(nb.item))
+                            .map(|nb| (nb.item, nb.distance.sqrt()))
+                            .take(k),
+                    );
+                    if out.len() >= k || ask >= total {
+                        break;
                     }
                     ask = (ask * 4).min(total);
                 }
             }
-        };
+        }
         // In the index's order, not sorted by point: the index depends
         // only on the cloud's points, so the sums are the same on any
         // thread count, and sorting the lists took a fifth of `render` at
         // 1M points (1.09 against 0.89-0.91 s by hand, the same image to
         // 1e-6). A tile's index is another: its sums may differ from the
         // whole cloud's in the last bits.
-        out
     }
 }
 
@@ -467,11 +474,11 @@ pub fn filter(
     let own = crate::tiles::owned(shade)?;
     let owns = |i: usize| own.as_ref().is_none_or(|o| o[i]);
     let index = CloudIndex::new(cloud, p.facing, p.reach).map_err(about_cloud)?;
-    // Shade points are done a chunk at a time: their neighbour lists
-    // (16 bytes a neighbour) would otherwise all be held at once, 6 GB for
-    // 1M shade points reading 400 each. Lazy sources need to know first
-    // which cloud points any shade point reads: a first pass marks them,
-    // and the neighbours are found again in the second.
+    // Lazy sources need to know first which cloud points any shade point
+    // reads: a first pass marks them, a chunk of shade points at a time
+    // (their neighbour lists, 16 bytes a neighbour, would otherwise all be
+    // held at once, 6 GB for 1M shade points reading 400 each), and the
+    // neighbours are found again in the second.
     let lazy = sources.iter().any(|s| !matches!(s, Source::Stored(_)));
     let chunks: Vec<std::ops::Range<usize>> = (0..sp.len())
         .step_by(FILTER_CHUNK)
@@ -537,26 +544,44 @@ pub fn filter(
         });
     }
     drop(want);
-    let mut out: Vec<Vec<[f32; 3]>> = vec![Vec::with_capacity(sp.len()); sources.len()];
-    let (mut used, mut receivers) = (0usize, 0usize);
+    // Each shade point's values (one row of `width`) and how many cloud
+    // points it read: its neighbours go into a list each thread reuses,
+    // weighed once for every attribute.
+    let width = sources.len().max(1);
+    let mut rows = vec![[0.0f32; 3]; sp.len() * width];
+    let mut counts = vec![0usize; sp.len()];
     progress.start("filtering", sp.len() as u64);
     for c in &chunks {
-        let mut nbs = neighbours(c);
-        nbs.par_iter_mut().for_each(|nb| weigh(nb));
-        for (k, v) in values.iter().enumerate() {
-            out[k].par_extend(
-                nbs.par_iter()
-                    .map(|nb| average(nb, v).map_or([0.0; 3], |x| x.map(|y| y as f32))),
-            );
-        }
-        for (j, nb) in nbs.iter().enumerate() {
-            if owns(c.start + j) {
-                receivers += 1;
-                used += nb.len();
-                report.empty += nb.is_empty() as usize;
-            }
+        rows[c.start * width..c.end * width]
+            .par_chunks_mut(width)
+            .zip(counts[c.clone()].par_iter_mut())
+            .enumerate()
+            .for_each_init(Vec::new, |nb, (j, (row, count))| {
+                let i = c.start + j;
+                if !owns(i) {
+                    return;
+                }
+                let q = DVec3::from_array(sp[i]);
+                index.neighbours_into(q, sn.as_ref().map(|n| n[i]), nb);
+                weigh(nb);
+                for (k, v) in values.iter().enumerate() {
+                    row[k] = average(nb, v).map_or([0.0; 3], |x| x.map(|y| y as f32));
+                }
+                *count = nb.len();
+            });
+        progress.inc(c.len() as u64);
+    }
+    let (mut used, mut receivers) = (0usize, 0usize);
+    for (i, &n) in counts.iter().enumerate() {
+        if owns(i) {
+            receivers += 1;
+            used += n;
+            report.empty += (n == 0) as usize;
         }
     }
+    let out: Vec<Vec<[f32; 3]>> = (0..sources.len())
+        .map(|k| rows.chunks(width).map(|r| r[k]).collect())
+        .collect();
     progress.finish();
     for (source, rows) in sources.iter().zip(&out) {
         let role = cloud
