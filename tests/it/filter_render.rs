@@ -704,3 +704,97 @@ fn render_checks_its_inputs_before_working() {
     let o = run("render", &a, b"");
     assert!(stderr(&o).contains("ssmulti"), "{}", stderr(&o));
 }
+
+/// The radius filter against a brute-force f64 pcfilter over every cloud
+/// point (independent of the grid that finds the neighbours), on a curved
+/// cloud with facing points and shade points inside, at the edge of and
+/// beyond the cloud; the same bits on one thread and on two.
+#[test]
+fn the_radius_filter_equals_brute_force_on_any_threads() {
+    let mut r = Pcg32::new(21, 4);
+    // A wavy sheet, far from the origin, with a field that varies.
+    let off = DVec3::new(3e5, -2e5, 1e5);
+    let pts: Vec<DVec3> = (0..6000)
+        .map(|_| {
+            let (x, y) = (unit(&mut r) * 4.0, unit(&mut r) * 3.0);
+            DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y.cos()) + off
+        })
+        .collect();
+    let val: Vec<[f32; 3]> = pts
+        .iter()
+        .map(|p| {
+            let q = *p - off;
+            [
+                (q.x * q.y) as f32,
+                (1.0 + q.z) as f32,
+                (q.x - q.y).cos() as f32,
+            ]
+        })
+        .collect();
+    let mut cloud = Cloud::with_points(pts.len());
+    let arr: Vec<[f64; 3]> = pts.iter().map(|p| p.to_array()).collect();
+    cloud.points_mut().set_vec3("P", Role::Point, &arr).unwrap();
+    cloud
+        .points_mut()
+        .set_vec3("ssM", Role::Color, &val)
+        .unwrap();
+    let shade: Vec<[f64; 3]> = (0..400)
+        .map(|_| {
+            let (x, y) = (unit(&mut r) * 5.0 - 0.5, unit(&mut r) * 4.0 - 0.5);
+            (DVec3::new(x, y, 0.3 * (2.0 * x).sin() * y.cos()) + off).to_array()
+        })
+        .chain([(off + DVec3::new(50.0, 0.0, 0.0)).to_array()])
+        .collect();
+    let sc = shade_at(&shade);
+    for radius in [0.02, 0.15, 0.6] {
+        let reach = Reach::Radius(radius);
+        let pool = |n: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap()
+        };
+        let (one, rep) = pool(1).install(|| filt(&cloud, &sc, reach, false));
+        let (two, _) = pool(2).install(|| filt(&cloud, &sc, reach, false));
+        let bits =
+            |v: &[[f64; 3]]| -> Vec<[u64; 3]> { v.iter().map(|x| x.map(f64::to_bits)).collect() };
+        assert_eq!(
+            bits(&one),
+            bits(&two),
+            "radius {radius}: threads changed a bit"
+        );
+        let mut empty = 0;
+        for (i, s) in shade.iter().enumerate() {
+            let s = DVec3::from_array(*s);
+            let nb: Vec<(usize, f64)> = pts
+                .iter()
+                .enumerate()
+                .map(|(j, p)| (j, (*p - s).length()))
+                .filter(|&(_, d)| d <= radius)
+                .collect();
+            if nb.is_empty() {
+                empty += 1;
+                assert_eq!(one[i], [0.0; 3], "radius {radius}, shade point {i}");
+                continue;
+            }
+            let maxd = nb.iter().map(|a| a.1).fold(0.0, f64::max);
+            let (mut sum, mut ws) = ([0.0f64; 3], 0.0);
+            for &(j, d) in &nb {
+                let w = pcfilter_weight(d, maxd);
+                for c in 0..3 {
+                    sum[c] += w * val[j][c] as f64;
+                }
+                ws += w;
+            }
+            for c in 0..3 {
+                let want = (sum[c] / ws) as f32 as f64;
+                assert!(
+                    (one[i][c] - want).abs() <= 1e-6 * want.abs().max(1.0),
+                    "radius {radius}, shade point {i}, channel {c}: {} vs {want}",
+                    one[i][c]
+                );
+            }
+        }
+        assert_eq!(rep.empty, empty, "radius {radius}");
+    }
+}
