@@ -71,12 +71,14 @@ impl RadiusGrid {
             ext.max_element().max(1.0) * 1e-9
         };
         let mut n = count(cell);
-        while n.is_none() {
+        while n.is_none() && cell.is_finite() {
             cell *= 2.0;
             n = count(cell);
         }
-        let n = n.expect("the loop ends with a size");
-        let inv = 1.0 / cell;
+        // (A box too wide for f64, points near both ends of its range:
+        // one cell holds them all.)
+        let n = n.unwrap_or([1; 3]);
+        let inv = if cell.is_finite() { 1.0 / cell } else { 0.0 };
         let index = |p: DVec3| -> usize {
             let c = (p - lo) * inv;
             let at = |x: f64, n: usize| (x.max(0.0) as usize).min(n - 1);
@@ -215,6 +217,12 @@ mod tests {
             n += 1
         });
         assert_eq!(n, 1);
+        // A box wider than f64's range: one cell, every point still found.
+        let wide = [DVec3::splat(-1.5e308), DVec3::splat(1.5e308), DVec3::ZERO];
+        let g = RadiusGrid::new(&wide, 1.0);
+        let mut got = Vec::new();
+        g.for_each_within(DVec3::new(0.5, 0.0, 0.0), |i, _| got.push(i));
+        assert_eq!(got, vec![2]);
         let same = vec![DVec3::splat(7.0); 100];
         let g = RadiusGrid::new(&same, 0.0);
         let mut got = Vec::new();
