@@ -30,6 +30,7 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, Role};
 use crate::error::{Error, Result};
+use crate::geom::grid::bounds;
 use crate::geom::grid::dense::RadiusGrid;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::TriMesh;
@@ -99,16 +100,6 @@ impl CloudIndex {
                 p[i]
             )));
         }
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for q in &p {
-            lo = lo.min(DVec3::from_array(*q));
-            hi = hi.max(DVec3::from_array(*q));
-        }
-        let centre = if p.is_empty() {
-            DVec3::ZERO
-        } else {
-            (lo + hi) * 0.5
-        };
         let nrm = if with_normals {
             let n = cloud.points().vec3_f64("N")?;
             let unit: Vec<DVec3> = n
@@ -125,10 +116,18 @@ impl CloudIndex {
         } else {
             None
         };
-        let pts = p.iter().map(|q| DVec3::from_array(*q));
+        let pts: Vec<DVec3> = p.iter().map(|q| DVec3::from_array(*q)).collect();
         let points = match reach {
-            Reach::Radius(r) => Index::Radius(RadiusGrid::new(&pts.collect::<Vec<_>>(), r)),
-            Reach::Nearest(k) => Index::Nearest(PointTree::new(pts, centre), k),
+            Reach::Radius(r) => Index::Radius(RadiusGrid::new(&pts, r)),
+            Reach::Nearest(k) => {
+                let (lo, hi) = bounds(&pts);
+                let centre = if pts.is_empty() {
+                    DVec3::ZERO
+                } else {
+                    (lo + hi) * 0.5
+                };
+                Index::Nearest(PointTree::new(pts, centre), k)
+            }
         };
         Ok(CloudIndex { points, nrm })
     }

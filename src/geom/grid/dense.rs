@@ -41,11 +41,7 @@ impl RadiusGrid {
     /// The grid of `points` (finite, fewer than 2^32) for queries within
     /// `radius` (finite, >= 0).
     pub fn new(points: &[DVec3], radius: f64) -> RadiusGrid {
-        let none = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        let (lo, hi) = points
-            .par_iter()
-            .fold(none, |(lo, hi), p| (lo.min(*p), hi.max(*p)))
-            .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let (lo, hi) = super::bounds(points);
         let (lo, ext) = if points.is_empty() {
             (DVec3::ZERO, DVec3::ZERO)
         } else {

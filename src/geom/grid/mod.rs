@@ -193,16 +193,22 @@ fn neighbour(at: [u64; 3], n: [u64; 3]) -> Option<[u64; 3]> {
     Some(c)
 }
 
+/// The lower and upper corners of `points`' box, on every thread
+/// (infinite, upper below lower, without points).
+pub fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    let none = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    points
+        .par_iter()
+        .fold(none, |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+        .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+}
+
 impl PointGrid {
     /// The grid of `points` (finite, fewer than 2^32) with cells of side
     /// at least `cell` (larger when the box would need more than 2^21
     /// cells along an axis).
     pub fn new(points: &[DVec3], cell: f64) -> PointGrid {
-        let none = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        let (lo, hi) = points
-            .par_iter()
-            .fold(none, |(lo, hi), p| (lo.min(*p), hi.max(*p)))
-            .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let (lo, hi) = bounds(points);
         let extent = if points.is_empty() {
             0.0
         } else {
