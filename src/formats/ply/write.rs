@@ -145,9 +145,9 @@ struct Span<'a> {
 
 /// Fixed-size rows: columns scattered into row chunks. Undecoded
 /// properties are copied as spans of neighbouring properties, a span of a
-/// common size as a fixed-size copy (one `memmove` call per property and
-/// row was about 40% of a stage that passes most attributes through), a
-/// span that is the whole row as one copy.
+/// common size as a fixed-size copy (a `memmove` call per property and
+/// row dominated the write of a stage that passes most attributes
+/// through), a span that is the whole row as one copy.
 fn write_fixed<W: Write + ?Sized>(w: &mut W, el: &Element, big: bool) -> Result<()> {
     let comps: Vec<&Values> = el.attrs().iter().flat_map(|a| a.components()).collect();
     let mut stride = 0;
