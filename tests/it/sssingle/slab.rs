@@ -211,3 +211,36 @@ fn rgb_with_equal_distances_takes_one_kernel_and_equals_its_quadrature() {
         }
     }
 }
+
+/// The view ray's exit in a slab of thickness `t`, against its closed
+/// form `t / cos`: found exactly when it lies within the distance asked
+/// for (`view_within`), infinite or the same when farther, far from the
+/// origin too.
+#[test]
+fn the_view_exit_within_a_distance_equals_the_closed_form() {
+    use pcsss::stages::sssingle::interior::Interior;
+    let t = 0.3;
+    for offset in [DVec3::ZERO, DVec3::new(1e6, -1e6, 3e5)] {
+        let mesh = TriMesh::from_cloud(&slab_mesh(4.0, t, offset)).unwrap();
+        let interior = Interior::new(&mesh, 60.0);
+        for (k, cos) in [1.0, 0.8, 0.5].into_iter().enumerate() {
+            let sin = (1.0f64 - cos * cos).sqrt();
+            let dir = DVec3::new(sin * 0.6, sin * 0.8, -cos);
+            let xo = offset + DVec3::new(0.1 * k as f64, -0.2, 0.0);
+            let want = t / cos;
+            let (_, full) = interior.view(xo, dir);
+            assert!((full - want).abs() <= 1e-9 * want, "{full} vs {want}");
+            for far in [0.01, 0.5 * want, want, 2.0 * want, f64::INFINITY] {
+                let (x0, d) = interior.view_within(xo, dir, far);
+                assert!((x0 - xo).length() <= 1e-9, "{x0} vs {xo}");
+                if far >= want {
+                    assert_eq!(d, full, "far {far}: {d} vs {full}");
+                } else {
+                    assert!(d == full || d == f64::INFINITY, "far {far}: {d}");
+                }
+                // What the seed model uses: the same either way.
+                assert_eq!(d.min(far), full.min(far), "far {far}");
+            }
+        }
+    }
+}
