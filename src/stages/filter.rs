@@ -182,10 +182,9 @@ impl CloudIndex {
         }
         // In the index's order, not sorted by point: the index depends
         // only on the cloud's points, so the sums are the same on any
-        // thread count, and sorting the lists took a fifth of `render` at
-        // 1M points (1.09 against 0.89-0.91 s by hand, the same image to
-        // 1e-6). A tile's index is another: its sums may differ from the
-        // whole cloud's in the last bits.
+        // thread count, and sorting every list would be a large part of
+        // `render`'s time. A tile's index is another: its sums may differ
+        // from the whole cloud's in the last bits.
     }
 }
 
