@@ -3,9 +3,9 @@
 //! least the radius in a dense array over the points' box, so that a
 //! query reads the 3 x 3 x 3 cells around its own as nine runs of
 //! consecutive points (a row of three cells is contiguous), with no
-//! search. A k-d tree answers the same, but is built on one thread (for a
-//! few thousand mesh vertices, longer than all their queries) and
-//! descends from its root for every query.
+//! search. A k-d tree answers the same, but is built over the whole
+//! cloud on one thread, which can outlast all the queries (a mesh's few
+//! thousand vertices), and descends from its root for every query.
 //!
 //! The cells are grown until there are at most [`MAX_CELLS_PER_POINT`]
 //! per point (a radius far below the points' spacing, or a box mostly
