@@ -15,6 +15,9 @@
 
 mod common;
 
+// The allocator the stages' binaries use, so in-process timings match.
+pcsss::global_allocator!();
+
 use common::*;
 use pcsss::formats::{self, Select};
 

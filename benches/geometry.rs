@@ -12,6 +12,9 @@
 
 mod common;
 
+// The allocator the stages' binaries use, so in-process timings match.
+pcsss::global_allocator!();
+
 use std::fs::File;
 use std::io::{BufWriter, Write};
 

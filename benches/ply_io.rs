@@ -9,6 +9,9 @@
 
 mod common;
 
+// The allocator the stages' binaries use, so in-process timings match.
+pcsss::global_allocator!();
+
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Write};
 
@@ -38,7 +41,7 @@ fn make_cloud(n: usize) -> Cloud {
 
 fn read_pipe(bytes: &[u8], select: &Select) -> Cloud {
     let (r, mut w) = std::io::pipe().unwrap();
-    pcsss::cli::grow_pipe(&r);
+    pcsss::files::grow_pipe(&r);
     std::thread::scope(|s| {
         s.spawn(move || {
             for chunk in bytes.chunks(1 << 20) {
@@ -51,7 +54,7 @@ fn read_pipe(bytes: &[u8], select: &Select) -> Cloud {
 
 fn write_pipe(c: &Cloud) {
     let (mut r, w) = std::io::pipe().unwrap();
-    pcsss::cli::grow_pipe(&w);
+    pcsss::files::grow_pipe(&w);
     std::thread::scope(|s| {
         s.spawn(move || {
             let mut buf = vec![0u8; 1 << 20];

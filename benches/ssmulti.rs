@@ -50,6 +50,9 @@
 
 mod common;
 
+// The allocator the stages' binaries use, so in-process timings match.
+pcsss::global_allocator!();
+
 use std::f64::consts::PI;
 use std::time::Instant;
 

@@ -21,6 +21,9 @@
 
 mod common;
 
+// The allocator the stages' binaries use, so in-process timings match.
+pcsss::global_allocator!();
+
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -1,29 +1,31 @@
-//! The global allocator (with the default feature `mimalloc`).
+//! The allocator the binaries use (mimalloc, with the default feature
+//! `mimalloc`). A library leaves the global allocator to the program that
+//! links it: each binary sets it with [`global_allocator!`](crate::global_allocator).
 //!
 //! The stages are batch processes that allocate and free vectors of tens
-//! or hundreds of megabytes, one after another (a million blue-noise
-//! points go through three million candidates, their grid, their pairs,
-//! then the relaxation's lists). glibc maps every allocation over 32 MiB
-//! afresh and unmaps it when freed, so the kernel faults in and zeroes
-//! each one's pages again: `scatter --blue` of 1M points on the bunny
-//! spent 0.9 s in the kernel against 3.4 s of its own (0.5-0.6 s with
-//! mimalloc). mimalloc reuses memory it has
-//! mapped, and [`keep_freed_memory`] tells it never to give memory back
-//! before the process ends: 1M points took 2.34 s on the bunny and 3.01 s
-//! on the dragon, against 2.58 and 3.25 s with glibc (medians of 6 runs
-//! by hand). It uses transparent huge pages where the system offers them
-//! (mimalloc advises them for its arenas): a first touch of a 4 KiB page
-//! costs about 3 us of system time on the virtual machine the benchmarks
-//! run on, and 1M blue-noise points on the dragon touch 200,000 pages
-//! (0.6 s of system time; 0.3 s with huge pages, and 2.98 s against
-//! 3.38 s whole process, 5 runs each interleaved by hand). On an earlier
-//! machine huge pages had made the system time swing from 0.6 to 1.5 s
-//! from one run to the next; `MIMALLOC_ALLOW_THP=0` in the environment
-//! turns them off.
+//! or hundreds of megabytes, one after another (blue-noise candidates,
+//! their grid, their pairs, then the relaxation's lists). glibc maps every
+//! allocation over 32 MiB afresh and unmaps it when freed, so the kernel
+//! faults in and zeroes each one's pages again; mimalloc reuses memory it
+//! has mapped, and [`keep_freed_memory`] tells it never to give memory
+//! back before the process ends. It uses transparent huge pages where the
+//! system offers them, which makes first touching memory cheaper
+//! (`MIMALLOC_ALLOW_THP=0` in the environment turns them off). The
+//! measurements are in `benches/results/HISTORY.md`, "The allocator".
 
 #[cfg(feature = "mimalloc")]
-#[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+pub use mimalloc::MiMalloc;
+
+/// Sets the binary's global allocator to mimalloc (nothing without the
+/// feature `mimalloc`): one line at the top of every binary.
+#[macro_export]
+macro_rules! global_allocator {
+    () => {
+        #[cfg(feature = "mimalloc")]
+        #[global_allocator]
+        static GLOBAL: $crate::alloc::MiMalloc = $crate::alloc::MiMalloc;
+    };
+}
 
 /// mimalloc 3's `mi_option_purge_delay` (`mimalloc.h`, `mi_option_e`:
 /// libmimalloc-sys names only the options of earlier versions).
@@ -32,9 +34,8 @@ const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
 
 /// Tells the allocator to keep what is freed for later allocations
 /// until the process ends, instead of giving it back to the system after
-/// a delay (every binary calls this first, through `cli::main_of`; a
-/// batch stage's peak is what it holds anyway: 826 MB against glibc's
-/// 753 MB for 1M blue-noise points).
+/// a delay (every binary calls this first, through `cli::main_of`): a
+/// batch stage's peak is what it holds anyway.
 pub fn keep_freed_memory() {
     #[cfg(feature = "mimalloc")]
     // SAFETY: setting an option is a plain store into mimalloc's option

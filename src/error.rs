@@ -5,7 +5,9 @@
 //! - [`Error::Unsupported`]: a valid input uses a feature we do not handle.
 //! - [`Error::Missing`]: a stage needs an attribute the input does not have;
 //!   the message names the stage that makes it.
-//! - [`Error::Param`]: a parameter value is out of range.
+//! - [`Error::Param`]: a parameter value is out of range; it names the
+//!   parameter as the library does (`sd`, a field of a stage's `Params`),
+//!   and a binary names the option that sets it (`--sd`).
 //! - [`Error::Io`]: the operating system failed us.
 //!
 //! Messages are one line, without the file name: the binaries add it.
@@ -90,12 +92,12 @@ impl Error {
     }
 
     /// A missing attribute of class `class`; the message names the stage
-    /// that makes it (the table [`crate::stages::MAKERS`]).
+    /// that makes it (the table [`crate::names::MAKERS`]).
     pub fn missing(class: &'static str, name: &str) -> Self {
         Error::Missing(MissingAttr {
             class,
             name: name.to_string(),
-            made_by: crate::stages::made_by(name),
+            made_by: crate::names::made_by(name),
         })
     }
 
@@ -108,6 +110,21 @@ impl Error {
                 name: name.to_string(),
                 inner: Box::new(self),
             },
+        }
+    }
+
+    /// Renames the parameters this error is about by `flag`, where it
+    /// gives a name: the command line names a library parameter (`sd`) by
+    /// the option that sets it (`--sd`).
+    pub fn rename_params(&mut self, flag: &dyn Fn(&str) -> Option<String>) {
+        match self {
+            Error::Param { name, .. } => {
+                if let Some(f) = flag(name) {
+                    *name = f;
+                }
+            }
+            Error::In { inner, .. } => inner.rename_params(flag),
+            _ => {}
         }
     }
 

@@ -11,14 +11,7 @@
 use crate::cloud::{Cloud, DetailValue};
 use crate::error::{Error, Result};
 
-/// Detail attribute: the image's data window.
-pub const DATA_WINDOW: &str = "exr_data_window";
-/// Detail attribute: the image's display window.
-pub const DISPLAY_WINDOW: &str = "exr_display_window";
-/// Point attribute: the point's pixel column.
-pub const PIXEL_X: &str = "pixel_x";
-/// Point attribute: the point's pixel row.
-pub const PIXEL_Y: &str = "pixel_y";
+pub use crate::names::{DATA_WINDOW, DISPLAY_WINDOW, PIXEL_X, PIXEL_Y};
 
 /// The most pixels an image cloud's window may have (2^31): never
 /// allocate what a detail attribute claims beyond it.

@@ -473,7 +473,7 @@ fn mask_patterns(patterns: &str) -> Result<Vec<String>> {
     if quoted || depth > 0 {
         let what = if quoted { "a quote" } else { "a brace" };
         return Err(Error::param(
-            "--lmask",
+            "lmask",
             format!("'{patterns}': {what} is not closed"),
         ));
     }
@@ -498,7 +498,7 @@ pub fn mask(lights: &[Light], patterns: &str) -> Result<Vec<usize>> {
             None => (&mut include, p),
         };
         let g = Glob::new(pat)
-            .map_err(|e| Error::param("--lmask", format!("'{p}': {e}")))?
+            .map_err(|e| Error::param("lmask", format!("'{p}': {e}")))?
             .compile_matcher();
         list.push(g);
     }
@@ -512,7 +512,7 @@ pub fn mask(lights: &[Light], patterns: &str) -> Result<Vec<usize>> {
     if used.is_empty() {
         let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
         return Err(Error::param(
-            "--lmask",
+            "lmask",
             format!(
                 "'{patterns}' selects no light (the lights are: {})",
                 if names.is_empty() {

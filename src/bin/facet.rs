@@ -10,6 +10,8 @@ use pcsss::formats::Select;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Params, Weight};
 
+pcsss::global_allocator!();
+
 /// Add normals N (Houdini's Facet SOP). With --mesh, the input is a point
 /// cloud and each point takes the mesh's normal where it lies (its
 /// sourceprim/sourceuv, else the closest point); without, the input is a
@@ -82,5 +84,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("facet", || run(cli::parse("facet")))
+    cli::main("facet", run)
 }

@@ -8,8 +8,10 @@ use clap::Parser;
 use pcsss::cli::{self, IoArgs, SingleArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
-use pcsss::stages::filter::{self, Params, SingleSetup};
+use pcsss::stages::filter::{self, SingleSetup};
 use pcsss::Error;
+
+pcsss::global_allocator!();
 
 /// Reconstructs ssM and ssS (or --attr) at shade points (the input: a
 /// PLY/EXR cloud, a mesh's own vertices, or an OpenEXR image of P/N
@@ -73,10 +75,6 @@ fn run(args: Args) -> anyhow::Result<()> {
     let name = args.io.input_name();
     let cloud_name = cli::display_name(Some(&args.cloud));
     let multi = args.ss.params()?;
-    let r = args.radius;
-    if !(r.is_finite() && r > 0.0) {
-        return Err(Error::param("--radius", format!("{r}: must be a finite fraction > 0")).into());
-    }
     // Lazy single scattering: its parameters, lights and mesh first.
     let single = match &args.single_lights {
         None => None,
@@ -86,31 +84,32 @@ fn run(args: Args) -> anyhow::Result<()> {
                 (None, Some(cam)) => cli::read_camera(cam)?.position,
                 (None, None) => {
                     let why = "lazy ssS needs the eye: --eye X,Y,Z or --camera FILE";
-                    return Err(Error::param("--single-lights", why).into());
+                    return Err(Error::param("single_lights", why).into());
                 }
             };
             let params = args
                 .single
                 .params(&args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
-            let lights = cli::read_lights(lights, &args.single_lmask)?;
+            let lights = cli::read_lights(lights, &args.single_lmask)
+                .map_err(|e| cli::as_param(e, "single_lmask"))?;
             let mesh_path = args.single_mesh.as_ref().expect("clap requires it");
             Some((params, lights, cli::read_mesh(mesh_path)?))
         }
     };
-    let setup = single.as_ref().map(|(params, lights, mesh)| SingleSetup {
+    let lazy_single = single.as_ref().map(|(params, lights, mesh)| SingleSetup {
         mesh,
         lights,
         params,
     });
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let sources = filter::sources(&cloud, &args.attrs, multi.as_ref(), setup.as_ref())
-        .map_err(cli::at(&cloud_name))?;
-    let reach = filter::reach(
+    let setup = filter::Setup::new(
         &cloud,
+        &args.attrs,
+        multi.as_ref(),
+        lazy_single.as_ref(),
         args.nfp,
         args.radius,
-        multi.as_ref(),
-        single.as_ref().map(|s| &s.0),
+        args.facing,
     )
     .map_err(cli::at(&cloud_name))?;
     let mut shade = args.io.read(&Select::All)?;
@@ -124,16 +123,13 @@ fn run(args: Args) -> anyhow::Result<()> {
         &cloud,
         &cloud_name,
         &mut shade,
-        &Params {
-            reach,
-            facing: args.facing,
-        },
-        &sources,
+        &setup.params,
+        &setup.sources,
         &progress,
     )
     .map_err(cli::at(&name))?;
     if is_mesh {
-        let names: Vec<&str> = sources.iter().map(|s| s.name()).collect();
+        let names: Vec<&str> = setup.sources.iter().map(|s| s.name()).collect();
         filter::add_vertex_colours(&mut shade, &names).map_err(cli::at(&name))?;
     }
     let (info, warn) = rep.messages();
@@ -145,5 +141,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("filter", || run(cli::parse("filter")))
+    cli::main("filter", run)
 }

@@ -10,6 +10,8 @@ use pcsss::formats::Select;
 use pcsss::geom::bvh::Occluder;
 use pcsss::stages::illum;
 
+pcsss::global_allocator!();
+
 /// Light arriving at every point (Houdini's pcIllum): illum = sum over
 /// the lights in the mask of Cl * max(0, N.L) * visibility, visibility from
 /// shadow rays against --mesh.
@@ -63,5 +65,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("illum", || run(cli::parse("illum")))
+    cli::main("illum", run)
 }

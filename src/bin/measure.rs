@@ -6,6 +6,8 @@ use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 
+pcsss::global_allocator!();
+
 /// Add face attributes `area` and `perimeter` to a mesh (Houdini's Measure
 /// SOP). Degenerate faces measure 0.
 #[derive(Parser, Debug)]
@@ -27,5 +29,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("measure", || run(cli::parse("measure")))
+    cli::main("measure", run)
 }

@@ -8,6 +8,8 @@ use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 
+pcsss::global_allocator!();
+
 /// Convert a point cloud or mesh between formats and encodings, keeping
 /// every element, attribute and detail attribute.
 #[derive(Parser, Debug)]
@@ -24,5 +26,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("pcconvert", || run(cli::parse("pcconvert")))
+    cli::main("pcconvert", run)
 }

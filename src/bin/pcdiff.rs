@@ -9,6 +9,8 @@ use pcsss::cli::{self, MsgArgs};
 use pcsss::formats::Select;
 use pcsss::tools::diff::{compare, unknown_names, Options, Tol};
 
+pcsss::global_allocator!();
+
 /// Compare two point clouds attribute by attribute. Values a, b agree when
 /// |a - b| <= max(ABS, REL * max(|a|, |b|)) (NaN agrees with NaN). Exit
 /// status: 0 same, 1 different, 2 trouble.
@@ -104,9 +106,8 @@ fn run(args: Args) -> anyhow::Result<bool> {
 }
 
 fn main() -> ExitCode {
-    let args: Args = cli::parse("pcdiff");
     let mut same = true;
-    let code = cli::main_of("pcdiff", || {
+    let code = cli::main("pcdiff", |args: Args| {
         same = run(args)?;
         Ok(())
     });

@@ -8,6 +8,8 @@ use clap::Parser;
 use pcsss::cli::{self, MsgArgs};
 use pcsss::formats::Select;
 
+pcsss::global_allocator!();
+
 /// Print a point cloud's or mesh's summary: elements, attributes (type,
 /// role, min/max/mean), detail attributes, faces.
 #[derive(Parser, Debug)]
@@ -40,5 +42,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("pcinfo", || run(cli::parse("pcinfo")))
+    cli::main("pcinfo", run)
 }

@@ -4,11 +4,13 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-use clap::{Parser, Subcommand};
-use pcsss::cli::{self, output, MsgArgs};
+use clap::{CommandFactory, Parser, Subcommand};
+use pcsss::cli::{self, stage_args, MsgArgs};
+use pcsss::files;
 use pcsss::formats::Format;
-use pcsss::tiles::{self, reach, split::TileCount, ForStage, SplitOptions};
+use pcsss::tiles::{self, ForRequest, Request, TileCount};
+
+pcsss::global_allocator!();
 
 /// Cuts a PLY cloud into spatial tiles, each with a halo of the points
 /// within reach of it, so that a stage can bake each tile as its own job
@@ -109,7 +111,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     match args.cmd {
         Cmd::Split {
             input,
-            output: dir,
+            output,
             tiles: n,
             tile_size,
             tile_memory,
@@ -118,111 +120,51 @@ fn run(args: Args) -> anyhow::Result<()> {
             for_stage,
             stage_args,
         } => {
-            let name = cli::display_name(input.as_deref());
-            if dir.exists() && !dir.is_dir() {
-                anyhow::bail!("{}: not a directory", dir.display());
-            }
-            // A directory made here goes again when the split fails: a
-            // failed split leaves nothing behind.
-            let made = !dir.exists();
-            std::fs::create_dir_all(&dir).with_context(|| dir.display().to_string())?;
-            let done = (|| -> anyhow::Result<()> {
-                // Standard input is read three times: spooled to a temp file
-                // in DIR first.
-                let spool;
-                let path = match input.as_deref() {
-                    Some(p) if p != std::path::Path::new("-") => p.to_path_buf(),
-                    _ => {
-                        spool = tempfile::Builder::new()
-                            .prefix(".pctile-input-")
-                            .tempfile_in(&dir)
-                            .with_context(|| dir.display().to_string())?;
-                        let mut f = spool.as_file();
-                        std::io::copy(&mut std::io::stdin().lock(), &mut f).context("<stdin>")?;
-                        spool.path().to_path_buf()
-                    }
-                };
-                let for_stage = match for_stage {
-                    None => None,
-                    Some(stage) => {
-                        let words: Vec<String> = stage_args
-                            .as_deref()
-                            .unwrap_or("")
-                            .split_whitespace()
-                            .map(String::from)
-                            .collect();
-                        let head =
-                            pcsss::formats::ply::read::PlyChunks::new(std::io::BufReader::new(
-                                std::fs::File::open(&path).with_context(|| name.clone())?,
-                            ))
-                            .map_err(cli::at(&name))?;
-                        let has_ssm = head.header().elements.iter().any(|e| {
-                            e.name == "vertex"
-                                && e.props.iter().any(|p| p.name == "ssM_r" || p.name == "ssM")
-                        });
-                        let r = reach::reach_for(&stage, &words, &head.header().detail, has_ssm)?;
-                        Some(ForStage {
-                            stage,
-                            args: words,
-                            reach: r,
-                        })
-                    }
-                };
-                let halo = match (halo, &for_stage) {
-                    (Some(h), Some(f)) if h < f.reach => {
-                        return Err(pcsss::Error::param(
-                            "--halo",
-                            format!(
-                                "{h} is narrower than {}'s reach {} with those arguments",
-                                f.stage, f.reach
-                            ),
-                        )
-                        .into())
-                    }
-                    (Some(h), _) => h,
-                    (None, Some(f)) => f.reach * (1.0 + reach::MARGIN),
-                    (None, None) => unreachable!("clap requires --halo or --for"),
-                };
-                let tiles = match (n, tile_size, tile_memory) {
-                    (Some(n), _, _) => TileCount::Tiles(n),
-                    (None, Some(s), _) => TileCount::Size(s),
-                    (None, None, Some(m)) => TileCount::Memory {
-                        bytes: parse_bytes(&m)?,
-                        per_point: point_bytes
-                            .or_else(|| {
-                                for_stage
-                                    .as_ref()
-                                    .and_then(|f| tiles::split::point_bytes(&f.stage))
-                            })
-                            .unwrap_or(400),
-                    },
-                    _ => unreachable!("clap requires one"),
-                };
-                let opt = SplitOptions {
-                    tiles,
-                    halo,
-                    for_stage,
-                };
-                let m = tiles::split(&path, &name, &dir, &opt, &progress)?;
-                let halo_pts: u64 = m.tiles.iter().map(|t| t.halo).sum();
-                msg.info(format!(
-                    "{} points into {} tiles (halo {}: {} halo points, {:.1}% more)",
-                    m.points,
-                    m.tiles.len(),
-                    m.halo,
-                    halo_pts,
-                    if m.points > 0 {
-                        100.0 * halo_pts as f64 / m.points as f64
-                    } else {
-                        0.0
-                    }
-                ));
-                Ok(())
-            })();
-            if done.is_err() && made {
-                let _ = std::fs::remove_dir_all(&dir);
-            }
-            done
+            let for_stage = match for_stage {
+                Some(stage) => {
+                    let words: Vec<String> = stage_args
+                        .as_deref()
+                        .unwrap_or("")
+                        .split_whitespace()
+                        .map(String::from)
+                        .collect();
+                    let params = stage_args::parse(&stage, &words)?;
+                    Some(ForRequest {
+                        stage,
+                        args: words,
+                        params,
+                    })
+                }
+                None => None,
+            };
+            let tiles = match (n, tile_size, tile_memory) {
+                (Some(n), _, _) => TileCount::Tiles(n),
+                (None, Some(s), _) => TileCount::Size(s),
+                (None, None, Some(m)) => TileCount::Memory {
+                    bytes: cli::parse_bytes("--tile-memory", &m)?,
+                    per_point: point_bytes,
+                },
+                _ => unreachable!("clap requires one"),
+            };
+            let request = Request {
+                input_name: cli::display_name(input.as_deref()),
+                input,
+                dir: output,
+                tiles,
+                halo,
+                for_stage,
+            };
+            let m = request.run(&progress)?;
+            let halo_pts: u64 = m.tiles.iter().map(|t| t.halo).sum();
+            let more = 100.0 * halo_pts as f64 / m.points.max(1) as f64;
+            msg.info(format!(
+                "{} points into {} tiles (halo {}: {} halo points, {more:.1}% more)",
+                m.points,
+                m.tiles.len(),
+                m.halo,
+                halo_pts,
+            ));
+            Ok(())
         }
         Cmd::Merge {
             dir,
@@ -242,22 +184,16 @@ fn run(args: Args) -> anyhow::Result<()> {
             let format = format
                 .or_else(|| out.as_deref().and_then(Format::from_path))
                 .unwrap_or(Format::DEFAULT);
-            let enc = match format {
-                Format::Ply(e) => e,
-                Format::Exr => {
-                    return Err(pcsss::Error::param(
-                        "--format",
-                        "merge writes PLY (streaming); convert with pcconvert",
-                    )
-                    .into())
-                }
+            let Format::Ply(enc) = format else {
+                let why = "merge writes PLY (streaming); convert with pcconvert";
+                return Err(pcsss::Error::param("format", why).into());
             };
             let out = out.filter(|p| p != std::path::Path::new("-"));
             if let Some(o) = &out {
-                output::check_output(o)?;
+                files::check_output(o)?;
             }
             let mut m = None;
-            output::write_output(out.as_deref(), |w| {
+            files::write_output(out.as_deref(), |w| {
                 m = Some(tiles::merge(&dir, &files, w, enc, &progress)?);
                 Ok(())
             })?;
@@ -268,35 +204,16 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
-/// `2G`, `512M`, `64K` (powers of 1024), or bytes.
-fn parse_bytes(s: &str) -> anyhow::Result<u64> {
-    let bad = || {
-        pcsss::Error::param(
-            "--tile-memory",
-            format!("'{s}': a size > 0 such as 2G, 512M or bytes"),
-        )
-    };
-    let t = s.trim();
-    let (num, mul) = match t.chars().last() {
-        Some(c) if c.is_ascii_alphabetic() => {
-            let m: u64 = match c.to_ascii_uppercase() {
-                'K' => 1 << 10,
-                'M' => 1 << 20,
-                'G' => 1 << 30,
-                'T' => 1 << 40,
-                _ => return Err(bad().into()),
-            };
-            (&t[..t.len() - 1], m)
-        }
-        _ => (t, 1),
-    };
-    let x: f64 = num.parse().map_err(|_| bad())?;
-    if !(x.is_finite() && x >= 1.0 && x * (mul as f64) < 1e18) {
-        return Err(bad().into());
-    }
-    Ok((x * mul as f64) as u64)
-}
-
 fn main() -> ExitCode {
-    cli::main_of("pctile", || run(cli::parse("pctile")))
+    let args: Args = cli::parse("pctile");
+    // A stage's parameter is named as its option within --stage-args.
+    let stage = match &args.cmd {
+        Cmd::Split { for_stage, .. } => for_stage.clone(),
+        Cmd::Merge { .. } => None,
+    };
+    let cmd = Args::command();
+    let flag = |name: &str| {
+        cli::flag_of(&cmd, name).or_else(|| stage_args::flag_of(stage.as_deref()?, name))
+    };
+    cli::main_of("pctile", &flag, || run(args))
 }

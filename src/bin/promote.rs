@@ -8,6 +8,8 @@ use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 use pcsss::stages::promote::{self, Class, Method};
 
+pcsss::global_allocator!();
+
 /// Promote a point or face attribute to a detail attribute (Houdini's
 /// Attribute Promote SOP): `--attr area --class face --as Tarea`. With
 /// `--normalize`, scale `ptarea` by Tarea / Tptarea so it sums to the
@@ -58,5 +60,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("promote", || run(cli::parse("promote")))
+    cli::main("promote", run)
 }

@@ -6,12 +6,15 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use pcsss::cli::{self, MsgArgs, SingleArgs, SsArgs};
+use pcsss::files;
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
 use pcsss::geom::mesh::TriMesh;
-use pcsss::stages::filter::{self, Params, SingleSetup};
+use pcsss::stages::filter::{self, SingleSetup};
 use pcsss::stages::render;
 use pcsss::Error;
+
+pcsss::global_allocator!();
 
 /// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
 /// coverage passes by ray casting, then the beauty = ssM + ssS filtered
@@ -87,11 +90,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.msg.messages("render");
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         let what = format!("{}: must be > 0", args.exposure);
-        return Err(Error::param("--exposure", what).into());
-    }
-    if !(args.radius.is_finite() && args.radius > 0.0) {
-        let what = format!("{}: must be a finite fraction > 0", args.radius);
-        return Err(Error::param("--radius", what).into());
+        return Err(Error::param("exposure", what).into());
     }
     // The outputs before any work: an OpenEXR, a PNG beside it (not the
     // same file), in directories that exist.
@@ -104,25 +103,25 @@ fn run(args: Args) -> anyhow::Result<()> {
             "{}: render writes OpenEXR: name a .exr file",
             args.output.display()
         );
-        return Err(Error::param("--output", why).into());
+        return Err(Error::param("output", why).into());
     }
-    cli::output::check_output(&args.output)?;
+    files::check_output(&args.output)?;
     if let Some(png) = &args.png {
         if png
             .extension()
             .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
         {
             let why = format!("{}: name a .png file", png.display());
-            return Err(Error::param("--png", why).into());
+            return Err(Error::param("png", why).into());
         }
-        cli::output::check_output(png)?;
+        files::check_output(png)?;
     }
     let cam = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params()?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
-        return Err(Error::param("--kd", format!("{kd:?}: must be finite and >= 0")).into());
+        return Err(Error::param("kd", format!("{kd:?}: must be finite and >= 0")).into());
     }
     let lights_used = match &args.direct {
         Some(path) => Some(cli::read_lights(path, &args.lmask)?),
@@ -133,7 +132,9 @@ fn run(args: Args) -> anyhow::Result<()> {
             let params = args
                 .single
                 .params(&args.ss.rd, args.ss.sd, args.ss.rgb, cam.position)?;
-            Some((params, cli::read_lights(path, &args.single_lmask)?))
+            let lights = cli::read_lights(path, &args.single_lmask)
+                .map_err(|e| cli::as_param(e, "single_lmask"))?;
+            Some((params, lights))
         }
         None => None,
     };
@@ -143,7 +144,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         Some(_) => Some(TriMesh::from_cloud(&mesh).map_err(cli::at(&mesh_name))?),
         None => None,
     };
-    let setup = single
+    let lazy_single = single
         .as_ref()
         .zip(tris.as_ref())
         .map(|((params, lights), mesh)| SingleSetup {
@@ -153,14 +154,14 @@ fn run(args: Args) -> anyhow::Result<()> {
         });
     let cloud_name = args.cloud.display().to_string();
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    let sources = filter::sources(&cloud, &args.attrs, lazy.as_ref(), setup.as_ref())
-        .map_err(cli::at(&cloud_name))?;
-    let reach = filter::reach(
+    let setup = filter::Setup::new(
         &cloud,
+        &args.attrs,
+        lazy.as_ref(),
+        lazy_single.as_ref(),
         args.nfp,
         args.radius,
-        lazy.as_ref(),
-        single.as_ref().map(|s| &s.0),
+        args.facing,
     )
     .map_err(cli::at(&cloud_name))?;
     let scene = render::Scene {
@@ -169,11 +170,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         camera: &cam,
         cloud: &cloud,
         cloud_name: &cloud_name,
-        filter: Params {
-            reach,
-            facing: args.facing,
-        },
-        sources: &sources,
+        filter: setup.params.clone(),
+        sources: &setup.sources,
         direct: lights_used.as_deref().map(|l| (l, kd)),
     };
     let progress = msg.progress();
@@ -192,18 +190,12 @@ fn run(args: Args) -> anyhow::Result<()> {
         half: vec![],
     };
     // Both files complete before either is in place: all or none.
-    let exr = cli::Staged::write(&args.output, |w| {
-        formats::write_cloud_with(w, &shade, Format::Exr, &opt).map_err(Into::into)
+    let exr = files::Staged::write(&args.output, |w| {
+        formats::write_cloud_with(w, &shade, Format::Exr, &opt)
     })?;
     let png = match &args.png {
-        Some(path) => Some(cli::Staged::write(path, |w| {
-            Ok(render::write_png(
-                w,
-                &shade,
-                "beauty",
-                args.exposure,
-                [0.03; 3],
-            )?)
+        Some(path) => Some(files::Staged::write(path, |w| {
+            render::write_png(w, &shade, "beauty", args.exposure, [0.03; 3])
         })?),
         None => None,
     };
@@ -215,5 +207,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("render", || run(cli::parse("render")))
+    cli::main("render", run)
 }

@@ -7,6 +7,8 @@ use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 
+pcsss::global_allocator!();
+
 /// Scatter points on a mesh (Houdini's Scatter SOP): P, ptarea, sourceprim,
 /// sourceuv; the mesh's detail attributes are inherited.
 #[derive(Parser, Debug)]
@@ -77,5 +79,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("scatter", || run(cli::parse("scatter")))
+    cli::main("scatter", run)
 }

@@ -7,6 +7,8 @@ use pcsss::cli::{self, IoArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::ssmulti;
 
+pcsss::global_allocator!();
+
 /// Multiple scattering at every point (Marengo's ssIntegMulti): reads P,
 /// N, ptarea, illum; adds ssM.
 #[derive(Parser, Debug)]
@@ -45,5 +47,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("ssmulti", || run(cli::parse("ssmulti")))
+    cli::main("ssmulti", run)
 }

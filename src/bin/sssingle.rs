@@ -8,6 +8,8 @@ use pcsss::cli::{self, IoArgs, SingleArgs};
 use pcsss::formats::Select;
 use pcsss::stages::sssingle;
 
+pcsss::global_allocator!();
+
 /// Single scattering at every point for one eye (Marengo's ssIntegSingle,
 /// or Jensen et al.'s physical model): light refracted into the surface,
 /// scattered once towards the eye and refracted out. Reads P and N; adds
@@ -86,5 +88,5 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    cli::main_of("sssingle", || run(cli::parse("sssingle")))
+    cli::main("sssingle", run)
 }

@@ -171,3 +171,28 @@ pub fn parse_rgb(flag: &str, s: &str) -> anyhow::Result<[f64; 3]> {
         _ => Err(crate::Error::param(flag, format!("'{s}' is not R,G,B or one value")).into()),
     }
 }
+
+/// A size in bytes, the value of option `flag`: `2G`, `512M`, `64K`
+/// (powers of 1024), or bytes.
+pub fn parse_bytes(flag: &str, s: &str) -> anyhow::Result<u64> {
+    let bad = || crate::Error::param(flag, format!("'{s}': a size > 0 such as 2G, 512M or bytes"));
+    let t = s.trim();
+    let (num, mul) = match t.chars().last() {
+        Some(c) if c.is_ascii_alphabetic() => {
+            let m: u64 = match c.to_ascii_uppercase() {
+                'K' => 1 << 10,
+                'M' => 1 << 20,
+                'G' => 1 << 30,
+                'T' => 1 << 40,
+                _ => return Err(bad().into()),
+            };
+            (&t[..t.len() - 1], m)
+        }
+        _ => (t, 1),
+    };
+    let x: f64 = num.parse().map_err(|_| bad())?;
+    if !(x.is_finite() && x >= 1.0 && x * (mul as f64) < 1e18) {
+        return Err(bad().into());
+    }
+    Ok((x * mul as f64) as u64)
+}

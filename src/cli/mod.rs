@@ -11,14 +11,14 @@
 //!   a usage error or a bad parameter, 1 otherwise; a broken pipe (`| head`)
 //!   is success.
 //!
-//! Output files and signals are in [`output`], the stages' shared options
-//! in [`args`].
+//! Output files and signals are the library's ([`crate::files`]); the
+//! stages' shared options are in [`args`], `pctile split --for`'s stage
+//! arguments in [`stage_args`].
 
 pub mod args;
-pub mod output;
+pub mod stage_args;
 
-pub use args::{parse_rgb, parse_xyz, SingleArgs, SsArgs};
-pub use output::{grow_pipe, write_atomic, write_output, Staged};
+pub use args::{parse_bytes, parse_rgb, parse_xyz, SingleArgs, SsArgs};
 
 use std::fs::File;
 use std::io::{self, BufReader, IsTerminal, Read};
@@ -28,6 +28,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use crate::cloud::Cloud;
+use crate::files::{self, grow_pipe};
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
 
@@ -87,11 +88,11 @@ impl IoArgs {
     }
 
     /// Reads the main input, decoding `select`ed attributes now; the
-    /// output is checked first ([`output::check_output`]), so a stage that
+    /// output is checked first ([`files::check_output`]), so a stage that
     /// cannot write fails before any work.
     pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
         if let Some(out) = self.output.as_deref().filter(|_| !is_std(&self.output)) {
-            output::check_output(out)?;
+            files::check_output(out)?;
         }
         read_input(self.input.as_deref(), select)
     }
@@ -115,9 +116,9 @@ impl IoArgs {
             compression: self.compression,
             half: self.half.clone(),
         };
-        write_output(out, |w| {
-            formats::write_cloud_with(w, cloud, format, &opt).map_err(Into::into)
-        })
+        Ok(files::write_output(out, |w| {
+            formats::write_cloud_with(w, cloud, format, &opt)
+        })?)
     }
 
     /// A message printer for `stage`.
@@ -287,21 +288,70 @@ pub fn is_param_error(e: &anyhow::Error) -> bool {
     })
 }
 
+/// A binary's `main`: parses `T` from the command line ([`parse`]), runs
+/// `run` with it, and reports its error ([`main_of`]).
+pub fn main<T: clap::Parser>(
+    stage: &'static str,
+    run: impl FnOnce(T) -> anyhow::Result<()>,
+) -> ExitCode {
+    let args = parse::<T>(stage);
+    let cmd = T::command();
+    main_of(stage, &|name| flag_of(&cmd, name), || run(args))
+}
+
 /// Runs a stage's body: on error prints `stage: context: error` on one line
 /// and returns exit status 2 for a bad parameter (as for a usage error),
-/// 1 for anything else (a broken pipe is success).
-pub fn main_of(stage: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
+/// 1 for anything else (a broken pipe is success). A library error names
+/// a parameter as the library does (`sd`); the line names the option
+/// `flag` gives for it (`--sd`; [`flag_of`] the binary's command).
+pub fn main_of(
+    stage: &str,
+    flag: &dyn Fn(&str) -> Option<String>,
+    body: impl FnOnce() -> anyhow::Result<()>,
+) -> ExitCode {
     crate::alloc::keep_freed_memory();
-    output::remove_temps_on_signals();
+    files::remove_temps_on_signals();
     match body() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
-        Err(e) => {
+        Err(mut e) => {
+            if let Some(lib) = e.downcast_mut::<crate::Error>() {
+                lib.rename_params(flag);
+            }
             let line = format!("{e:#}").replace('\n', " ");
             eprintln!("{stage}: {line}");
             ExitCode::from(if is_param_error(&e) { 2 } else { 1 })
         }
     }
+}
+
+/// The option of `cmd` (or of its subcommands) that sets the parameter
+/// `name`: the argument whose id is `name` (clap's derive names an
+/// argument after its field), else whose long name is `name` with
+/// hyphens for underscores.
+pub fn flag_of(cmd: &clap::Command, name: &str) -> Option<String> {
+    let long = name.replace('_', "-");
+    let own = cmd
+        .get_arguments()
+        .find(|a| a.get_id() == name)
+        .or_else(|| cmd.get_arguments().find(|a| a.get_long() == Some(&long)));
+    if let Some(a) = own {
+        return match (a.get_long(), a.get_short()) {
+            (Some(long), _) => Some(format!("--{long}")),
+            (None, Some(short)) => Some(format!("-{short}")),
+            (None, None) => None,
+        };
+    }
+    cmd.get_subcommands().find_map(|c| flag_of(c, name))
+}
+
+/// `e`, about parameter `name` when it is a bad parameter: for an option
+/// passed on as another's (render's `--single-lmask` as the lights' mask).
+pub fn as_param(mut e: anyhow::Error, name: &str) -> anyhow::Error {
+    if let Some(lib) = e.downcast_mut::<crate::Error>() {
+        lib.rename_params(&|_| Some(name.to_string()));
+    }
+    e
 }
 
 /// Prefixes a library error with the file (or `<stdin>`) it is about:

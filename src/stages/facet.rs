@@ -146,7 +146,7 @@ pub fn corner_normals(m: &TriMesh, face_n: &[DVec3], weight: Weight, cusp_deg: f
 pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Report> {
     if !(p.cusp.is_finite() && (0.0..=180.0).contains(&p.cusp)) {
         return Err(Error::param(
-            "--cusp",
+            "cusp",
             format!("{:?} is not an angle in [0, 180] degrees", p.cusp),
         ));
     }
@@ -167,7 +167,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         let prim = pts.scalar_f64("sourceprim")?;
         if let Some(i) = prim.iter().position(|&f| !(f >= 0.0 && f < nf as f64)) {
             return Err(Error::invalid(format!(
-                "point {i} has sourceprim {}, but the mesh has {nf} faces (is --mesh the mesh it was scattered on?)",
+                "point {i} has sourceprim {}, but the mesh has {nf} faces (is the mesh the one it was scattered on?)",
                 prim[i]
             )));
         }

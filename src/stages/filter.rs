@@ -108,7 +108,7 @@ impl CloudIndex {
                 .collect();
             if let Some(i) = unit.iter().position(|v| *v == DVec3::ZERO) {
                 return Err(Error::invalid(format!(
-                    "cloud point {i}: N is {:?}, which has no direction (--facing needs one)",
+                    "cloud point {i}: N is {:?}, which has no direction (reading only facing points needs one)",
                     n[i]
                 )));
             }
@@ -279,7 +279,7 @@ pub fn sources<'a>(
         let found: Vec<Source> = SCATTERING.iter().filter_map(|n| pick(n)).collect();
         if found.is_empty() {
             return Err(Error::invalid(
-                "no point attribute 'ssM' (made by ssmulti) or 'ssS' (made by sssingle): run them, or give ssmulti's --sd (and --rd ...) to compute ssM for the points read",
+                "no point attribute 'ssM' (made by ssmulti) or 'ssS' (made by sssingle): run them, or give ssmulti's parameters (sd, rd, ...) to compute ssM for the points read",
             ));
         }
         return Ok(found);
@@ -289,10 +289,10 @@ pub fn sources<'a>(
         .map(|n| {
             pick(n).ok_or_else(|| match n.as_str() {
                 "ssM" => Error::invalid(
-                    "no point attribute 'ssM' (made by ssmulti): run ssmulti, or give --sd (and --rd ...) to compute it for the points read",
+                    "no point attribute 'ssM' (made by ssmulti): run ssmulti, or give its parameters (sd, rd, ...) to compute it for the points read",
                 ),
                 "ssS" => Error::invalid(
-                    "no point attribute 'ssS' (made by sssingle): run sssingle, or give --single-mesh, --lights and the eye to compute it for the points read",
+                    "no point attribute 'ssS' (made by sssingle): run sssingle, or give its mesh, lights and eye to compute it for the points read",
                 ),
                 _ => cloud.points().missing(n),
             })
@@ -337,7 +337,7 @@ pub fn distance(
         max3(&v.components())
     } else {
         return Err(Error::invalid(
-            "no scattering distance to take the filter radius from: the cloud records none (ssmulti_sd) and no --sd is given; give --nfp, or --sd",
+            "no scattering distance to take the filter radius from: the cloud records none (ssmulti_sd) and no sd is given; give nfp, or sd",
         ));
     };
     if d.is_finite() && d > 0.0 {
@@ -353,19 +353,72 @@ fn max3(v: &[f64]) -> f64 {
     v.iter().copied().fold(0.0, f64::max)
 }
 
-/// The reach asked for on the command line: the `nfp` nearest, else all
-/// within `fraction` of D ([`distance`]).
+/// The cloud points a shade point reads: the `nfp` nearest, else all
+/// within `radius`, a fraction of D ([`distance`]), finite and > 0.
 pub fn reach(
     cloud: &Cloud,
     nfp: Option<usize>,
-    fraction: f64,
+    radius: f64,
     multi: Option<&ssmulti::Params>,
     single: Option<&sssingle::Params>,
 ) -> Result<Reach> {
-    Ok(match nfp {
-        Some(n) => Reach::Nearest(n),
-        None => Reach::Radius(fraction * distance(cloud, multi, single)?),
-    })
+    if let Some(n) = nfp {
+        return Ok(Reach::Nearest(n));
+    }
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(Error::param(
+            "radius",
+            format!("{radius}: must be a finite fraction > 0"),
+        ));
+    }
+    Ok(Reach::Radius(radius * distance(cloud, multi, single)?))
+}
+
+/// The farthest a cloud point can be from a shade point whose values
+/// depend on it, reading `reach` with `sources`: the radius, plus
+/// ssmulti's reach where `ssM` is computed lazily (the points read need
+/// their own sources). `None` for the nearest, which have no bound. A
+/// tile of the cloud needs a halo at least this wide.
+pub fn halo_reach(reach: Reach, sources: &[Source]) -> Option<f64> {
+    let lazy = |s: &Source| match s {
+        Source::Multi(p) => p.reach(),
+        // ssS at a point needs only the lights and the mesh.
+        Source::Stored(_) | Source::Single(_) => 0.0,
+    };
+    match reach {
+        Reach::Radius(r) => Some(r + sources.iter().map(lazy).fold(0.0, f64::max)),
+        Reach::Nearest(_) => None,
+    }
+}
+
+/// What `filter` and `render` read and how: the parameters and where
+/// each attribute comes from, set up once from their options.
+pub struct Setup<'a> {
+    pub params: Params,
+    pub sources: Vec<Source<'a>>,
+}
+
+impl<'a> Setup<'a> {
+    /// The sources of `attrs` on `cloud` ([`sources`]: with ssmulti's and
+    /// sssingle's parameters when `ssM` or `ssS` is computed lazily), the
+    /// reach ([`reach`]: the `nfp` nearest, or within `radius` of D), and
+    /// whether only `facing` points are read.
+    pub fn new(
+        cloud: &Cloud,
+        attrs: &'a [String],
+        multi: Option<&'a ssmulti::Params>,
+        single: Option<&'a SingleSetup<'a>>,
+        nfp: Option<usize>,
+        radius: f64,
+        facing: bool,
+    ) -> Result<Setup<'a>> {
+        let sources = sources(cloud, attrs, multi, single)?;
+        let reach = reach(cloud, nfp, radius, multi, single.map(|s| s.params))?;
+        Ok(Setup {
+            params: Params { reach, facing },
+            sources,
+        })
+    }
 }
 
 impl Report {
@@ -403,10 +456,10 @@ pub fn filter(
     progress: &Progress,
 ) -> Result<Report> {
     match p.reach {
-        Reach::Nearest(0) => return Err(Error::param("--nfp", "must be at least 1")),
+        Reach::Nearest(0) => return Err(Error::param("nfp", "must be at least 1")),
         Reach::Radius(r) if !(r.is_finite() && r > 0.0) => {
             return Err(Error::param(
-                "--radius",
+                "radius",
                 format!("{r:?}: must be a finite distance > 0"),
             ))
         }
@@ -439,7 +492,7 @@ pub fn filter(
         // with nothing in reach.)
         if let Some(i) = n.iter().position(|v| *v == DVec3::ZERO) {
             return Err(Error::invalid(format!(
-                "shade point {i}: N is {:?}, which has no direction (--facing needs one)",
+                "shade point {i}: N is {:?}, which has no direction (reading only facing points needs one)",
                 shade.points().vec3_f64("N")?[i]
             )));
         }
@@ -451,25 +504,13 @@ pub fn filter(
     // Tiles of `pctile split`: a cloud tile's halo must hold every source
     // a shade point reads (and, computed lazily, every source of those);
     // a shade tile's halo points are not computed (0).
-    let reach = match p.reach {
-        Reach::Radius(r) => Some(
-            r + sources
-                .iter()
-                .map(|s| match s {
-                    Source::Multi(sp) => crate::tiles::reach::ssmulti_reach(sp),
-                    _ => 0.0,
-                })
-                .fold(0.0, f64::max),
-        ),
-        Reach::Nearest(_) => None,
-    };
-    crate::tiles::halo_mask(
+    crate::halo::halo_mask(
         cloud,
-        reach,
+        halo_reach(p.reach, sources),
         "filter's reach (radius, plus ssmulti's when computed lazily)",
     )
     .map_err(about_cloud)?;
-    let own = crate::tiles::owned(shade)?;
+    let own = crate::halo::owned(shade)?;
     let owns = |i: usize| own.as_ref().is_none_or(|o| o[i]);
     let index = CloudIndex::new(cloud, p.facing, p.reach).map_err(about_cloud)?;
     // Lazy sources need to know first which cloud points any shade point

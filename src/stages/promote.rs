@@ -46,10 +46,10 @@ fn reduce(vals: &[f64], method: Method, what: &str) -> Result<f64> {
 /// A reduction is over the whole cloud: a tile of `pctile split` (part of
 /// the points, and a halo of others' points) is refused.
 fn whole(cloud: &Cloud) -> Result<()> {
-    if cloud.points().has(crate::tiles::HALO) {
+    if cloud.points().has(crate::names::HALO) {
         return Err(Error::invalid(format!(
             "a tile of pctile split ('{}'): promote reduces the whole cloud; run it before the split or after the merge",
-            crate::tiles::HALO
+            crate::names::HALO
         )));
     }
     Ok(())

@@ -171,7 +171,7 @@ pub fn render(mesh: &Cloud, cam: &Camera) -> Result<(Cloud, Report)> {
     let pixels = cam.width as u64 * cam.height as u64;
     crate::memory::check_available(
         300 * pixels,
-        "--camera",
+        "camera",
         &format!("a {} x {} image", cam.width, cam.height),
     )?;
     let m = TriMesh::from_cloud(mesh)?;

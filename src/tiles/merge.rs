@@ -8,11 +8,10 @@ use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use anyhow::{bail, Context};
-
 use super::split::CHUNK;
 use super::{Manifest, D_HALO, D_SPLIT, D_TILE, HALO, INDEX};
 use crate::cloud::{Cloud, Detail, DetailValue, Element, POINTS};
+use crate::error::{Error, Result};
 use crate::formats::ply::read::PlyChunks;
 use crate::formats::ply::write::{header_text_with, write_body};
 use crate::formats::Encoding;
@@ -20,9 +19,14 @@ use crate::progress::Progress;
 
 type Reader = PlyChunks<BufReader<File>>;
 
-fn open(path: &Path) -> anyhow::Result<Reader> {
+/// An invalid input, about the file `name`.
+fn bad(name: &str, what: String) -> Error {
+    Error::invalid(what).about(name)
+}
+
+fn open(path: &Path) -> Result<Reader> {
     let f = File::open(path)?;
-    Ok(PlyChunks::new(BufReader::with_capacity(1 << 18, f))?)
+    PlyChunks::new(BufReader::with_capacity(1 << 18, f))
 }
 
 /// A tile being read: its current chunk and where in it.
@@ -40,13 +44,9 @@ struct Cursor {
 impl Cursor {
     /// The next row's (halo, index), reading a chunk when needed; `None`
     /// at the tile's end.
-    fn peek(&mut self) -> anyhow::Result<Option<(bool, u32)>> {
+    fn peek(&mut self) -> Result<Option<(bool, u32)>> {
         while self.chunk.as_ref().is_none_or(|c| self.at >= c.len()) {
-            match self
-                .r
-                .next_chunk(CHUNK)
-                .with_context(|| self.name.clone())?
-            {
+            match self.r.next_chunk(CHUNK).map_err(|e| e.about(&self.name))? {
                 None => {
                     self.chunk = None;
                     return Ok(None);
@@ -92,7 +92,7 @@ pub fn merge(
     out: &mut dyn Write,
     enc: Encoding,
     progress: &Progress,
-) -> anyhow::Result<Manifest> {
+) -> Result<Manifest> {
     let m = Manifest::read(dir)?;
     let files: Vec<PathBuf> = if files.is_empty() {
         m.tiles.iter().map(|t| dir.join(&t.file)).collect()
@@ -102,7 +102,7 @@ pub fn merge(
     let mut by_tile: Vec<Option<Cursor>> = (0..m.tiles.len()).map(|_| None).collect();
     for path in &files {
         let name = path.display().to_string();
-        let r = open(path).with_context(|| name.clone())?;
+        let r = open(path).map_err(|e| e.about(&name))?;
         let h = r.header();
         let detail = |n: &str| {
             h.detail
@@ -111,38 +111,47 @@ pub fn merge(
                 .map(|d| d.value.clone())
         };
         let Some(DetailValue::Str(id)) = detail(D_SPLIT) else {
-            bail!("{name}: not a tile (no detail '{D_SPLIT}')");
+            return Err(bad(&name, format!("not a tile (no detail '{D_SPLIT}')")));
         };
         if id != m.split {
-            bail!(
-                "{name}: a tile of another split ({id}; the manifest's is {})",
-                m.split
-            );
+            return Err(bad(
+                &name,
+                format!(
+                    "a tile of another split ({id}; the manifest's is {})",
+                    m.split
+                ),
+            ));
         }
         let t = match detail(D_TILE) {
             Some(DetailValue::I32(t)) if t >= 0 && (t as usize) < m.tiles.len() => t as usize,
-            other => bail!("{name}: detail '{D_TILE}' is {other:?}, not a tile of the manifest"),
+            other => {
+                return Err(bad(
+                    &name,
+                    format!("detail '{D_TILE}' is {other:?}, not a tile of the manifest"),
+                ))
+            }
         };
         if let Some(c) = &by_tile[t] {
-            bail!("{name}: tile {t} again (also {})", c.name);
+            return Err(bad(&name, format!("tile {t} again (also {})", c.name)));
         }
         let Some(v) = h.elements.iter().position(|e| e.name == POINTS) else {
-            bail!("{name}: no '{POINTS}' element");
+            return Err(bad(&name, format!("no '{POINTS}' element")));
         };
         if let Some(e) = h.elements.iter().find(|e| e.name != POINTS) {
-            bail!(
-                "{name}: element '{}' in a tile (tiles hold points only)",
-                e.name
-            );
+            return Err(bad(
+                &name,
+                format!("element '{}' in a tile (tiles hold points only)", e.name),
+            ));
         }
         let want = m.tiles[t].owned + m.tiles[t].halo;
         if h.elements[v].count != want {
-            bail!(
-                "{name}: {} points, but the manifest's tile {t} has {want} ({} owned, {} halo)",
-                h.elements[v].count,
-                m.tiles[t].owned,
-                m.tiles[t].halo
-            );
+            return Err(bad(
+                &name,
+                format!(
+                    "{} points, but the manifest's tile {t} has {want} ({} owned, {} halo)",
+                    h.elements[v].count, m.tiles[t].owned, m.tiles[t].halo
+                ),
+            ));
         }
         by_tile[t] = Some(Cursor {
             name,
@@ -155,12 +164,12 @@ pub fn merge(
         });
     }
     if let Some(t) = by_tile.iter().position(|c| c.is_none()) {
-        bail!(
+        return Err(Error::invalid(format!(
             "tile {t} is missing ({} in the manifest): {} of {} tiles given",
             m.tiles[t].file,
             by_tile.iter().flatten().count(),
             m.tiles.len()
-        );
+        )));
     }
     let mut tiles: Vec<Cursor> = by_tile.into_iter().flatten().collect();
 
@@ -169,8 +178,18 @@ pub fn merge(
     for (a, ty) in [(HALO, "uchar"), (INDEX, "uint")] {
         match schema0.attr(a) {
             Some(x) if x.type_name() == ty => {}
-            Some(x) => bail!("{}: '{a}' is {}, not {ty}", tiles[0].name, x.type_name()),
-            None => bail!("{}: no '{a}' (a stage dropped it?)", tiles[0].name),
+            Some(x) => {
+                return Err(bad(
+                    &tiles[0].name,
+                    format!("'{a}' is {}, not {ty}", x.type_name()),
+                ))
+            }
+            None => {
+                return Err(bad(
+                    &tiles[0].name,
+                    format!("no '{a}' (a stage dropped it?)"),
+                ))
+            }
         }
     }
     let details0 = tile_details(&tiles[0].r.header().detail);
@@ -196,7 +215,7 @@ pub fn merge(
                         schema0.attrs().len()
                     )
                 });
-            bail!("{}: {diff}", c.name);
+            return Err(bad(&c.name, diff));
         }
         let d = tile_details(&c.r.header().detail);
         if d != details0 {
@@ -205,11 +224,13 @@ pub fn merge(
                 .find(|x| !details0.contains(x))
                 .or_else(|| details0.iter().find(|x| !d.contains(x)))
                 .map_or("order".to_string(), |x| format!("'{}'", x.name));
-            bail!(
-                "{}: detail {what} differs from {}'s: tiles of one bake agree on their details",
-                c.name,
-                tiles[0].name
-            );
+            return Err(bad(
+                &c.name,
+                format!(
+                    "detail {what} differs from {}'s: tiles of one bake agree on their details",
+                    tiles[0].name
+                ),
+            ));
         }
     }
 
@@ -220,7 +241,7 @@ pub fn merge(
     let mut rest = match &m.rest {
         Some(f) => {
             let path = dir.join(f);
-            Some(open(&path).with_context(|| path.display().to_string())?)
+            Some(open(&path).map_err(|e| e.about(&path.display().to_string()))?)
         }
         None => None,
     };
@@ -232,20 +253,17 @@ pub fn merge(
             continue;
         }
         let Some(r) = rest.as_ref() else {
-            bail!(
-                "{}: element '{}' but no rest file",
-                dir.join(super::MANIFEST).display(),
-                e.name
-            );
+            return Err(bad(
+                &dir.join(super::MANIFEST).display().to_string(),
+                format!("element '{}' but no rest file", e.name),
+            ));
         };
         let def = r.header().elements.get(rest_k);
         if def.is_none_or(|d| d.name != e.name || d.count != e.count) {
-            bail!(
-                "{}: does not hold element '{}' of {} rows",
+            return Err(bad(
                 m.rest.as_deref().unwrap_or(""),
-                e.name,
-                e.count
-            );
+                format!("does not hold element '{}' of {} rows", e.name, e.count),
+            ));
         }
         elements.push(r.schema_of(rest_k)?);
         rest_k += 1;
@@ -266,11 +284,10 @@ pub fn merge(
             let mut done = 0;
             while done < e.count {
                 let Some((_, el)) = r.next_chunk(CHUNK)? else {
-                    bail!(
-                        "{}: ends inside element '{}'",
+                    return Err(bad(
                         m.rest.as_deref().unwrap_or(""),
-                        e.name
-                    );
+                        format!("ends inside element '{}'", e.name),
+                    ));
                 };
                 done += el.len() as u64;
                 write_body(out, &el, enc)?;
@@ -295,11 +312,7 @@ pub fn merge(
                             break;
                         }
                         if c.last.is_some_and(|l| idx <= l) {
-                            bail!(
-                                "{}: point index {idx} after {}: a tile's points must stay in the order the split wrote them",
-                                c.name,
-                                c.last.expect("checked")
-                            );
+                            return Err(bad(&c.name, format!("point index {idx} after {}: a tile's points must stay in the order the split wrote them", c.last.expect("checked"))));
                         }
                         c.last = Some(idx);
                         let chunk = c.chunk.as_ref().expect("peeked");
@@ -314,7 +327,7 @@ pub fn merge(
                         };
                         let slot = &mut slots[(idx as u64 - next) as usize];
                         if *slot != EMPTY {
-                            bail!("{}: point {idx} is owned by two tiles", c.name);
+                            return Err(bad(&c.name, format!("point {idx} is owned by two tiles")));
                         }
                         *slot = (p, c.at as u32);
                     }
@@ -322,10 +335,10 @@ pub fn merge(
                 }
             }
             if let Some(k) = slots.iter().position(|s| *s == EMPTY) {
-                bail!(
+                return Err(Error::invalid(format!(
                     "point {} is in no tile: the tiles do not match their manifest",
                     next + k as u64
-                );
+                )));
             }
             let refs: Vec<&Element> = parts.iter().map(|p| p.as_ref()).collect();
             let mut el = Element::gather_from(&refs, &slots);
@@ -338,11 +351,10 @@ pub fn merge(
         for c in tiles.iter_mut() {
             while let Some((halo, idx)) = c.peek()? {
                 if !halo {
-                    bail!(
-                        "{}: point index {idx}, but the input had {} points",
-                        c.name,
-                        m.points
-                    );
+                    return Err(bad(
+                        &c.name,
+                        format!("point index {idx}, but the input had {} points", m.points),
+                    ));
                 }
                 c.at += 1;
             }
@@ -351,10 +363,10 @@ pub fn merge(
     progress.finish();
     if let Some(r) = rest.as_mut() {
         if r.next_chunk(CHUNK)?.is_some() {
-            bail!(
-                "{}: more rows than the manifest says",
-                m.rest.as_deref().unwrap_or("")
-            );
+            return Err(bad(
+                m.rest.as_deref().unwrap_or(""),
+                "more rows than the manifest says".to_string(),
+            ));
         }
     }
     Ok(m)

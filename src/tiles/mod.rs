@@ -20,28 +20,19 @@
 
 pub mod merge;
 pub mod reach;
+pub mod request;
 pub mod split;
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::cloud::Cloud;
 use crate::error::{Error, Result};
 
 pub use merge::merge;
-pub use split::{split, SplitOptions};
+pub use request::{ForRequest, Request};
+pub use split::{split, SplitOptions, TileCount};
 
-/// Per point: 1 for a halo point (a source, never a receiver), 0 for a
-/// point the tile owns (uchar).
-pub const HALO: &str = "pctile_halo";
-/// Per point: its row in the input (uint).
-pub const INDEX: &str = "pctile_index";
-/// Detail: the split's id (str), the manifest's checksum.
-pub const D_SPLIT: &str = "pctile_split";
-/// Detail: the tile's number (i32).
-pub const D_TILE: &str = "pctile_tile";
-/// Detail: the halo's width (f64).
-pub const D_HALO: &str = "pctile_halo_width";
+pub use crate::names::{D_HALO, D_SPLIT, D_TILE, HALO, INDEX};
 
 /// The manifest's `format` value.
 pub const FORMAT: &str = "pcsss-tiles 1";
@@ -128,33 +119,33 @@ impl Manifest {
 
     /// Reads and checks `DIR/manifest.json`: its format, its checksum
     /// (a manifest edited by hand is refused) and its tiles' numbering.
-    pub fn read(dir: &std::path::Path) -> anyhow::Result<Manifest> {
+    pub fn read(dir: &std::path::Path) -> Result<Manifest> {
         let path = dir.join(MANIFEST);
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(&path).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-        let m: Manifest =
-            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+        let bad = |what: String| Error::invalid(what).about(&name);
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::from(e).about(&name))?;
+        let m: Manifest = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
         if m.format != FORMAT {
-            anyhow::bail!("{name}: format '{}', not '{FORMAT}'", m.format);
+            return Err(bad(format!("format '{}', not '{FORMAT}'", m.format)));
         }
         let sum = m.checksum();
         if sum != m.split {
-            anyhow::bail!(
-                "{name}: its checksum is {sum} but it says split {}: the manifest was edited after the split (split again)",
+            return Err(bad(format!(
+                "its checksum is {sum} but it says split {}: the manifest was edited after the split (split again)",
                 m.split
-            );
+            )));
         }
         for (i, t) in m.tiles.iter().enumerate() {
             if t.index as usize != i {
-                anyhow::bail!("{name}: tile {i} is numbered {}", t.index);
+                return Err(bad(format!("tile {i} is numbered {}", t.index)));
             }
         }
         let owned: u64 = m.tiles.iter().map(|t| t.owned).sum();
         if owned != m.points {
-            anyhow::bail!(
-                "{name}: the tiles own {owned} points, the input had {}",
+            return Err(bad(format!(
+                "the tiles own {owned} points, the input had {}",
                 m.points
-            );
+            )));
         }
         Ok(m)
     }
@@ -285,63 +276,6 @@ impl Plan {
                         len += 1;
                     }
                 }
-            }
-        }
-    }
-}
-
-/// For a stage run on a tile: which points it computes (the owned ones,
-/// `true`), or `None` for a cloud that is not a tile. Checks first that
-/// the tile's halo is at least `reach`, the farthest a source can be from
-/// a receiver in the stage (`what` says whose reach it is, for the error).
-pub fn halo_mask(cloud: &Cloud, reach: Option<f64>, what: &str) -> Result<Option<Vec<bool>>> {
-    let pts = cloud.points();
-    if !pts.has(HALO) {
-        return Ok(None);
-    }
-    let width = cloud.detail(D_HALO).and_then(|d| d.as_f64());
-    match (reach, width) {
-        (_, None) => {
-            return Err(Error::invalid(format!(
-                "the cloud has '{HALO}' but no detail '{D_HALO}': not a tile pctile split made"
-            )))
-        }
-        (None, Some(_)) => {
-            return Err(Error::invalid(format!(
-                "{what} has no bounded reach, so a tile's halo cannot hold its sources: run it on the whole cloud"
-            )))
-        }
-        (Some(r), Some(w)) if w < r => {
-            return Err(Error::invalid(format!(
-                "the tile's halo ({D_HALO} {w}) is narrower than {what} ({r}): split again with --halo {r} or more"
-            )))
-        }
-        _ => {}
-    }
-    owned(cloud)
-}
-
-/// Which points of a tile it owns (`pctile_halo` 0), or `None` for a
-/// cloud that is not a tile.
-pub fn owned(cloud: &Cloud) -> Result<Option<Vec<bool>>> {
-    let pts = cloud.points();
-    if !pts.has(HALO) {
-        return Ok(None);
-    }
-    let col = pts.scalar_column(HALO)?.column();
-    Ok(Some(match col.as_slice::<u8>() {
-        Some(h) => h.iter().map(|&h| h == 0).collect(),
-        None => (0..col.len()).map(|i| col.get_f64(i) == 0.0).collect(),
-    }))
-}
-
-/// Zeroes the rows of `rows` a tile does not own (`mask` false): a
-/// stage's value at a halo point is not computed, and the merge drops it.
-pub fn clear_halo(rows: &mut [[f32; 3]], mask: Option<&[bool]>) {
-    if let Some(m) = mask {
-        for (r, &own) in rows.iter_mut().zip(m) {
-            if !own {
-                *r = [0.0; 3];
             }
         }
     }

@@ -7,15 +7,15 @@ use std::fs::File;
 use std::io::{BufReader, BufWriter, Write};
 use std::path::Path;
 
-use anyhow::{bail, Context};
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{ElementEntry, ForStage, Manifest, Plan, Tile, D_HALO, D_SPLIT, D_TILE, FORMAT};
 use super::{HALO, INDEX, MANIFEST, MAX_TILES};
-use crate::cli::output::Staged;
 use crate::cloud::{Attribute, Cloud, DetailValue, Element, POINTS};
 use crate::column::Column;
+use crate::error::{Error, Result};
+use crate::files::Staged;
 use crate::formats::ply::read::PlyChunks;
 use crate::formats::ply::write::{header_text_with, write_body};
 use crate::formats::Encoding;
@@ -35,8 +35,10 @@ pub enum TileCount {
     Size(u64),
     /// The fewest whose largest tile, halo included, a stage can bake in
     /// `bytes` of memory at `per_point` bytes a point (plus
-    /// [`BASE_MEMORY`]), as estimated from the sample.
-    Memory { bytes: u64, per_point: u64 },
+    /// [`BASE_MEMORY`]), as estimated from the sample; by default, the
+    /// measured figure of the stage the halo is for ([`point_bytes`]),
+    /// else [`DEFAULT_POINT_BYTES`].
+    Memory { bytes: u64, per_point: Option<u64> },
 }
 
 /// What a stage's process holds besides its points (the binary, its
@@ -52,6 +54,9 @@ pub fn point_bytes(stage: &str) -> Option<u64> {
         _ => None,
     }
 }
+
+/// A point's bytes in a stage not measured: more than any measured.
+pub const DEFAULT_POINT_BYTES: u64 = 400;
 
 /// ssmulti's resident memory a point, with a margin (measured:
 /// benches/results/tiles.txt).
@@ -94,7 +99,7 @@ fn tiles_for_memory(
     h: f64,
     bytes: u64,
     per_point: u64,
-) -> anyhow::Result<usize> {
+) -> Result<usize> {
     let need = |t: usize| -> u64 {
         let mut s = sample.to_vec();
         let plan = Plan::new(&mut s, lo, hi, t);
@@ -106,19 +111,21 @@ fn tiles_for_memory(
         BASE_MEMORY + most * stride * per_point
     };
     if bytes <= BASE_MEMORY {
-        return Err(crate::Error::param(
-            "--tile-memory",
+        return Err(Error::param(
+            "tile_memory",
             format!("{bytes} bytes: a stage needs more than {BASE_MEMORY} besides its points"),
-        )
-        .into());
+        ));
     }
     let mut t = 1;
     while need(t) > bytes {
         if t >= MAX_TILES {
-            bail!(
-                "--tile-memory {bytes}: even {MAX_TILES} tiles need {} bytes each (the halo alone outgrows the budget: give more memory, or a narrower reach)",
-                need(MAX_TILES)
-            );
+            return Err(Error::param(
+                "tile_memory",
+                format!(
+                    "{bytes}: even {MAX_TILES} tiles need {} bytes each (the halo alone outgrows the budget: give more memory, or a narrower reach)",
+                    need(MAX_TILES)
+                ),
+            ));
         }
         t = (t * 2).min(MAX_TILES);
     }
@@ -146,28 +153,32 @@ pub struct SplitOptions {
     pub for_stage: Option<ForStage>,
 }
 
-fn open(path: &Path) -> anyhow::Result<PlyChunks<BufReader<File>>> {
+fn open(path: &Path) -> Result<PlyChunks<BufReader<File>>> {
     let f = File::open(path)?;
     if f.metadata()?.is_dir() {
-        bail!("is a directory");
+        return Err(Error::invalid("is a directory"));
     }
     let mut r = BufReader::with_capacity(1 << 20, f);
     let head = std::io::BufRead::fill_buf(&mut r)?;
     match crate::formats::sniff(head) {
         Some(crate::formats::Kind::Ply) => {}
-        Some(_) => bail!("pctile reads PLY only (convert with pcconvert first)"),
-        None if head.is_empty() => bail!("empty file"),
-        None => bail!("not a PLY file (unrecognised first bytes)"),
+        Some(_) => {
+            let why = "pctile reads PLY only (convert with pcconvert first)";
+            return Err(Error::unsupported(why));
+        }
+        None if head.is_empty() => return Err(Error::truncated("empty file")),
+        None => return Err(Error::invalid("not a PLY file (unrecognised first bytes)")),
     }
-    Ok(PlyChunks::new(r)?)
+    PlyChunks::new(r)
 }
 
 /// Positions of a chunk of points, checked finite (`base`: the chunk's
 /// first row in the file).
-fn positions(el: &Element, base: u64) -> anyhow::Result<Vec<DVec3>> {
+fn positions(el: &Element, base: u64) -> Result<Vec<DVec3>> {
     let p = el.vec3_f64("P")?;
     if let Some(i) = p.iter().position(|q| !q.iter().all(|x| x.is_finite())) {
-        bail!("point {}: P is {:?}, not finite", base + i as u64, p[i]);
+        let what = format!("point {}: P is {:?}, not finite", base + i as u64, p[i]);
+        return Err(Error::invalid(what));
     }
     Ok(p.into_iter().map(DVec3::from_array).collect())
 }
@@ -188,59 +199,51 @@ pub fn split(
     dir: &Path,
     opt: &SplitOptions,
     progress: &Progress,
-) -> anyhow::Result<Manifest> {
+) -> Result<Manifest> {
     if !(opt.halo.is_finite() && opt.halo >= 0.0) {
-        return Err(crate::Error::param(
-            "--halo",
-            format!("{}: must be a finite width >= 0", opt.halo),
-        )
-        .into());
+        let what = format!("{}: must be a finite width >= 0", opt.halo);
+        return Err(Error::param("halo", what));
     }
-    let at = |e: anyhow::Error| e.context(input_name.to_string());
+    let at = |e: Error| e.about(input_name);
     // Pass 1: the box and the sample.
     let mut r = open(input).map_err(at)?;
     let header = r.header().clone();
     let Some(v) = header.elements.iter().position(|e| e.name == POINTS) else {
-        bail!("{input_name}: no '{POINTS}' element: nothing to tile");
+        let what = format!("no '{POINTS}' element: nothing to tile");
+        return Err(at(Error::invalid(what)));
     };
     let count = header.elements[v].count;
     if count > u32::MAX as u64 {
-        bail!(
-            "{input_name}: {count} points; a split holds at most {} (its index is a uint)",
+        let what = format!(
+            "{count} points; a split holds at most {} (its index is a uint)",
             u32::MAX
         );
+        return Err(at(Error::unsupported(what)));
     }
     if let Some(p) = header.elements[v]
         .props
         .iter()
         .find(|p| p.name == HALO || p.name == INDEX)
     {
-        bail!(
-            "{input_name}: already a tile (it has '{}'): merge it first",
-            p.name
-        );
+        let what = format!("already a tile (it has '{}'): merge it first", p.name);
+        return Err(at(Error::invalid(what)));
     }
     let mut tiles = match opt.tiles {
         TileCount::Tiles(n) => n,
-        TileCount::Size(0) => {
-            return Err(crate::Error::param("--tile-size", "must be at least 1 point").into())
-        }
+        TileCount::Size(0) => return Err(Error::param("tile_size", "must be at least 1 point")),
         TileCount::Size(s) => count.div_ceil(s).max(1) as usize,
-        TileCount::Memory { per_point: 0, .. } => {
-            return Err(crate::Error::param("--point-bytes", "must be at least 1").into())
-        }
+        TileCount::Memory {
+            per_point: Some(0), ..
+        } => return Err(Error::param("point_bytes", "must be at least 1")),
         TileCount::Memory { .. } => 1,
     };
     if !(1..=MAX_TILES).contains(&tiles) {
-        let flag = match opt.tiles {
-            TileCount::Tiles(_) => "--tiles",
-            _ => "--tile-size",
+        let name = match opt.tiles {
+            TileCount::Tiles(_) => "tiles",
+            _ => "tile_size",
         };
-        return Err(crate::Error::param(
-            flag,
-            format!("{tiles} tiles: must make 1 to {MAX_TILES}"),
-        )
-        .into());
+        let what = format!("{tiles} tiles: must make 1 to {MAX_TILES}");
+        return Err(Error::param(name, what));
     }
     let only_p = crate::formats::Select::only(&["P"]);
     let stride = count.div_ceil(SAMPLE).max(1);
@@ -248,10 +251,7 @@ pub fn split(
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut seen = 0u64;
     progress.start("split: the box", count);
-    while let Some((el, chunk)) = r
-        .next_chunk_with(CHUNK, &only_p)
-        .map_err(|e| at(e.into()))?
-    {
+    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p).map_err(at)? {
         if el != v {
             continue;
         }
@@ -271,6 +271,9 @@ pub fn split(
         (lo, hi) = (DVec3::ZERO, DVec3::ZERO);
     }
     if let TileCount::Memory { bytes, per_point } = opt.tiles {
+        let per_point = per_point
+            .or_else(|| opt.for_stage.as_ref().and_then(|f| point_bytes(&f.stage)))
+            .unwrap_or(DEFAULT_POINT_BYTES);
         tiles = tiles_for_memory(&sample, stride, (lo, hi), opt.halo, bytes, per_point)?;
     }
     let plan = Plan::new(&mut sample, lo, hi, tiles);
@@ -282,10 +285,7 @@ pub fn split(
     let mut counts = vec![[0u64; 2]; tiles];
     let mut base = 0u64;
     progress.start("split: counting", count);
-    while let Some((el, chunk)) = r
-        .next_chunk_with(CHUNK, &only_p)
-        .map_err(|e| at(e.into()))?
-    {
+    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p).map_err(at)? {
         if el != v {
             continue;
         }
@@ -300,7 +300,8 @@ pub fn split(
     }
     progress.finish();
     if base != seen {
-        bail!("{input_name}: changed while it was split ({seen} points, then {base})");
+        let what = format!("changed while it was split ({seen} points, then {base})");
+        return Err(at(Error::invalid(what)));
     }
     let others: Vec<usize> = (0..header.elements.len()).filter(|&i| i != v).collect();
     let mut manifest = Manifest {
@@ -338,10 +339,10 @@ pub fn split(
     manifest.split = manifest.checksum();
 
     // Pass 3: the tiles.
-    std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::from(e).about(&dir.display().to_string()))?;
     let mut r = open(input).map_err(at)?;
     let vschema = {
-        let mut el = r.schema_of(v).map_err(|e| at(e.into()))?;
+        let mut el = r.schema_of(v).map_err(at)?;
         el.set(Attribute::scalar(HALO, Column::U8(Vec::new())))?;
         el.set(Attribute::scalar(INDEX, Column::U32(Vec::new())))?;
         el
@@ -379,9 +380,7 @@ pub fn split(
                 obj_info: Vec::new(),
             };
             for &i in &others {
-                cloud
-                    .elements
-                    .push(r.schema_of(i).map_err(|e| at(e.into()))?);
+                cloud.elements.push(r.schema_of(i).map_err(at)?);
             }
             let counts: Vec<u64> = others.iter().map(|&i| header.elements[i].count).collect();
             let text = header_text_with(&cloud, Encoding::BinaryLe, |k, _| counts[k])?;
@@ -399,7 +398,7 @@ pub fn split(
         .map(|s| BufWriter::with_capacity(1 << 20, s.file()));
     let mut base = 0u64;
     progress.start("split: writing tiles", count);
-    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(|e| at(e.into()))? {
+    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(at)? {
         if el != v {
             let w = rest_w.as_mut().expect("a rest file for other elements");
             write_body(w, &chunk, Encoding::BinaryLe)?;
@@ -446,7 +445,8 @@ pub fn split(
     }
     progress.finish();
     if base != seen {
-        bail!("{input_name}: changed while it was split ({seen} points, then {base})");
+        let what = format!("changed while it was split ({seen} points, then {base})");
+        return Err(at(Error::invalid(what)));
     }
     for w in writers.iter_mut() {
         w.flush()?;
@@ -456,7 +456,7 @@ pub fn split(
         w.flush()?;
     }
     drop(rest_w);
-    let text = serde_json::to_string_pretty(&manifest)? + "\n";
+    let text = serde_json::to_string_pretty(&manifest).expect("a manifest serialises") + "\n";
     let m = Staged::write(&dir.join(MANIFEST), |w| Ok(w.write_all(text.as_bytes())?))?;
     for s in staged.into_iter().chain(rest_staged).chain([m]) {
         s.commit()?;

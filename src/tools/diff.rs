@@ -81,7 +81,7 @@ pub fn unknown_names(a: &Cloud, b: &Cloud, opt: &Options) -> Vec<(&'static str, 
             .any(|c| c.elements.iter().any(|e| e.attr(n).is_some()) || c.detail(n).is_some())
     };
     let mut out = Vec::new();
-    for (flag, names) in [("--only", &opt.only), ("--ignore", &opt.ignore)] {
+    for (flag, names) in [("only", &opt.only), ("ignore", &opt.ignore)] {
         out.extend(
             names
                 .iter()
@@ -91,7 +91,7 @@ pub fn unknown_names(a: &Cloud, b: &Cloud, opt: &Options) -> Vec<(&'static str, 
     }
     let mut tols: Vec<&String> = opt.per_attr.keys().filter(|n| !known(n)).collect();
     tols.sort();
-    out.extend(tols.into_iter().map(|n| ("--tol", n.clone())));
+    out.extend(tols.into_iter().map(|n| ("tol", n.clone())));
     out
 }
 

@@ -141,7 +141,7 @@ fn half_on_request_rounds_to_half() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.contains("--half") && e.contains("id"), "{e}");
+    assert!(e.contains("parameter half") && e.contains("id"), "{e}");
 }
 
 #[test]

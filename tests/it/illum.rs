@@ -569,6 +569,6 @@ fn light_masks_take_brace_alternatives_and_quoted_names() {
     assert_eq!(m("key,rim"), Ok(vec![0, 1]));
     for bad in ["{key,rim", "\"fill", "nosuch"] {
         let e = m(bad).unwrap_err();
-        assert!(e.contains("--lmask"), "{bad}: {e}");
+        assert!(e.contains("parameter lmask"), "{bad}: {e}");
     }
 }

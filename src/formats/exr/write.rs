@@ -70,10 +70,10 @@ pub fn write_exr<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, opt: &ExrOptions) 
     let n = pts.len();
     for h in &opt.half {
         match pts.attr(h) {
-            None => return Err(Error::param("--half", format!("no point attribute '{h}'"))),
+            None => return Err(Error::param("half", format!("no point attribute '{h}'"))),
             Some(a) if !a_is_float(a) => {
                 return Err(Error::param(
-                    "--half",
+                    "half",
                     format!("attribute '{h}' is not a float attribute"),
                 ))
             }
@@ -87,7 +87,7 @@ pub fn write_exr<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, opt: &ExrOptions) 
                         x.is_finite() && x.abs() > max
                     }) {
                         return Err(Error::param(
-                            "--half",
+                            "half",
                             format!(
                                 "attribute '{h}' is {:e} at point {i}, beyond a half's range ({max})",
                                 col.get_f64(i)

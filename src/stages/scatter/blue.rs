@@ -113,8 +113,8 @@ const PAIRS_RESERVED: usize = 8;
 
 /// Of the candidates `cand` (points on a surface of area `area`) keeps
 /// `n`: their indices, in the grid's (Morton) order, which keeps
-/// neighbours near each other in memory for what follows. `param` names the option that asked
-/// for the count, for the error when the pairs would not fit in memory.
+/// neighbours near each other in memory for what follows. `param` names the parameter that
+/// asked for the count, for the error when the pairs would not fit in memory.
 pub fn eliminate(
     cand: Vec<DVec3>,
     n: usize,

@@ -154,14 +154,14 @@ pub enum Amount {
 pub fn count_for_density(density: f64, area: f64) -> Result<usize> {
     if !(density.is_finite() && density >= 0.0) {
         return Err(Error::param(
-            "--density",
+            "density",
             format!("{density:?} is not a finite number >= 0"),
         ));
     }
     let n = (density * area).round();
     if n > MAX_POINTS as f64 {
         return Err(Error::param(
-            "--density",
+            "density",
             format!("asks for {n:e} points (at most {MAX_POINTS})"),
         ));
     }
@@ -200,7 +200,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     let n = match p.amount {
         Amount::Count(n) if n > MAX_POINTS => {
             return Err(Error::param(
-                "--count",
+                "count",
                 format!("{n} is more than {MAX_POINTS}"),
             ));
         }
@@ -209,14 +209,14 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     };
     // The option that set the count, for errors about it.
     let flag = if matches!(p.amount, Amount::Density(_)) {
-        "--density"
+        "density"
     } else {
-        "--count"
+        "count"
     };
     let (lo, hi) = CANDIDATES_RANGE;
     if p.blue && !(p.candidates >= lo && p.candidates <= hi) {
         return Err(Error::param(
-            "--candidates",
+            "candidates",
             format!("{:?} is not a number from {lo} to {hi}", p.candidates),
         ));
     }

@@ -170,6 +170,15 @@ impl Default for Params {
     }
 }
 
+impl Params {
+    /// The farthest a source can be from a point whose `ssM` it changes:
+    /// the kernel's truncation at the largest distance `max(Rd * sd)`
+    /// ([`reach`]). A tile's halo must be at least this wide.
+    pub fn reach(&self) -> f64 {
+        reach(self.falloff, Distances::of(self).ld1)
+    }
+}
+
 /// What `ssmulti` did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Report {
@@ -195,12 +204,12 @@ pub const MAX_TOLERANCE: f64 = 0.5;
 /// Points per leaf (a multiple of the lane count).
 pub const LEAF: usize = 64;
 
-/// Checks the parameters; errors name the option.
+/// Checks the parameters; an error names the one at fault.
 pub fn validate(p: &Params) -> Result<()> {
     for (c, &x) in p.rd.iter().enumerate() {
         if !(x.is_finite() && x >= 0.0) {
             return Err(Error::param(
-                "--rd",
+                "rd",
                 format!("channel {c} is {x:?}: not a finite number >= 0"),
             ));
         }
@@ -211,7 +220,7 @@ pub fn validate(p: &Params) -> Result<()> {
     // its limit is.)
     if !(p.sd.is_finite() && p.sd > 0.0) {
         return Err(Error::param(
-            "--sd",
+            "sd",
             format!(
                 "{:?} is not a finite distance > 0 (as sd -> 0, ssM tends to Rd * illum, which the kernel sum cannot give)",
                 p.sd
@@ -220,7 +229,7 @@ pub fn validate(p: &Params) -> Result<()> {
     }
     if !(p.bounce.is_finite() && (0.0..=1.0).contains(&p.bounce)) {
         return Err(Error::param(
-            "--bounce",
+            "bounce",
             format!("{:?} is not in [0, 1]", p.bounce),
         ));
     }
@@ -228,7 +237,7 @@ pub fn validate(p: &Params) -> Result<()> {
         Falloff::Exp { sigma: k } | Falloff::Burley { kappa: k }
             if !(k.is_finite() && k > 0.0 && k <= 1e6) =>
         {
-            return Err(Error::param("--sigma", format!("{k:?} is not in (0, 1e6]")));
+            return Err(Error::param("sigma", format!("{k:?} is not in (0, 1e6]")));
         }
         _ => {}
     }
@@ -246,7 +255,7 @@ pub fn validate(p: &Params) -> Result<()> {
         };
         if !ok {
             return Err(Error::param(
-                "--sd",
+                "sd",
                 format!(
                     "Rd * sd = {d:e} is too small for the float pair loop (the smooth falloff needs at least 5.5e-20): give the scene in larger units"
                 ),
@@ -255,7 +264,7 @@ pub fn validate(p: &Params) -> Result<()> {
     }
     if !(p.tolerance.is_finite() && (0.0..=MAX_TOLERANCE).contains(&p.tolerance)) {
         return Err(Error::param(
-            "--tolerance",
+            "tolerance",
             format!("{:?} is not in [0, {MAX_TOLERANCE}]", p.tolerance),
         ));
     }
@@ -268,8 +277,7 @@ pub fn validate(p: &Params) -> Result<()> {
 /// tile's own points are computed: halo points are sources, and get 0.
 pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Report> {
     validate(p)?;
-    let reach = crate::tiles::reach::ssmulti_reach(p);
-    let own = crate::tiles::halo_mask(cloud, Some(reach), "ssmulti's reach")?;
+    let own = crate::halo::halo_mask(cloud, Some(p.reach()), "ssmulti's reach")?;
     let (mut out, report) = ssmulti_columns(cloud, p, own.as_deref(), progress)?;
     if let Some(own) = &own {
         for c in out.iter_mut() {

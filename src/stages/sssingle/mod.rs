@@ -119,7 +119,7 @@ pub struct Report {
     pub eye_inside: bool,
 }
 
-/// Checks the parameters; errors name the option.
+/// Checks the parameters; an error names the one at fault.
 pub fn validate(p: &Params) -> Result<()> {
     let rgb_in = |name: &str, v: [f64; 3], ok: &dyn Fn(f64) -> bool, what: &str| -> Result<()> {
         match v.iter().position(|&x| !ok(x)) {
@@ -132,48 +132,48 @@ pub fn validate(p: &Params) -> Result<()> {
     };
     if !(p.eta.is_finite() && p.eta > 0.0 && p.eta <= 1e3) {
         return Err(Error::param(
-            "--eta",
+            "eta",
             format!("{:?} is not in (0, 1e3]", p.eta),
         ));
     }
     if !(p.g.is_finite() && (-1.0..=1.0).contains(&p.g)) {
-        return Err(Error::param("--g", format!("{:?} is not in [-1, 1]", p.g)));
+        return Err(Error::param("g", format!("{:?} is not in [-1, 1]", p.g)));
     }
     if !(1..=MAX_SAMPLES).contains(&p.samples) {
         return Err(Error::param(
-            "--samples",
+            "samples",
             format!("{} is not in 1..={MAX_SAMPLES}", p.samples),
         ));
     }
     if !p.eye.is_finite() {
-        return Err(Error::param("--eye", format!("{:?} is not finite", p.eye)));
+        return Err(Error::param("eye", format!("{:?} is not finite", p.eye)));
     }
     if !(p.cusp.is_finite() && (0.0..=180.0).contains(&p.cusp)) {
         return Err(Error::param(
-            "--cusp",
+            "cusp",
             format!("{:?} is not an angle in [0, 180] degrees", p.cusp),
         ));
     }
     match p.model {
         Model::Seed => {
             let finite = |x: f64| x.is_finite() && x >= 0.0;
-            rgb_in("--rd", p.rd, &finite, "not a finite number >= 0")?;
+            rgb_in("rd", p.rd, &finite, "not a finite number >= 0")?;
             if !finite(p.sd) {
                 return Err(Error::param(
-                    "--sd",
+                    "sd",
                     format!("{:?} is not a finite number >= 0", p.sd),
                 ));
             }
         }
         Model::Physical => {
             rgb_in(
-                "--albedo",
+                "albedo",
                 p.albedo,
                 &|x| (0.0..=1.0).contains(&x),
                 "not in [0, 1]",
             )?;
             rgb_in(
-                "--mfp",
+                "mfp",
                 p.mfp,
                 &|x| x.is_finite() && x > 0.0,
                 "not a finite distance > 0",
@@ -194,7 +194,7 @@ pub fn sssingle(
 ) -> Result<Report> {
     // On a tile, the tile's own points: a point's ssS needs only the
     // mesh and the lights, so any halo will do; halo points get 0.
-    let own = crate::tiles::halo_mask(cloud, Some(0.0), "sssingle")?;
+    let own = crate::halo::halo_mask(cloud, Some(0.0), "sssingle")?;
     let (out, report) = sssingle_values(cloud, mesh, lights, p, own.as_deref(), progress)?;
     cloud.points_mut().set_vec3("ssS", Role::Color, &out)?;
     cloud.set_detail("sssingle_eye", DetailValue::V3D(p.eye.to_array()));

@@ -1,13 +1,13 @@
-//! Writing outputs: atomically (a temp file beside the target, renamed
-//! into place when complete), several at once (all or none), checked before
-//! any work, and never left behind half-written when a signal (SIGINT,
-//! SIGTERM, SIGHUP) ends the process.
+//! Output files: written atomically (a temp file beside the target,
+//! renamed into place when complete), several at once (all or none),
+//! checked before any work, and never left behind half-written when a
+//! signal (SIGINT, SIGTERM, SIGHUP) ends the process.
 
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
-use anyhow::Context;
+use crate::error::{Error, Result};
 
 /// The temp files being written now: a signal removes them before the
 /// process dies.
@@ -15,7 +15,7 @@ static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// On SIGINT, SIGTERM or SIGHUP: remove the temp files in flight, then die
 /// of the signal as if it had no handler (the exit status a shell
-/// expects). Installed once, by `cli::main_of`.
+/// expects). Installed once, by the binaries (`cli::main_of`).
 pub fn remove_temps_on_signals() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
@@ -49,19 +49,30 @@ impl Drop for InFlight {
     }
 }
 
-/// Checks, before any work, that `path` can be an output: not a
-/// directory, in a directory that exists.
-pub fn check_output(path: &Path) -> anyhow::Result<()> {
-    let name = path.display().to_string();
-    if path.is_dir() {
-        anyhow::bail!("{name}: is a directory, not an output file");
-    }
-    let dir = match path.parent() {
+/// An I/O error about the file `path`.
+fn io_at(path: &Path) -> impl Fn(io::Error) -> Error + '_ {
+    move |e| Error::Io(e).about(&path.display().to_string())
+}
+
+/// The directory a file at `path` goes in.
+fn dir_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
-    };
+    }
+}
+
+/// Checks, before any work, that `path` can be an output: not a
+/// directory, in a directory that exists.
+pub fn check_output(path: &Path) -> Result<()> {
+    let name = path.display().to_string();
+    if path.is_dir() {
+        return Err(Error::invalid("is a directory, not an output file").about(&name));
+    }
+    let dir = dir_of(path);
     if !dir.is_dir() {
-        anyhow::bail!("{name}: no such directory: {}", dir.display());
+        let what = format!("no such directory: {}", dir.display());
+        return Err(Error::invalid(what).about(&name));
     }
     Ok(())
 }
@@ -69,15 +80,15 @@ pub fn check_output(path: &Path) -> anyhow::Result<()> {
 /// Writes through `body` to `path` atomically, or to stdout when `None`.
 pub fn write_output(
     path: Option<&Path>,
-    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+    body: impl FnOnce(&mut dyn Write) -> Result<()>,
+) -> Result<()> {
     match path {
         None => {
             let stdout = io::stdout();
             grow_pipe(&stdout);
             let mut w = BufWriter::with_capacity(1 << 16, stdout.lock());
             let written = body(&mut w).and_then(|()| Ok(w.flush()?));
-            written.context("<stdout>")
+            written.map_err(|e| e.about("<stdout>"))
         }
         Some(path) => write_atomic(path, body),
     }
@@ -86,20 +97,17 @@ pub fn write_output(
 /// Writes to a temp file beside `path`, then renames it into place: a
 /// failure never leaves a partial file at `path`. Devices and FIFOs are
 /// written directly.
-pub fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+pub fn write_atomic(path: &Path, body: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     // A device or FIFO (`-o /dev/null`, a named pipe) is written directly.
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        let direct = || -> anyhow::Result<()> {
+        let direct = || -> Result<()> {
             let f = std::fs::OpenOptions::new().write(true).open(path)?;
             let mut w = BufWriter::with_capacity(1 << 16, f);
             body(&mut w)?;
             w.flush()?;
             Ok(())
         };
-        return direct().with_context(|| path.display().to_string());
+        return direct().map_err(|e| e.about(&path.display().to_string()));
     }
     Staged::write(path, body)?.commit()
 }
@@ -116,16 +124,13 @@ pub struct Staged {
 
 impl Staged {
     /// Writes `body` to a temp file beside `path`.
-    pub fn write(
-        path: &Path,
-        body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
-    ) -> anyhow::Result<Staged> {
+    pub fn write(path: &Path, body: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<Staged> {
         let staged = Staged::create(path)?;
         {
             let mut w = BufWriter::with_capacity(1 << 16, staged.file());
             body(&mut w)
                 .and_then(|()| Ok(w.flush()?))
-                .with_context(|| path.display().to_string())?;
+                .map_err(|e| e.about(&path.display().to_string()))?;
         }
         Ok(staged)
     }
@@ -133,23 +138,16 @@ impl Staged {
     /// An empty temp file beside `path`, written through
     /// [`Staged::file`] (by a writer that keeps many files open, such as
     /// `pctile split`'s one a tile).
-    pub fn create(path: &Path) -> anyhow::Result<Staged> {
-        let name = path.display().to_string();
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
+    pub fn create(path: &Path) -> Result<Staged> {
         // Created and registered under the lock the signal handler takes:
-        // a signal between the two would otherwise leave the file behind
-        // (seen once in the signal test, on a machine losing time to its
-        // hypervisor).
+        // a signal between the two would otherwise leave the file behind.
         let (tmp, in_flight) = {
             let mut v = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
             let tmp = tempfile::Builder::new()
                 .prefix(".pcsss-")
                 .suffix(".tmp")
-                .tempfile_in(dir)
-                .with_context(|| name.clone())?;
+                .tempfile_in(dir_of(path))
+                .map_err(io_at(path))?;
             v.push(tmp.path().to_path_buf());
             let in_flight = InFlight(tmp.path().to_path_buf());
             (tmp, in_flight)
@@ -159,7 +157,7 @@ impl Staged {
             use std::os::unix::fs::PermissionsExt;
             tmp.as_file()
                 .set_permissions(std::fs::Permissions::from_mode(0o644))
-                .with_context(|| name.clone())?;
+                .map_err(io_at(path))?;
         }
         Ok(Staged {
             tmp,
@@ -174,24 +172,26 @@ impl Staged {
     }
 
     /// Renames the temp file into place.
-    pub fn commit(self) -> anyhow::Result<()> {
-        let name = self.path.display().to_string();
+    pub fn commit(self) -> Result<()> {
+        let path = self.path;
         self.tmp
-            .persist(&self.path)
+            .persist(&path)
             .map_err(|e| e.error)
-            .with_context(|| name)?;
+            .map_err(io_at(&path))?;
         Ok(())
     }
 }
 
 /// Asks the kernel for a 1 MiB pipe buffer when `fd` is a pipe (Linux):
-/// with the default 64 KiB, a pipe moves data at a third of the speed
-/// (measured in benches/ply_io.rs). Anything else is left alone.
+/// with the default 64 KiB, a pipe moves data several times slower
+/// (benches/ply_io.rs). Anything else is left alone.
 pub fn grow_pipe(fd: &impl std::os::fd::AsRawFd) {
     #[cfg(target_os = "linux")]
     {
         let fd = fd.as_raw_fd();
-        // SAFETY: fstat and fcntl on a descriptor we hold; failures ignored.
+        // SAFETY: fstat and fcntl on a descriptor the caller holds open;
+        // `st` is a plain C struct that fstat fills, and failures are
+        // ignored (the pipe keeps its size).
         unsafe {
             let mut st: libc::stat = std::mem::zeroed();
             if libc::fstat(fd, &mut st) == 0 && (st.st_mode & libc::S_IFMT) == libc::S_IFIFO {

@@ -1,0 +1,91 @@
+//! `pctile split --for STAGE --stage-args ARGS`: a stage's own options,
+//! parsed as the stage parses them, into the parameters that set its
+//! reach ([`crate::tiles::reach`]).
+
+use clap::{CommandFactory, Parser};
+
+use super::args::SsArgs;
+use crate::error::Error;
+use crate::tiles::reach::{StageParams, STAGES};
+
+/// `ssmulti`'s options.
+#[derive(Parser, Debug)]
+#[command(no_binary_name = true)]
+struct Multi {
+    #[command(flatten)]
+    io: super::IoArgs,
+    #[command(flatten)]
+    ss: SsArgs,
+}
+
+/// The options of `filter` that set its reach; the others are skipped.
+#[derive(Parser, Debug)]
+#[command(no_binary_name = true, ignore_errors = true)]
+struct Filter {
+    #[arg(long)]
+    nfp: Option<usize>,
+    #[arg(long, default_value_t = 0.25)]
+    radius: f64,
+    #[command(flatten)]
+    ss: SsArgs,
+}
+
+/// The parameters of `stage` given `args` (its words); an error is about
+/// `--stage-args` (or `--for`, for a stage it does not know).
+pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
+    let bad = |e: clap::Error| {
+        let text = e.render().to_string();
+        let line = text.lines().next().unwrap_or("");
+        let line = line.trim_start_matches("error: ");
+        Error::param("stage_args", format!("{stage}: {line}"))
+    };
+    Ok(match stage {
+        "ssmulti" => {
+            let a = Multi::try_parse_from(args).map_err(bad)?;
+            match a.ss.params().map_err(|e| within(stage, e))? {
+                Some(p) => StageParams::Ssmulti(p),
+                None => return Err(Error::param("stage_args", "ssmulti needs --sd").into()),
+            }
+        }
+        "filter" => {
+            let a = Filter::try_parse_from(args).map_err(bad)?;
+            StageParams::Filter {
+                nfp: a.nfp,
+                radius: a.radius,
+                multi: a.ss.params().map_err(|e| within(stage, e))?,
+            }
+        }
+        "sssingle" | "illum" => StageParams::Local,
+        _ => {
+            let what = format!("unknown stage '{stage}' (one of: {STAGES})");
+            return Err(Error::param("for_stage", what).into());
+        }
+    })
+}
+
+/// The option of `stage` that sets its parameter `name` (`--radius`).
+fn stage_flag(stage: &str, name: &str) -> Option<String> {
+    let cmd = match stage {
+        "ssmulti" => Multi::command(),
+        "filter" => Filter::command(),
+        _ => return None,
+    };
+    super::flag_of(&cmd, name)
+}
+
+/// The option of `stage` that sets its parameter `name`, as
+/// `--stage-args --radius`: how `pctile` names a stage's parameter.
+pub fn flag_of(stage: &str, name: &str) -> Option<String> {
+    stage_flag(stage, name).map(|f| format!("--stage-args {f}"))
+}
+
+/// A stage's parameter error, as an error about `--stage-args`.
+fn within(stage: &str, e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<Error>() {
+        Ok(mut lib) => {
+            lib.rename_params(&|name| stage_flag(stage, name));
+            Error::param("stage_args", format!("{stage}: {lib}")).into()
+        }
+        Err(e) => e,
+    }
+}

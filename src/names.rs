@@ -1,0 +1,55 @@
+//! The well-known attribute names and the stage that makes each: a leaf
+//! table, read by [`crate::error`] (a missing attribute names its maker)
+//! and by the stages and tiles that write them.
+
+/// Point attribute of a tile (uchar): 1 for a halo point (a source, never
+/// a receiver), 0 for a point the tile owns.
+pub const HALO: &str = "pctile_halo";
+/// Point attribute of a tile (uint): the point's row in the input.
+pub const INDEX: &str = "pctile_index";
+/// Detail of a tile: the split's id (str), the manifest's checksum.
+pub const D_SPLIT: &str = "pctile_split";
+/// Detail of a tile: the tile's number (i32).
+pub const D_TILE: &str = "pctile_tile";
+/// Detail of a tile: the halo's width (f64).
+pub const D_HALO: &str = "pctile_halo_width";
+
+/// Detail of an image cloud: its data window.
+pub const DATA_WINDOW: &str = "exr_data_window";
+/// Detail of an image cloud: its display window.
+pub const DISPLAY_WINDOW: &str = "exr_display_window";
+/// Point attribute of an image cloud: the point's pixel column.
+pub const PIXEL_X: &str = "pixel_x";
+/// Point attribute of an image cloud: the point's pixel row.
+pub const PIXEL_Y: &str = "pixel_y";
+
+/// Which stage makes each well-known attribute (`docs/DESIGN.md#stages`):
+/// an error about a missing attribute names it.
+pub const MAKERS: &[(&str, &str)] = &[
+    ("area", "measure"),
+    ("perimeter", "measure"),
+    ("Tarea", "promote"),
+    ("Tptarea", "promote"),
+    ("P", "scatter"),
+    ("ptarea", "scatter"),
+    ("sourceprim", "scatter"),
+    ("sourceuv", "scatter"),
+    ("N", "facet"),
+    ("illum", "illum"),
+    ("ssM", "ssmulti"),
+    ("ssmulti_sd", "ssmulti"),
+    ("ssmulti_rd", "ssmulti"),
+    ("ssS", "sssingle"),
+    ("beauty", "render"),
+    (PIXEL_X, "render"),
+    (PIXEL_Y, "render"),
+    (DATA_WINDOW, "render"),
+    (HALO, "pctile split"),
+    (INDEX, "pctile split"),
+    (D_HALO, "pctile split"),
+];
+
+/// The stage that makes attribute `name`, if one does.
+pub fn made_by(name: &str) -> Option<&'static str> {
+    MAKERS.iter().find(|m| m.0 == name).map(|m| m.1)
+}

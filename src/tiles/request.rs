@@ -1,0 +1,127 @@
+//! `pctile split` as it is asked for: the input a file or standard input
+//! (spooled: the split reads it three times), the halo given or taken
+//! from a stage's reach (or both, and checked), the tile count by number,
+//! size or memory, and the directory made for the tiles removed again
+//! when the split fails.
+
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use super::reach::{reach_for, StageParams, MARGIN};
+use super::split::{split, SplitOptions, TileCount};
+use super::{ForStage, Manifest};
+use crate::error::{Error, Result};
+use crate::formats::ply::read::PlyChunks;
+use crate::progress::Progress;
+
+/// The stage a halo is for (`--for`), its words (`--stage-args`) and
+/// the parameters they set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ForRequest {
+    pub stage: String,
+    pub args: Vec<String>,
+    pub params: StageParams,
+}
+
+/// A split as asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Request {
+    /// The input file; standard input when `None`.
+    pub input: Option<PathBuf>,
+    /// The input's name in messages and the manifest.
+    pub input_name: String,
+    /// The directory the tiles go to (made if missing).
+    pub dir: PathBuf,
+    pub tiles: TileCount,
+    /// The halo's width; without it, the stage's reach with a margin
+    /// ([`MARGIN`]). With both, the width must hold the reach.
+    pub halo: Option<f64>,
+    pub for_stage: Option<ForRequest>,
+}
+
+impl Request {
+    /// Splits the input into tiles in the directory. On failure a
+    /// directory this made is removed again: a failed split leaves
+    /// nothing behind.
+    pub fn run(&self, progress: &Progress) -> Result<Manifest> {
+        let dir = &self.dir;
+        let about_dir = |e: std::io::Error| Error::from(e).about(&dir.display().to_string());
+        if dir.exists() && !dir.is_dir() {
+            return Err(Error::invalid("not a directory").about(&dir.display().to_string()));
+        }
+        let made = !dir.exists();
+        std::fs::create_dir_all(dir).map_err(about_dir)?;
+        let done = self.split_into_dir(progress);
+        if done.is_err() && made {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+        done
+    }
+
+    fn split_into_dir(&self, progress: &Progress) -> Result<Manifest> {
+        let spool;
+        let path: &Path = match self.input.as_deref() {
+            Some(p) if p != Path::new("-") => p,
+            _ => {
+                spool = spool_stdin(&self.dir)?;
+                spool.path()
+            }
+        };
+        let for_stage = match &self.for_stage {
+            Some(f) => Some(ForStage {
+                stage: f.stage.clone(),
+                args: f.args.clone(),
+                reach: self.stage_reach(path, &f.params)?,
+            }),
+            None => None,
+        };
+        let halo = match (self.halo, &for_stage) {
+            (Some(h), Some(f)) if h < f.reach => {
+                let what = format!(
+                    "{h} is narrower than {}'s reach {} with those arguments",
+                    f.stage, f.reach
+                );
+                return Err(Error::param("halo", what));
+            }
+            (Some(h), _) => h,
+            (None, Some(f)) => f.reach * (1.0 + MARGIN),
+            (None, None) => {
+                let why = "give the halo's width, or the stage it is for";
+                return Err(Error::param("halo", why));
+            }
+        };
+        let opt = SplitOptions {
+            tiles: self.tiles,
+            halo,
+            for_stage,
+        };
+        split(path, &self.input_name, &self.dir, &opt, progress)
+    }
+
+    /// The reach of the stage `params` on the cloud at `path` (its
+    /// header: the details a filter radius may come from, and whether it
+    /// has `ssM`).
+    fn stage_reach(&self, path: &Path, params: &StageParams) -> Result<f64> {
+        let name = &self.input_name;
+        let f = std::fs::File::open(path).map_err(|e| Error::from(e).about(name))?;
+        let head = PlyChunks::new(BufReader::new(f)).map_err(|e| e.about(name))?;
+        let has_ssm = head.header().elements.iter().any(|e| {
+            e.name == crate::cloud::POINTS
+                && e.props.iter().any(|p| p.name == "ssM_r" || p.name == "ssM")
+        });
+        reach_for(params, &head.header().detail, has_ssm)
+    }
+}
+
+/// Standard input copied to a temp file in `dir`, removed when dropped.
+fn spool_stdin(dir: &Path) -> Result<tempfile::NamedTempFile> {
+    let about_dir = |e: std::io::Error| Error::from(e).about(&dir.display().to_string());
+    let spool = tempfile::Builder::new()
+        .prefix(".pctile-input-")
+        .tempfile_in(dir)
+        .map_err(about_dir)?;
+    let mut f = spool.as_file();
+    std::io::copy(&mut std::io::stdin().lock(), &mut f)
+        .map_err(|e| Error::from(e).about("<stdin>"))?;
+    Ok(spool)
+}
