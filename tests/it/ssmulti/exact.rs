@@ -267,5 +267,8 @@ fn the_scene_decides_the_work() {
         &Progress::hidden(),
     )
     .unwrap_err();
-    assert!(e.is_param() && e.to_string().contains("parameter sd"), "{e}");
+    assert!(
+        e.is_param() && e.to_string().contains("parameter sd"),
+        "{e}"
+    );
 }
