@@ -4,22 +4,31 @@
 //! Finding Nemo", as Mario Marengo built it in Houdini): typed point clouds
 //! that travel as PLY or OpenEXR between separate command-line stages.
 //!
+//! The modules, lowest layer first (a module uses only its own layer and
+//! those below: the repository's `docs/ARCHITECTURE.md`):
+//!
+//! - Leaves: [`names`] (attribute names and the stage that makes each),
+//!   [`maths`] (smoothstep, seeded uniform streams), [`radix`] (radix
+//!   sorts), [`progress`] (progress bars, phase times),
+//!   [`alloc`](mod@alloc) (the binaries' allocator).
 //! - [`column`](mod@column): scalar types and (lazily decoded) columns.
-//! - [`cloud`]: the point cloud: elements, attributes, detail, faces.
-//! - [`image`]: image clouds, shade points that remember their pixels.
+//! - [`cloud`]: the point cloud: elements, attributes, detail, faces;
+//!   [`error`]: the library's error; [`memory`]: memory asked for before
+//!   the work; [`image`]: image clouds, shade points that remember their
+//!   pixels; [`halo`]: the points of a tile a stage computes; [`files`]:
+//!   atomic output files.
 //! - [`formats`]: PLY (all encodings), OBJ input, OpenEXR point clouds and
-//!   shade-point images, format sniffing.
-//! - [`geom`]: triangle and polygon measures, sampling, closest points;
-//!   meshes ([`geom::mesh`]), rays against them ([`geom::bvh`]), neighbour
-//!   search over points ([`geom::kdtree`]).
-//! - [`maths`]: smoothstep and uniform numbers from seeded streams.
-//! - [`memory`]: memory asked for before the work that needs it.
+//!   shade-point images, format sniffing; [`geom`]: triangle and polygon
+//!   measures, sampling, closest points; meshes ([`geom::mesh`]), rays
+//!   against them ([`geom::bvh`]), neighbour search over points
+//!   ([`geom::grid`], [`geom::kdtree`]).
 //! - [`lights`]: the lights file, light masks, light arriving at a point.
-//! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti, filter,
-//!   render.
-//! - [`alloc`](mod@alloc): the global allocator (mimalloc, default feature).
-//! - [`cli`]: what every binary shares (I/O, messages, errors).
-//! - [`tools`]: `pcinfo` and `pcdiff`.
+//! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti,
+//!   sssingle, filter, render.
+//! - [`tiles`]: `pctile`'s split and merge, the halo a stage needs;
+//!   [`tools`]: `pcinfo` and `pcdiff`.
+//! - [`cli`]: what every binary shares (I/O paths, messages, errors,
+//!   options several stages take).
 //!
 //! What each stage computes is in the repository's `docs/DESIGN.md`; the on-disk
 //! conventions in `formats/`.

@@ -3,11 +3,11 @@
 //! Every kernel of the chain is truncated at a known reach, so a cloud cut
 //! into tiles, each with a halo of the points within that reach of it,
 //! bakes tile by tile to what the whole cloud bakes to: a tile's own
-//! points see every source they would have seen. [`split`] cuts a PLY
+//! points see every source they would have seen. [`split()`] cuts a PLY
 //! file into such tiles in three streaming passes (memory bounded by a
 //! chunk and a sample, whatever the file's size); a stage run on a tile
 //! computes its own points and treats the halo as sources only
-//! ([`halo_mask`]); [`merge`] puts the owned points of every tile back in
+//! ([`crate::halo::halo_mask`]); [`merge()`] puts the owned points of every tile back in
 //! the input's order, streaming too. The manifest, the tile files'
 //! attributes and the checks are written down in `formats/TILES.md`.
 //!

@@ -7,7 +7,7 @@
 //! cloud on one thread, which can outlast all the queries (a mesh's few
 //! thousand vertices), and descends from its root for every query.
 //!
-//! The cells are grown until there are at most [`MAX_CELLS_PER_POINT`]
+//! The cells are grown until there are at most `MAX_CELLS_PER_POINT`
 //! per point (a radius far below the points' spacing, or a box mostly
 //! empty): a query then reads more points per cell, never fewer than it
 //! should. Points within a cell keep their input order, so the answers
