@@ -162,7 +162,7 @@ fn plain_decimal(s: &str) -> Option<(bool, u64, usize)> {
 /// Decimal tokens read exactly where the digits and the power of ten are
 /// both exact in the type: one correctly rounded division then gives
 /// what `str::parse` gives (Clinger's fast path), at a fraction of its
-/// time (the dragon's vertices: by hand, 39 ns a token for `str::parse`).
+/// time (benches/results/HISTORY.md, "Measurements behind the code").
 trait PlainFloat: Sized {
     fn plain(s: &str) -> Option<Self>;
 }

@@ -18,8 +18,9 @@ use crate::disjoint::Disjoint;
 const PAR_MIN: usize = 1 << 15;
 
 /// Widest digit: 2^11 counters a chunk stay in L1. (Nine bits, five
-/// passes for 42 bits: 0.81 against 0.92 ms at 100k points but 10.5
-/// against 9.4 at 1M in ssmulti's build.)
+/// passes for 42 bits, are faster at 100k points but slower at 1M in
+/// ssmulti's build: benches/results/HISTORY.md, "Measurements behind the
+/// code".)
 const MAX_DIGIT: u32 = 11;
 
 /// From this many keys with more than one digit to sort by, the first

@@ -3,8 +3,9 @@
 //! 4-wide BVH whose nodes keep the four children's boxes as columns, and
 //! traversed here for any hit: four box tests at a time, leaves of up to
 //! four triangles with their edges precomputed. Chosen by measurement
-//! (`benches/illum.rs`, README): on the same shadow rays obvhs's own CWBVH
-//! traversal ran at 0.34-0.36 of Embree's rate, this one at 0.55-0.58.
+//! (`benches/illum.rs`; benches/results/HISTORY.md, "Measurements behind
+//! the code"): on the same shadow rays it is faster than obvhs's own
+//! CWBVH traversal, both measured as a share of Embree's rate.
 //!
 //! Precision: the BVH is f32, in the mesh's own frame `(p - centre) /
 //! scale` (centre and scale of its bounding box, computed in f64), so a

@@ -44,13 +44,13 @@ const MAX_ENTRIES: usize = 1 << 25;
 /// rounding of an f32 projection there.
 const PAD: f32 = 1e-5;
 
-/// A grid costs about 0.6 us a triangle to build, serially (by hand: 0.45-0.5
-/// s for the dragon's 871k; `benches/illum.rs`: 0.061 s for 99k). A
-/// nearest-hit ray from inside the mesh (sssingle's) saves about 0.23 us
-/// of one thread's time (`benches/sssingle.rs`: 3.19 against 12.86 M
-/// rays/s), a shadow ray from the surface (illum's) about 0.16 us (3.79
-/// against 10.24 M rays/s), and the rays run on every thread: below these
-/// many rays a triangle, a grid does not repay its building.
+/// A grid is built serially; each ray through it saves a fraction of a
+/// microsecond against the BVH (more for sssingle's nearest hits from
+/// inside the mesh than for illum's shadow rays), and the rays run on
+/// every thread: below these many rays a triangle, a grid does not repay
+/// its building (the build and ray rates in `benches/illum.rs`,
+/// `benches/sssingle.rs` and benches/results/HISTORY.md, "Measurements
+/// behind the code").
 pub const NEAREST_RAYS_PER_TRIANGLE: u64 = 4;
 /// The same for shadow rays (any hit).
 pub const SHADOW_RAYS_PER_TRIANGLE: u64 = 16;

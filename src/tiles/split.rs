@@ -42,7 +42,7 @@ pub enum TileCount {
 }
 
 /// What a stage's process holds besides its points (the binary, its
-/// libraries, buffers): about 10 MiB measured, counted as 32.
+/// libraries, buffers), with a margin (benches/results/tiles.txt).
 pub const BASE_MEMORY: u64 = 32 << 20;
 
 /// Bytes a point at the peak of `stage` on a tile (its resident memory

@@ -2,8 +2,8 @@
 //! each triangle without a point to the point nearest its centroid).
 //! The positions are sorted into the grid's cells and answered group by
 //! group from the dense tables the scans read (`runs::Table`), where a
-//! k-d tree over the points would first be built on one thread: 0.1-0.17
-//! s for the dragon's million points before the first query (by hand).
+//! k-d tree over the points would first be built on one thread before the
+//! first query.
 
 use std::ops::Range;
 

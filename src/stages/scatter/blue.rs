@@ -14,18 +14,17 @@
 //! most crowded left. Distances are straight lines in space, as the paper
 //! does on surfaces. Pairs farther apart than `REACH d_max` are left out:
 //! their terms are under 0.6% of the closest pair's (0.75 of `d_max`
-//! against `d_min` = 0.53 of it at 3 candidates a point), and measured at
-//! 1M points on the bunny the kept points' spacing statistics do not
-//! change, while there are 44% fewer pairs to find and update.
+//! against `d_min` = 0.53 of it at 3 candidates a point), the kept
+//! points' spacing statistics do not change, and there are far fewer
+//! pairs to find and update.
 //!
 //! Cost: each candidate's pairs (about `2 M / N` of them) are found on
 //! a grid, block by block in parallel (`PointGrid::scan`), and written
 //! into its block's lists, which stay where they were made. Finding each
 //! pair from both ends makes twice the distance tests of finding it once,
 //! but the one-ended way then had to spread the pairs to both ends' lists
-//! through atomic cursors and sort them: at 1M on the dragon 0.43 s, 0.26
-//! s and 0.05 s, with 180 MB of arrays in between, against 0.47-0.59 s
-//! (by hand, `PCSSS_TIMES=1`). The elimination works on the same blocks
+//! through atomic cursors and sort them, with large arrays in between,
+//! and was slower in all. The elimination works on the same blocks
 //! of about 4,000 candidates (aligned cubes of grid cells,
 //! `PointGrid::blocks`) in colour phases, the blocks of a colour in
 //! parallel, each with its data in cache, down to 95% of the way to its
@@ -34,13 +33,11 @@
 //! first (`eliminate_serial`), so the counts can shift between blocks,
 //! whose shares follow their candidates' counts. Without that tail the
 //! spacing statistics do not change, but the ssmulti kernel error on the
-//! sphere at 100k points grew by 7-12% (benches/ssmulti.rs, accuracy:
-//! 1.43e-5 with a tenth, 1.45e-5 with a twentieth, 1.60e-5 without,
-//! ring-ordered triangles, 4 seeds); a twentieth costs 0.06-0.08 s at
-//! 1M, a tenth 0.11-0.17 s. Before the blocks, a single serial queue over
-//! all the candidates took 1.4 s of a million points' 5 s, its time in
-//! cache misses; the block elimination leaves the same spacing
-//! statistics (bunny 1M, before relaxation: min 0.629, cv 0.105 both).
+//! sphere grows (benches/ssmulti.rs, accuracy); a twentieth keeps most of
+//! what a tenth gives, for half its time. A single serial queue over all
+//! the candidates spends its time in cache misses; the block elimination
+//! leaves the same spacing statistics. The figures are in
+//! benches/results/HISTORY.md, "Measurements behind the code".
 //! Everything runs in a fixed order, so the result does not depend on
 //! the thread count.
 
@@ -107,8 +104,7 @@ impl Lists {
 /// (`2 pi REACH^2 / sqrt(3)` times the candidates per point), so most
 /// blocks never grow their list (the dragon at 1M uses 5.6 a candidate,
 /// the bunny 6.1). With huge pages the unwritten tails are backed along
-/// with the blocks written beside them, but 7 measured no faster (by
-/// hand, within the noise).
+/// with the blocks written beside them, but 7 was no faster.
 const PAIRS_RESERVED: usize = 8;
 
 /// Of the candidates `cand` (points on a surface of area `area`) keeps

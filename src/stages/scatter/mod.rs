@@ -102,26 +102,21 @@ pub struct Params {
 /// The default candidates per point of `--blue`: see `blue` for what
 /// more or fewer buy (benches/results/blue_noise.txt).
 pub const CANDIDATES: f64 = 3.0;
-/// Relaxation iterations of `--blue` (unless `--relax` says otherwise).
-/// Measured at 1M points (bunny, dragon), with 12 separation rounds
-/// then: 2 relaxation iterations left no pair closer than 0.75 spacings
-/// for seed 0; 4 and 8 left pairs at 0.73 across the dragon's creases.
-/// One is faster and as accurate over wide kernels, but its kernel sums
-/// over about 60 neighbours are 20% less accurate (test
-/// `relax_with_voronoi_weights_cuts_the_kernel_error`).
+/// Relaxation iterations of `--blue` (unless `--relax` says otherwise):
+/// more leave closer pairs across the dragon's creases; one is faster and
+/// as accurate over wide kernels, but its kernel sums over tens of
+/// neighbours are less accurate (test
+/// `relax_with_voronoi_weights_cuts_the_kernel_error`; the figures in
+/// benches/results/HISTORY.md, "Measurements behind the code").
 pub const BLUE_RELAX: u32 = 2;
 /// `--blue` pushes apart pairs closer than this many hexagonal
 /// spacings, in rounds until no point moves, at most `SEPARATE_ROUNDS`.
 pub const SEPARATE: f64 = 0.8;
-/// The most separation rounds. Measured at 1M points, seeds 0-3 (by
-/// hand): the bunny settles in 21-29 rounds, the dragon in 32-42, or
-/// for seed 1 in 247 (stopped here at 64, its closest pair 0.797); a
-/// fixed 12 rounds left a pair at 0.748 on the bunny and 0.737 on the
-/// dragon for seed 1. The rounds after the first dozen move a few points
-/// each, 2-3 ms in all; a cluster that never settles (points jammed in
-/// a concave crease, pushing each other back and forth) stops here too:
-/// its closest pair was 0.77 in the one case seen (dragon,
-/// `--candidates 2.5`, seed 3, still moving after 400 rounds).
+/// The most separation rounds: the bunny and the dragon settle in a few
+/// dozen, and the rounds after the first dozen move a few points each; a
+/// cluster that never settles (points jammed in a concave crease,
+/// pushing each other back and forth) stops here too (the counts in
+/// benches/results/HISTORY.md, "Measurements behind the code").
 pub const SEPARATE_ROUNDS: u32 = 64;
 /// The range of `--candidates`.
 pub const CANDIDATES_RANGE: (f64, f64) = (1.5, 64.0);
@@ -459,10 +454,9 @@ fn prim_area(m: &TriMesh, areas: &[f64], total: f64, samples: &[Sample]) -> Vec<
     if !empty.is_empty() && !samples.is_empty() {
         // Cells of 2 spacings, which answer at once the centroids with a
         // point within one spacing: on blue noise all but a few in ten
-        // thousand (dragon, 1M: within 0.75 spacings), on random points
-        // all but 3 in a hundred. By hand, dragon 1M, `prim` took about
-        // 105 ms on blue noise with cells of 1.5, 2 or 3 spacings, and
-        // on random points 230, 115 and 115 ms (a k-d tree: 220-290 ms).
+        // thousand, on random points all but a few in a hundred; narrower
+        // cells cost random points time, and a k-d tree is slower
+        // (benches/results/HISTORY.md, "Measurements behind the code").
         let pos: Vec<DVec3> = samples.par_iter().map(|s| s.p).collect();
         let grid = PointGrid::new(&pos, 2.0 * hex_spacing(total, samples.len()));
         drop(pos);

@@ -18,9 +18,7 @@
 //!   in ten thousand below 0.6 spacings after 4 iterations); rounds until
 //!   no point moves remove it without moving the points that have room.
 //!   After the first round only the points near a mover are looked at (a
-//!   third of the points, then fewer each round: at 1M on the bunny 0.25 s
-//!   for the first 12 rounds, 0.1 s of it the first, and under a
-//!   millisecond a round after them), with the same result.
+//!   third of the points, then fewer each round), with the same result.
 //!
 //! A relaxation round moves each point as its neighbours are found on a
 //! grid (`geom::grid`): points move up to half a spacing a round, so
@@ -45,8 +43,8 @@ use crate::progress::Progress;
 
 /// The reach of the repulsion, in spacings.
 const REACH: f64 = 1.5;
-/// The step for a unit force, in reaches (measured on a sphere: gains
-/// from 0.7 up oscillate).
+/// The step for a unit force, in reaches (on a sphere, gains from 0.7 up
+/// oscillate).
 const GAIN: f64 = 0.5;
 /// The longest step, in spacings.
 const MAX_STEP: f64 = 0.5;
@@ -61,11 +59,8 @@ const SEPARATE_SKIN: f64 = 0.5;
 /// A separation round moves each point of a close pair this part of the
 /// pair's shortfall: 0.5 would close an isolated pair's in one round, but
 /// most close pairs have other close neighbours pushing back, and the
-/// larger push settles them in fewer rounds. Measured at 1M points after
-/// 12 rounds (closest pair, cv, polish time): bunny 0.754, 0.062, 1.45 s
-/// at 0.5; 0.762, 0.061 at 0.6; 0.756, 0.059 at 0.7; 0.780, 0.058,
-/// 1.15 s at 0.8; 0.783, 0.058 at 0.9; dragon 0.760, 0.061, 1.95 s at
-/// 0.5 and 0.784, 0.058, 1.54 s at 0.8.
+/// larger push settles them in fewer rounds with a wider closest pair
+/// (benches/results/HISTORY.md, "Measurements behind the code").
 const SEPARATE_PUSH: f64 = 0.8;
 /// A shortfall under this many spacings is not pushed.
 const SEPARATE_TOL: f64 = 1e-3;

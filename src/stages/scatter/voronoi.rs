@@ -39,14 +39,10 @@ pub(super) const REACH: f64 = 2.0;
 /// The first reach for `--blue`'s points, kept 0.8 spacings apart: their
 /// cells are small, and a shorter reach means fewer points to test and
 /// sort a cell; the cells it leaves open take their second round from
-/// the 27 grid cells the scan read. Measured at 1M points (by hand,
-/// `scatter --blue --ptarea centroid`): cells left for the second round
-/// with a first reach of 2, 1.6, 1.5, 1.4, 1.3 spacings, on the dragon
-/// 448, 24,119, 89,299, 303,417, 724,757, on the bunny 582, 37,642,
-/// 113,268, 332,076, 732,551; the bunny's `ptarea` phase (means of 4,
-/// interleaved, a slow phase of the machine) 894, 878, 906 and 1,039 ms
-/// at 1.6, 1.7, 1.8 and 2, and 1.4 and 1.3 slower than 2. The cells are
-/// the same whatever the reach (the bounding square stays at `REACH`).
+/// the 27 grid cells the scan read; below 1.6 so many cells need a second
+/// round that the phase is slower again (benches/results/HISTORY.md,
+/// "Measurements behind the code"). The cells are the same whatever the
+/// reach (the bounding square stays at `REACH`).
 pub(super) const SPACED_REACH: f64 = 1.6;
 /// The most points a cell is cut by.
 const MAX_USED: usize = 256;

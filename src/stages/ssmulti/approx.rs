@@ -16,13 +16,12 @@ use super::tree::{gap2, TreeNode, WalkNode};
 use super::{Distances, Falloff, Params};
 
 /// The share of the mean weight a straddling cluster may misplace, see
-/// [`jump_scale`]. Measured at 1M points x 20,000 neighbours on the unit
-/// sphere (`BENCH_CASE=1000000,20000,T BENCH_FALLOFF=exp BENCH_SIGMA=S
-/// cargo bench --bench ssmulti`): with exp sigma 1 the RMS error at
-/// tolerance 0.3 stays the same up to 0.1, rises by a quarter at 0.15 (its
-/// straddling ring opens) and fourfold at 0.5; 0.05 keeps a factor 3 from
-/// that edge, while it still takes most straddling clusters of steeper
-/// kernels whole (at sigma 4, a third of the time of taking none).
+/// [`jump_scale`]: well below the share at which the error of a shallow
+/// exp falloff starts to grow, while most straddling clusters of steeper
+/// kernels are still taken whole (`BENCH_CASE=1000000,20000,T
+/// BENCH_FALLOFF=exp BENCH_SIGMA=S cargo bench --bench ssmulti`; the
+/// figures in benches/results/HISTORY.md, "Measurements behind the
+/// code").
 const JUMP_K: f64 = 0.05;
 
 /// The largest radius, divided by the tolerance, of a cluster that may be

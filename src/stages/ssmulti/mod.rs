@@ -196,9 +196,10 @@ pub struct Report {
 }
 
 /// The largest tolerance of the approximate method: a cluster half as wide
-/// as the kernel's length scale. The benchmark measures up to 0.4 (RMS
-/// error at most 7.5e-3); far beyond, clusters as wide as the kernel
-/// itself are summed at one point and the error reaches tens of percent.
+/// as the kernel's length scale. The benchmark measures up to 0.4
+/// (benches/results/ssmulti_accuracy.txt); far beyond, clusters as wide
+/// as the kernel itself are summed at one point and the error reaches
+/// tens of percent.
 pub const MAX_TOLERANCE: f64 = 0.5;
 
 /// Points per leaf (a multiple of the lane count).

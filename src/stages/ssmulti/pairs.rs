@@ -187,8 +187,7 @@ fn sum_sources<
             }
             // The area sums in a loop of their own: in the one above
             // they keep the compiler from vectorising it with exp and
-            // Burley (variants benchmark, exp sigma 4, local: about 7
-            // times slower).
+            // Burley (the variants benchmark, `BENCH_VARIANTS=1`).
             if LOCAL {
                 for k in 0..LANES {
                     if SINGLE {

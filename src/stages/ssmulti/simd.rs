@@ -8,9 +8,9 @@
 //! compiled with those features enabled is [`sum_leaf_avx2`].
 //!
 //! AVX-512 is not used: sixteen lanes evaluate more pairs past the reach,
-//! and eight lanes with its 32 registers came out slower (14 ms against 12
-//! at 100k points x 200 neighbours, the compiler merging lanes into
-//! 512-bit vectors).
+//! and eight lanes with its 32 registers came out slower (the compiler
+//! merges lanes into 512-bit vectors; benches/results/HISTORY.md,
+//! "Measurements behind the code").
 
 use super::lanes::{Lanes, LANES};
 use super::pairs::{sum_leaf, LeafTask};

@@ -116,8 +116,7 @@ fn read_ascii_lines(body: &[u8], def: &ElementDef, lay: &[Layout]) -> Option<(El
 /// Just past the `count`-th newline of `body` (`count` at least 1), or
 /// `None`: blocks' newlines counted in parallel, a batch at a time (the
 /// body may run on far past the element's lines), then the last block's
-/// searched. A serial search took 5-17 ms of the dragon's 140 ms read
-/// (by hand).
+/// searched: a serial search was a visible part of a large mesh's read.
 fn end_of_lines(body: &[u8], count: usize) -> Option<usize> {
     use rayon::prelude::*;
     const BLOCK: usize = 1 << 20;
@@ -147,8 +146,8 @@ fn end_of_lines(body: &[u8], count: usize) -> Option<usize> {
 /// ASCII falls inside a token (tokens end at ASCII whitespace only), and
 /// no number parses with one.
 fn ascii_lines(text: &[u8], def: &ElementDef) -> Option<Vec<PropData>> {
-    // Checked once for the chunk, where a check per token cost a quarter
-    // of the parse (by hand, the dragon's faces).
+    // Checked once for the chunk: a check per token was a large part of
+    // the parse.
     let text = std::str::from_utf8(text).ok()?;
     let mut props = empty_props(def);
     // One pass over the bytes finds the tokens and the lines' ends
