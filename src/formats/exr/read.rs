@@ -262,14 +262,19 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
         .iter()
         .filter(|c| !used.contains(c.name.as_str()))
         .collect();
+    // (Sets, not searches of the lists: a file may have tens of thousands
+    // of channels.)
+    let rest_names: HashSet<&str> = rest.iter().map(|c| c.name.as_str()).collect();
     let mut layers: Vec<String> = Vec::new();
+    let mut seen_layers: HashSet<&str> = HashSet::new();
     for c in &rest {
         if let Some((layer, _)) = c.name.rsplit_once('.') {
-            if !layers.iter().any(|l| l == layer) {
+            if seen_layers.insert(layer) {
                 layers.push(layer.to_string());
             }
         }
     }
+    let mut named: HashSet<String> = attrs.iter().map(|a| a.name.clone()).collect();
     for layer in &layers {
         for (spellings, role) in VEC_SPELLINGS {
             // P and N are a point and a normal however they are spelt.
@@ -282,7 +287,7 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
                 let names = sp.map(|s| format!("{layer}.{s}"));
                 if names
                     .iter()
-                    .all(|n| rest.iter().any(|c| &c.name == n) && !used.contains(n.as_str()))
+                    .all(|n| rest_names.contains(n.as_str()) && !used.contains(n.as_str()))
                 {
                     let cols = names
                         .clone()
@@ -298,7 +303,7 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
                     for n in &names {
                         used.insert(by_name.get_key_value(n.as_str()).expect("found").0);
                     }
-                    if !attrs.iter().any(|a| &a.name == layer) {
+                    if named.insert(layer.clone()) {
                         attrs.push(Attribute::vec3(layer, role, cols));
                     }
                 }
@@ -306,7 +311,7 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
         }
     }
     for c in &chans {
-        if !used.contains(c.name.as_str()) && !attrs.iter().any(|a| a.name == c.name) {
+        if !used.contains(c.name.as_str()) && named.insert(c.name.clone()) {
             attrs.push(Attribute::scalar(&c.name, column_of(c, &idx, None, None)));
         }
     }
@@ -316,6 +321,9 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
             layer.attributes.layer_position.x(),
             layer.attributes.layer_position.y(),
         );
+        // The pixels are where the image says, whatever a channel of
+        // that name held.
+        attrs.retain(|a| a.name != PIXEL_X && a.name != PIXEL_Y);
         attrs.push(Attribute::scalar(
             PIXEL_X,
             Column::I32(idx.iter().map(|&i| x0 + (i % w) as i32).collect()),
@@ -325,8 +333,9 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
             Column::I32(idx.iter().map(|&i| y0 + (i / w) as i32).collect()),
         ));
     }
+    // The names are unique (`named`), so no search for each.
     for a in attrs {
-        el.set(a)?;
+        el.push_unique(a)?;
     }
     cloud.elements.push(el);
     if image {
