@@ -26,6 +26,8 @@ impl<T> Copy for Disjoint<'_, T> {}
 // reads while threads write) are what make sharing the pointer sound;
 // `T: Send` values move into the buffer from other threads.
 unsafe impl<T: Send> Send for Disjoint<'_, T> {}
+// SAFETY: as for `Send`: threads sharing a `&Disjoint` only write, each
+// to positions no other thread writes.
 unsafe impl<T: Send> Sync for Disjoint<'_, T> {}
 
 impl<'a, T: Copy> Disjoint<'a, T> {

@@ -106,8 +106,9 @@ pub struct Phases {
 
 /// The process's user and system time so far, in seconds (all threads).
 fn cpu_seconds() -> [f64; 2] {
-    // SAFETY: getrusage writes the struct it is given and nothing else.
+    // SAFETY: `rusage` is a plain C struct of integers, valid when zeroed.
     let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: getrusage writes the struct it is given and nothing else.
     if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
         return [0.0; 2];
     }

@@ -125,9 +125,9 @@ pub fn read_cloud_file_with(path: &Path, select: &Select, mmap: bool) -> Result<
         return Err(Error::invalid("is a directory"));
     }
     let use_map = mmap && meta.is_file() && meta.len() > 0;
-    // SAFETY: the mapping is read-only; see the note above on files
-    // changing underneath it.
     let map = match use_map {
+        // SAFETY: the mapping is read-only; see the note above on files
+        // changing underneath it.
         true => unsafe { memmap2::MmapOptions::new().populate().map(&file) }.ok(),
         false => None,
     };
