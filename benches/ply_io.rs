@@ -6,6 +6,11 @@
 //!
 //! `make bench` (or `cargo bench --bench ply_io`); BENCH_POINTS sets the
 //! point count. Results: target/bench/ply_io.txt.
+//!
+//! Also the growth of the work a header sets (target/bench/header_growth.txt):
+//! `pcconvert` to OpenEXR and `pcdiff` over headers with n and 10 n
+//! properties, elements or detail attributes. Linear work takes about 10
+//! times as long at 10 n, quadratic work 100 times.
 
 mod common;
 
@@ -228,4 +233,70 @@ fn main() {
     );
     t.save("ply_io.txt");
     let _ = std::fs::remove_file(&out);
+    header_growth(&dir);
+}
+
+/// A one-row ASCII PLY with `n` of what `kind` names in its header.
+fn big_header(kind: &str, n: usize) -> String {
+    match kind {
+        "properties" => {
+            let props: String = (0..n).map(|i| format!("property float p{i}\n")).collect();
+            let zeros = vec!["0"; n].join(" ");
+            format!("ply\nformat ascii 1.0\nelement vertex 1\n{props}end_header\n{zeros}\n")
+        }
+        "elements" => {
+            let els: String = (0..n).map(|i| format!("element e{i} 0\n")).collect();
+            format!(
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n{els}end_header\n0\n"
+            )
+        }
+        _ => {
+            let det: String = (0..n)
+                .map(|i| format!("comment pcsss detail d{i} f64 1\n"))
+                .collect();
+            format!(
+                "ply\nformat ascii 1.0\n{det}element vertex 1\nproperty float x\nend_header\n0\n"
+            )
+        }
+    }
+}
+
+/// `pcconvert` to OpenEXR then `pcdiff` against it, whole processes, on
+/// headers of n and 10 n entries: the ratio of the two times tells
+/// linear work (about 10) from quadratic (about 100).
+fn header_growth(dir: &std::path::Path) {
+    let pcconvert = env!("CARGO_BIN_EXE_pcconvert");
+    let pcdiff = env!("CARGO_BIN_EXE_pcdiff");
+    let mut t = Table::new(
+        &format!(
+            "Header growth: pcconvert FILE -o FILE.exr, then pcdiff FILE FILE.exr; {}; best of 3",
+            machine()
+        ),
+        "| header | n | seconds at n | seconds at 10 n | ratio |\n|---|---|---|---|---|",
+    );
+    for (kind, n) in [
+        ("properties", 4_000),
+        ("elements", 20_000),
+        ("details", 10_000),
+    ] {
+        let time = |n: usize| {
+            let f = dir.join(format!("header_{kind}_{n}.ply"));
+            std::fs::write(&f, big_header(kind, n)).unwrap();
+            let f = f.display().to_string();
+            let cmd = format!(
+                "{pcconvert} -q {f} -o {f}.exr && {{ {pcdiff} -q {f} {f}.exr; test $? -le 1; }}"
+            );
+            let s = best_cmd(3, &cmd);
+            let _ = std::fs::remove_file(&f);
+            let _ = std::fs::remove_file(format!("{f}.exr"));
+            s
+        };
+        match (time(n), time(10 * n)) {
+            (Some(a), Some(b)) => {
+                t.row(format!("| {kind} | {n} | {a:.3} | {b:.3} | {:.1} |", b / a))
+            }
+            _ => t.row(format!("| {kind} | {n} | failed | failed | - |")),
+        }
+    }
+    t.save("header_growth.txt");
 }

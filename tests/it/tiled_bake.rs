@@ -4,8 +4,9 @@
 //! array on the throwaway cluster `make test` starts, and by openjd-cli
 //! running the Open Job Description template.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 use crate::tiles::{read, worst};
 use crate::util::*;
@@ -60,77 +61,109 @@ fn clear(out: &Path) {
     }
 }
 
-#[test]
-fn tiled_bake_of_a_million_points_equals_the_untiled_bake_on_every_engine() {
-    let d = tempdir();
-    let out = d.path();
-    make(out, "tiled-check", &[]);
-    check(out, "make -j2");
+/// The untiled bake and the tiled one under make -j2, made once for the
+/// tests of this file (in cargo's temp folder for tests, rebuilt at the
+/// first use in a run).
+fn baked() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("tiled_bake");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        make(&dir, "tiled-check", &[]);
+        dir
+    })
+}
 
-    match std::env::var("SLURM_CONF") {
-        Ok(conf) if Path::new(&conf).is_file() => {
-            clear(out);
-            make(out, "tiled", &["ENGINE=slurm".into()]);
-            check(out, "slurm");
-            let logs = std::fs::read_dir(out.join("bunny_tiles/ss/out"))
+/// A copy of [`baked`] for `engine` (times kept, so make remakes only
+/// what [`clear`] removes).
+fn copy_for(engine: &str) -> PathBuf {
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("tiled_bake_{engine}"));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = Command::new("cp")
+        .arg("-a")
+        .arg(baked())
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    clear(&out);
+    out
+}
+
+#[test]
+fn tiled_bake_of_a_million_points_under_make_equals_the_untiled_bake() {
+    check(baked(), "make -j2");
+}
+
+#[test]
+#[ignore = "interop: needs a Slurm cluster; `make test` starts one and runs it"]
+fn tiled_bake_of_a_million_points_under_slurm_equals_the_untiled_bake() {
+    if !std::env::var("SLURM_CONF").is_ok_and(|c| Path::new(&c).is_file()) {
+        interop_missing("a Slurm cluster (SLURM_CONF; make test starts one)");
+    }
+    let out = &copy_for("slurm");
+    make(out, "tiled", &["ENGINE=slurm".into()]);
+    check(out, "slurm");
+    let logs = std::fs::read_dir(out.join("bunny_tiles/ss/out"))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
                 .unwrap()
-                .filter(|e| {
-                    e.as_ref()
-                        .unwrap()
-                        .file_name()
-                        .to_string_lossy()
-                        .starts_with("slurm-")
-                })
-                .count();
-            assert_eq!(logs, 17, "16 array tasks and the merge ran under Slurm");
-            // A tile that fails cancels the merge: submit.sh says so.
-            let small = out.join("small");
-            let o = crate::util::run(
-                "pctile",
-                &[
-                    "split",
-                    out.join("bunny_illum.ply").to_str().unwrap(),
-                    "--tiles",
-                    "2",
-                    "--halo",
-                    "0.1",
-                    "-o",
-                    small.to_str().unwrap(),
-                ],
-                b"",
-            );
-            assert!(o.status.success(), "{}", stderr(&o));
-            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/slurm/submit.sh");
-            let o = Command::new(script)
-                .env("BIN", bin("pctile").parent().unwrap())
-                .args([
-                    "--wait",
-                    small.to_str().unwrap(),
-                    out.join("small_out").to_str().unwrap(),
-                ])
-                .arg(out.join("never.ply"))
-                .args(["ssmulti", "--sd", "-1"])
-                .output()
-                .unwrap();
-            assert!(!o.status.success(), "a failed tile fails the submission");
-            assert!(stderr(&o).contains("ended CANCELLED"), "{}", stderr(&o));
-            assert!(!out.join("never.ply").exists());
-        }
-        _ => interop_missing::<()>("a Slurm cluster (SLURM_CONF; make test starts one)")
-            .unwrap_or(()),
-    }
-    match std::env::var("PCSSS_OPENJD") {
-        Ok(openjd) if Path::new(&openjd).is_file() => {
-            clear(out);
-            make(
-                out,
-                "tiled",
-                &["ENGINE=openjd".into(), format!("OPENJD={openjd}")],
-            );
-            check(out, "openjd");
-        }
-        _ => {
-            interop_missing::<()>("openjd-cli (PCSSS_OPENJD; make test installs it)").unwrap_or(())
-        }
-    }
+                .file_name()
+                .to_string_lossy()
+                .starts_with("slurm-")
+        })
+        .count();
+    assert_eq!(logs, 17, "16 array tasks and the merge ran under Slurm");
+    // A tile that fails cancels the merge: submit.sh says so.
+    let small = out.join("small");
+    let o = crate::util::run(
+        "pctile",
+        &[
+            "split",
+            out.join("bunny_illum.ply").to_str().unwrap(),
+            "--tiles",
+            "2",
+            "--halo",
+            "0.1",
+            "-o",
+            small.to_str().unwrap(),
+        ],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/slurm/submit.sh");
+    let o = Command::new(script)
+        .env("BIN", bin("pctile").parent().unwrap())
+        .args([
+            "--wait",
+            small.to_str().unwrap(),
+            out.join("small_out").to_str().unwrap(),
+        ])
+        .arg(out.join("never.ply"))
+        .args(["ssmulti", "--sd", "-1"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "a failed tile fails the submission");
+    assert!(stderr(&o).contains("ended CANCELLED"), "{}", stderr(&o));
+    assert!(!out.join("never.ply").exists());
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+#[ignore = "interop: needs openjd-cli; `make test` installs and runs it"]
+fn tiled_bake_of_a_million_points_under_openjd_equals_the_untiled_bake() {
+    let openjd = match std::env::var("PCSSS_OPENJD") {
+        Ok(o) if Path::new(&o).is_file() => o,
+        _ => interop_missing("openjd-cli (PCSSS_OPENJD; make test installs it)"),
+    };
+    let out = &copy_for("openjd");
+    make(
+        out,
+        "tiled",
+        &["ENGINE=openjd".into(), format!("OPENJD={openjd}")],
+    );
+    check(out, "openjd");
+    let _ = std::fs::remove_dir_all(out);
 }
