@@ -10,7 +10,7 @@ use crate::tiles::reach::{StageParams, STAGES};
 
 /// `ssmulti`'s options.
 #[derive(Parser, Debug)]
-#[command(no_binary_name = true)]
+#[command(no_binary_name = true, allow_negative_numbers = true)]
 struct Multi {
     #[command(flatten)]
     io: super::IoArgs,
@@ -20,7 +20,11 @@ struct Multi {
 
 /// The options of `filter` that set its reach; the others are skipped.
 #[derive(Parser, Debug)]
-#[command(no_binary_name = true, ignore_errors = true)]
+#[command(
+    no_binary_name = true,
+    ignore_errors = true,
+    allow_negative_numbers = true
+)]
 struct Filter {
     #[arg(long)]
     nfp: Option<usize>,

@@ -268,6 +268,11 @@ const TABLE: &[Row] = &[
     row("pctile", &["split", "cloud.ply", "--tile-memory", "1K", "--halo", "0.1", "-o", "@OUT"], 2, "--tile-memory"),
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd nope", "-o", "@OUT"], 2, "--stage-args"),
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd 0.5", "--halo", "0.1", "-o", "@OUT"], 2, "--halo"),
+    // A stage's parameter is named as its option within --stage-args.
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "filter", "--stage-args", "--sd 0.5 --radius -1", "-o", "@OUT"], 2, "--stage-args --radius"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "filter", "--stage-args", "--nfp 8", "-o", "@OUT"], 2, "--stage-args --nfp"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd 0.5 --tolerance 3", "-o", "@OUT"], 2, "ssmulti: parameter --tolerance"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "nosuch", "-o", "@OUT"], 2, "--for"),
     piped("pctile", &["split", "--tiles", "2", "--halo", "0.1", "-o", "@OUT"], "zero.ply", 1, "<stdin>"),
     row("pctile", &["merge", "nosuch", "-o", "@OUT"], 1, "nosuch/manifest.json"),
     // pcdiff
