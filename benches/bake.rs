@@ -6,7 +6,7 @@
 //! benches/py/bake_python.py) in the same run. Scatter uses per-face
 //! areas without relaxation here, as the Python side does.
 //!
-//! Then the accurate bake as the README runs it, `make -C pipelines
+//! Then the accurate bake as docs/GUIDE.md runs it, `make -C pipelines
 //! COUNT=1000000`, timed whole (target/bench/bake_make.txt).
 //!
 //! `cargo bench --bench bake` (or `make bench`); `BENCH_QUICK=1` runs only
@@ -248,7 +248,7 @@ fn main() {
     }
 }
 
-/// The README's accurate bake as a user runs it: `make -C pipelines
+/// The guide's accurate bake as a user runs it: `make -C pipelines
 /// COUNT=1000000` (blue noise, Voronoi areas, every stage the Makefile
 /// runs), the whole make timed, with and without single scattering.
 fn accurate_bake(root: &str, scatter: &str) {

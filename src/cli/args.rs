@@ -33,9 +33,8 @@ pub struct SsArgs {
     pub norm: Norm,
     /// 0: the exact method; up to 0.5: the approximate one, which sums a
     /// cluster of sources whole when its radius is at most T times the
-    /// kernel's length scale. Measured RMS error against exact (unit
-    /// sphere, 200 to 20,000 neighbours, smooth): 5e-5 to 1e-3 at 0.1,
-    /// 2e-3 to 8e-3 at 0.3 (README, "ssmulti").
+    /// kernel's length scale; the error grows like T^2 (docs/PERFORMANCE.md,
+    /// "ssmulti").
     #[arg(long, default_value_t = 0.0)]
     pub tolerance: f64,
 }

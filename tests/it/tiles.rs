@@ -295,7 +295,7 @@ fn tiled_approximate_ssmulti_stays_within_its_documented_error() {
     let mut a = vec![s(&input), "-q", "-o", s(&exact)];
     a.extend_from_slice(&ss[..4]);
     ok(&run("ssmulti", &a, b""), "ssmulti exact");
-    // RMS relative to the exact values: the README's 5e-5 to 1e-3 at 0.1,
+    // RMS relative to the exact values: the benchmark's 5e-5 to 1e-3 at 0.1,
     // for the tiled result as for the untiled one.
     let rms = |c: &Cloud| {
         let (x, y) = (
