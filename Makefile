@@ -13,7 +13,7 @@ export PCSSS_PYTHON := $(abspath $(PY))
 pyenv: $(PY).stamp
 $(PY).stamp: tests/requirements.txt
 	python3 -m venv $(PYENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -r tests/requirements.txt
 	touch $@
 
 ## Debian's OpenEXR tools (exrheader), an independent reader for the tests.
