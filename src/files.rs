@@ -1,13 +1,129 @@
-//! Output files: written atomically (a temp file beside the target,
-//! renamed into place when complete), several at once (all or none),
-//! checked before any work, and never left behind half-written when a
-//! signal (SIGINT, SIGTERM, SIGHUP) ends the process.
+//! Input and output files. Outputs are written atomically (a temp file
+//! beside the target, renamed into place when complete), several at once
+//! (all or none), checked before any work, created with the user's umask
+//! (a file written over keeps its mode), and never left behind
+//! half-written when a signal (SIGINT, SIGTERM, SIGHUP) ends the process.
+//! An output is never any input: the binaries check their paths before
+//! work ([`check_outputs`]), and every input opened through
+//! [`open_input`] is remembered, so that no output is renamed over one.
 
+use std::fs::File;
 use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, Once};
+use std::sync::{Mutex, Once, OnceLock};
 
 use crate::error::{Error, Result};
+
+/// A file's identity: its device and inode (the same file through any
+/// link or path).
+type Identity = (u64, u64);
+
+fn identity(meta: &std::fs::Metadata) -> Identity {
+    (meta.dev(), meta.ino())
+}
+
+/// The inputs this process has opened, each with the name it was opened
+/// by.
+static INPUTS: Mutex<Vec<(Identity, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Opens the input file `path` for reading and remembers it: an output of
+/// this process is never renamed over it ([`Staged::commit`]).
+pub fn open_input(path: &Path) -> io::Result<File> {
+    let f = File::open(path)?;
+    if let Ok(meta) = f.metadata() {
+        let mut v = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+        v.push((identity(&meta), path.to_path_buf()));
+    }
+    Ok(f)
+}
+
+/// The input (as it was opened) that `path` is, if it is one.
+fn opened_input(path: &Path) -> Option<PathBuf> {
+    let id = identity(&std::fs::metadata(path).ok()?);
+    let v = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    v.iter().find(|(i, _)| *i == id).map(|(_, p)| p.clone())
+}
+
+/// An output a binary will write: a file, or a directory of files (a
+/// split's tiles), and the parameter that names it (`output`).
+#[derive(Clone, Copy, Debug)]
+pub struct Output<'a> {
+    pub path: &'a Path,
+    pub param: &'a str,
+    pub dir: bool,
+}
+
+impl<'a> Output<'a> {
+    /// The output file `path`, named by the parameter `output`.
+    pub fn file(path: &'a Path) -> Output<'a> {
+        Output {
+            path,
+            param: "output",
+            dir: false,
+        }
+    }
+}
+
+/// Checks, before any work, the outputs a run will write against its
+/// inputs (files or directories named on its command line). An output
+/// file must not be any input file (the same file by any path or link),
+/// an output directory must not hold an input file (a split would write
+/// its tiles over what it reads), and an output file must be creatable:
+/// in a directory that exists and can be written. A collision is a bad
+/// parameter: the one that names the output.
+pub fn check_outputs(outputs: &[Output], inputs: &[&Path]) -> Result<()> {
+    let mut ids: Vec<(Identity, &Path)> = inputs
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok().map(|m| (identity(&m), *p)))
+        .collect();
+    // Standard input redirected from a file (`< cloud.ply`) is an input
+    // too, named or not.
+    if let Some(m) = std::fs::metadata("/dev/stdin").ok().filter(|m| m.is_file()) {
+        ids.push((identity(&m), Path::new("<stdin>")));
+    }
+    for out in outputs {
+        let Ok(meta) = std::fs::metadata(out.path) else {
+            if !out.dir {
+                check_output(out.path)?;
+            }
+            continue;
+        };
+        if !out.dir {
+            if let Some((_, input)) = ids.iter().find(|(i, _)| *i == identity(&meta)) {
+                return Err(collision(out.param, out.path, input));
+            }
+            check_output(out.path)?;
+            continue;
+        }
+        for (_, input) in &ids {
+            let parent = std::fs::metadata(dir_of(input));
+            if parent.is_ok_and(|p| identity(&p) == identity(&meta)) {
+                let what = format!(
+                    "{}: the directory holds the input {}: write the tiles to another",
+                    out.path.display(),
+                    input.display()
+                );
+                return Err(Error::param(out.param, what));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The error for an output that is an input, named by `param`.
+fn collision(param: &str, output: &Path, input: &Path) -> Error {
+    let same = if output == input {
+        String::new()
+    } else {
+        format!(" ({})", input.display())
+    };
+    let what = format!(
+        "{}: is also an input{same}: an output never replaces an input, write it elsewhere",
+        output.display()
+    );
+    Error::param(param, what)
+}
 
 /// The temp files being written now: a signal removes them before the
 /// process dies.
@@ -63,18 +179,74 @@ fn dir_of(path: &Path) -> &Path {
 }
 
 /// Checks, before any work, that `path` can be an output: not a
-/// directory, in a directory that exists.
+/// directory, in a directory that exists and that a file can be created
+/// in (a temp file is made and removed). A device or FIFO (`/dev/null`)
+/// is written as it is.
 pub fn check_output(path: &Path) -> Result<()> {
     let name = path.display().to_string();
-    if path.is_dir() {
+    let meta = std::fs::metadata(path);
+    if meta.as_ref().is_ok_and(|m| m.is_dir()) {
         return Err(Error::invalid("is a directory, not an output file").about(&name));
+    }
+    if meta.is_ok_and(|m| !m.is_file()) {
+        return Ok(());
     }
     let dir = dir_of(path);
     if !dir.is_dir() {
         let what = format!("no such directory: {}", dir.display());
         return Err(Error::invalid(what).about(&name));
     }
+    // A temp file made and removed as an output's would be (registered,
+    // so that a signal meanwhile removes it too).
+    let probe = Staged::create(path).map_err(|e| match e {
+        Error::In { inner, .. } => match *inner {
+            Error::Io(e) => {
+                let what = format!("cannot create a file in {}: {}", dir.display(), e.kind());
+                Error::Io(io::Error::new(e.kind(), what)).about(&name)
+            }
+            other => other.about(&name),
+        },
+        other => other,
+    })?;
+    drop(probe);
     Ok(())
+}
+
+/// The process's umask, read once (from /proc, which leaves it alone;
+/// else by setting and restoring it, before the threads start).
+fn umask() -> u32 {
+    static MASK: OnceLock<u32> = OnceLock::new();
+    *MASK.get_or_init(|| {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+        let proc = status
+            .lines()
+            .find_map(|l| l.strip_prefix("Umask:"))
+            .and_then(|m| u32::from_str_radix(m.trim(), 8).ok());
+        proc.unwrap_or_else(|| {
+            // SAFETY: umask(2) only swaps the process's mask; the old one
+            // is put back at once.
+            unsafe {
+                let old = libc::umask(0o022);
+                libc::umask(old);
+                old as u32
+            }
+        })
+    })
+}
+
+/// Reads the umask now, while the process has one thread: a stage's
+/// outputs are created with it.
+pub fn init_umask() {
+    umask();
+}
+
+/// The mode an output at `path` gets: the mode of the file it replaces,
+/// else `0666` less the umask (as a new file a shell redirect makes).
+fn output_mode(path: &Path) -> u32 {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => m.permissions().mode() & 0o777,
+        _ => 0o666 & !umask(),
+    }
 }
 
 /// Writes through `body` to `path` atomically, or to stdout when `None`.
@@ -152,13 +324,9 @@ impl Staged {
             let in_flight = InFlight(tmp.path().to_path_buf());
             (tmp, in_flight)
         };
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            tmp.as_file()
-                .set_permissions(std::fs::Permissions::from_mode(0o644))
-                .map_err(io_at(path))?;
-        }
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(output_mode(path)))
+            .map_err(io_at(path))?;
         Ok(Staged {
             tmp,
             path: path.to_path_buf(),
@@ -171,8 +339,12 @@ impl Staged {
         self.tmp.as_file()
     }
 
-    /// Renames the temp file into place.
+    /// Renames the temp file into place; refused (and the temp file
+    /// removed) when the target is an input this process opened.
     pub fn commit(self) -> Result<()> {
+        if let Some(input) = opened_input(&self.path) {
+            return Err(collision("output", &self.path, &input));
+        }
         let path = self.path;
         self.tmp
             .persist(&path)
@@ -201,4 +373,30 @@ pub fn grow_pipe(fd: &impl std::os::fd::AsRawFd) {
     }
     #[cfg(not(target_os = "linux"))]
     let _ = fd;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_is_never_renamed_over_an_input_this_process_opened() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.ply");
+        std::fs::write(&input, b"the input").unwrap();
+        // Opened through a link: the same file.
+        let link = dir.path().join("link.ply");
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        drop(open_input(&link).unwrap());
+        let staged = Staged::write(&input, |w| Ok(w.write_all(b"an output")?)).unwrap();
+        let e = staged.commit().unwrap_err();
+        assert!(
+            e.is_param() && e.to_string().contains("is also an input"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(&input).unwrap(), b"the input");
+        // Nothing left behind: the temp file went with the refusal.
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(left.len(), 2);
+    }
 }

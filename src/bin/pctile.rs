@@ -173,12 +173,12 @@ fn run(args: Args) -> anyhow::Result<()> {
             output: out,
             format,
         } => {
-            let files = match from {
-                None => files,
-                Some(from) => tiles::Manifest::read(&dir)?
+            let files = match (from, files.is_empty()) {
+                (None, false) => files,
+                (from, _) => tiles::Manifest::read(&dir)?
                     .tiles
                     .iter()
-                    .map(|t| from.join(&t.file))
+                    .map(|t| from.as_deref().unwrap_or(&dir).join(&t.file))
                     .collect(),
             };
             let format = format
@@ -188,9 +188,15 @@ fn run(args: Args) -> anyhow::Result<()> {
                 let why = "merge writes PLY (streaming); convert with pcconvert";
                 return Err(pcsss::Error::param("format", why).into());
             };
+            // The output is none of what the merge reads: the manifest,
+            // the rest file, any tile.
             let out = out.filter(|p| p != std::path::Path::new("-"));
             if let Some(o) = &out {
-                files::check_output(o)?;
+                let manifest = dir.join(tiles::MANIFEST);
+                let rest = dir.join("rest.ply");
+                let mut inputs: Vec<&std::path::Path> = vec![&manifest, &rest];
+                inputs.extend(files.iter().map(|f| f.as_path()));
+                files::check_outputs(&[files::Output::file(o)], &inputs)?;
             }
             let mut m = None;
             files::write_output(out.as_deref(), |w| {
@@ -205,7 +211,7 @@ fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    let args: Args = cli::parse("pctile");
+    let (args, matches) = cli::parse_matches::<Args>("pctile");
     // A stage's parameter is named as its option within --stage-args.
     let stage = match &args.cmd {
         Cmd::Split { for_stage, .. } => for_stage.clone(),
@@ -215,5 +221,8 @@ fn main() -> ExitCode {
     let flag = |name: &str| {
         cli::flag_of(&cmd, name).or_else(|| stage_args::flag_of(stage.as_deref()?, name))
     };
-    cli::main_of("pctile", &flag, || run(args))
+    cli::main_of("pctile", &flag, || {
+        cli::check_named_paths(&cmd, &matches, &[])?;
+        run(args)
+    })
 }

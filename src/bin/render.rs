@@ -92,8 +92,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         let what = format!("{}: must be > 0", args.exposure);
         return Err(Error::param("exposure", what).into());
     }
-    // The outputs before any work: an OpenEXR, a PNG beside it (not the
-    // same file), in directories that exist.
+    // The outputs before any work: an OpenEXR and a PNG (cli::main checked
+    // that they can be written and are no input).
     let exr_ok = args
         .output
         .extension()
@@ -105,7 +105,6 @@ fn run(args: Args) -> anyhow::Result<()> {
         );
         return Err(Error::param("output", why).into());
     }
-    files::check_output(&args.output)?;
     if let Some(png) = &args.png {
         if png
             .extension()
@@ -114,7 +113,6 @@ fn run(args: Args) -> anyhow::Result<()> {
             let why = format!("{}: name a .png file", png.display());
             return Err(Error::param("png", why).into());
         }
-        files::check_output(png)?;
     }
     let cam = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params()?;

@@ -20,7 +20,6 @@ pub mod stage_args;
 
 pub use args::{parse_bytes, parse_rgb, parse_xyz, SingleArgs, SsArgs};
 
-use std::fs::File;
 use std::io::{self, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -87,13 +86,9 @@ impl IoArgs {
         display_name(self.input.as_deref())
     }
 
-    /// Reads the main input, decoding `select`ed attributes now; the
-    /// output is checked first ([`files::check_output`]), so a stage that
-    /// cannot write fails before any work.
+    /// Reads the main input, decoding `select`ed attributes now (the
+    /// output was checked before, by [`main`]).
     pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
-        if let Some(out) = self.output.as_deref().filter(|_| !is_std(&self.output)) {
-            files::check_output(out)?;
-        }
         read_input(self.input.as_deref(), select)
     }
 
@@ -164,7 +159,7 @@ pub fn read_bytes(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
     let mut v = Vec::new();
     match path {
         Some(p) if p != Path::new("-") => {
-            File::open(p)?.read_to_end(&mut v)?;
+            files::open_input(p)?.read_to_end(&mut v)?;
         }
         _ => {
             io::stdin().lock().read_to_end(&mut v)?;
@@ -180,7 +175,7 @@ pub const MAX_JSON_BYTES: u64 = 16 << 20;
 /// A JSON file's text, at most [`MAX_JSON_BYTES`]; errors name the file.
 fn read_json_text(path: &Path) -> anyhow::Result<String> {
     let name = path.display().to_string();
-    let f = File::open(path).with_context(|| name.clone())?;
+    let f = files::open_input(path).with_context(|| name.clone())?;
     let mut bytes = Vec::new();
     f.take(MAX_JSON_BYTES + 1)
         .read_to_end(&mut bytes)
@@ -294,9 +289,72 @@ pub fn main<T: clap::Parser>(
     stage: &'static str,
     run: impl FnOnce(T) -> anyhow::Result<()>,
 ) -> ExitCode {
-    let args = parse::<T>(stage);
+    let (args, matches) = parse_matches::<T>(stage);
     let cmd = T::command();
-    main_of(stage, &|name| flag_of(&cmd, name), || run(args))
+    main_of(stage, &|name| flag_of(&cmd, name), || {
+        check_named_paths(&cmd, &matches, &[])?;
+        run(args)
+    })
+}
+
+/// The outputs and the inputs a command line names: the values of the
+/// options `output` (a directory when its value is named `DIR`) and `png`
+/// are outputs (`-` is standard output); every other value that names an
+/// existing file or directory is an input (values that are not paths name
+/// none).
+pub fn named_paths(
+    cmd: &clap::Command,
+    m: &clap::ArgMatches,
+) -> (Vec<(PathBuf, &'static str, bool)>, Vec<PathBuf>) {
+    let (mut outputs, mut inputs) = (Vec::new(), Vec::new());
+    for a in cmd.get_arguments() {
+        if !a.get_action().takes_values() {
+            continue;
+        }
+        let id = a.get_id().as_str();
+        let Ok(Some(values)) = m.try_get_raw(id) else {
+            continue;
+        };
+        for v in values {
+            let path = PathBuf::from(v);
+            if let Some(param) = ["output", "png"].into_iter().find(|o| *o == id) {
+                if path != Path::new("-") {
+                    let dir = a
+                        .get_value_names()
+                        .is_some_and(|n| n.iter().any(|n| n.as_str() == "DIR"));
+                    outputs.push((path, param, dir));
+                }
+            } else if path.exists() {
+                inputs.push(path);
+            }
+        }
+    }
+    if let Some((name, sub)) = m.subcommand() {
+        if let Some(c) = cmd.find_subcommand(name) {
+            let (o, i) = named_paths(c, sub);
+            outputs.extend(o);
+            inputs.extend(i);
+        }
+    }
+    (outputs, inputs)
+}
+
+/// Checks the outputs a command line names against its inputs and
+/// `more_inputs` (ones a binary reads without naming them: a split's
+/// tiles), before any work ([`files::check_outputs`]).
+pub fn check_named_paths(
+    cmd: &clap::Command,
+    m: &clap::ArgMatches,
+    more_inputs: &[&Path],
+) -> anyhow::Result<()> {
+    let (outputs, inputs) = named_paths(cmd, m);
+    let outs: Vec<files::Output> = outputs
+        .iter()
+        .map(|&(ref path, param, dir)| files::Output { path, param, dir })
+        .collect();
+    let mut ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    ins.extend_from_slice(more_inputs);
+    Ok(files::check_outputs(&outs, &ins)?)
 }
 
 /// Runs a stage's body: on error prints `stage: context: error` on one line
@@ -310,6 +368,7 @@ pub fn main_of(
     body: impl FnOnce() -> anyhow::Result<()>,
 ) -> ExitCode {
     crate::alloc::keep_freed_memory();
+    files::init_umask();
     files::remove_temps_on_signals();
     match body() {
         Ok(()) => ExitCode::SUCCESS,
@@ -370,6 +429,11 @@ pub fn at(name: &str) -> impl Fn(crate::Error) -> anyhow::Error + '_ {
 /// `--version` naming the binary; a usage error is one line on stderr,
 /// `stage: error: ... (see --help)`, exit status 2.
 pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
+    parse_matches(stage).0
+}
+
+/// [`parse`], with clap's matches (what [`named_paths`] reads).
+pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatches) {
     // A negative number is a value (`--cusp -1` reaches the parameter's
     // own check, not "unexpected argument"), and so is a vector that
     // starts with one (`--eye -3,2,4`).
@@ -391,7 +455,7 @@ pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
         });
     let parsed = cmd
         .try_get_matches()
-        .and_then(|mut m| T::from_arg_matches_mut(&mut m));
+        .and_then(|m| T::from_arg_matches(&m).map(|t| (t, m)));
     match parsed {
         Ok(t) => t,
         Err(e) => {

@@ -119,7 +119,7 @@ pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
 /// The toolkit replaces files by renaming, never by rewriting them in
 /// place, so a mapping it reads cannot shrink under it.
 pub fn read_cloud_file_with(path: &Path, select: &Select, mmap: bool) -> Result<Cloud> {
-    let file = std::fs::File::open(path)?;
+    let file = crate::files::open_input(path)?;
     let meta = file.metadata()?;
     if meta.is_dir() {
         return Err(Error::invalid("is a directory"));

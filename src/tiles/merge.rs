@@ -25,7 +25,7 @@ fn bad(name: &str, what: String) -> Error {
 }
 
 fn open(path: &Path) -> Result<Reader> {
-    let f = File::open(path)?;
+    let f = crate::files::open_input(path)?;
     PlyChunks::new(BufReader::with_capacity(1 << 18, f))
 }
 

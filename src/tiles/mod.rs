@@ -23,6 +23,8 @@ pub mod reach;
 pub mod request;
 pub mod split;
 
+use std::io::Read;
+
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -41,6 +43,10 @@ pub const MANIFEST: &str = "manifest.json";
 /// The most tiles a split makes (each is an open file while it is
 /// written).
 pub const MAX_TILES: usize = 4096;
+/// The largest manifest read: one of [`MAX_TILES`] tiles takes well
+/// under a megabyte, so a file that goes on (`/dev/zero`) is refused, not
+/// read until memory runs out.
+pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
 
 /// One tile of the manifest.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -123,7 +129,21 @@ impl Manifest {
         let path = dir.join(MANIFEST);
         let name = path.display().to_string();
         let bad = |what: String| Error::invalid(what).about(&name);
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::from(e).about(&name))?;
+        let io = |e: std::io::Error| Error::from(e).about(&name);
+        let mut bytes = Vec::new();
+        crate::files::open_input(&path)
+            .map_err(io)?
+            .take(MAX_MANIFEST_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > MAX_MANIFEST_BYTES {
+            let what = format!(
+                "larger than {} MiB: not a manifest pctile split wrote",
+                MAX_MANIFEST_BYTES >> 20
+            );
+            return Err(bad(what));
+        }
+        let text = String::from_utf8(bytes).map_err(|_| bad("not UTF-8 text".into()))?;
         let m: Manifest = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
         if m.format != FORMAT {
             return Err(bad(format!("format '{}', not '{FORMAT}'", m.format)));

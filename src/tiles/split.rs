@@ -154,7 +154,7 @@ pub struct SplitOptions {
 }
 
 fn open(path: &Path) -> Result<PlyChunks<BufReader<File>>> {
-    let f = File::open(path)?;
+    let f = crate::files::open_input(path)?;
     if f.metadata()?.is_dir() {
         return Err(Error::invalid("is a directory"));
     }

@@ -14,6 +14,7 @@ mod filter_render;
 mod fuzz_replay;
 mod hostile;
 mod illum;
+mod inputs_kept;
 mod layers;
 mod measure;
 mod mesh_input;
