@@ -103,11 +103,11 @@ fn main() {
         formats::read_cloud(BufReader::with_capacity(1 << 16, f), sel).unwrap()
     };
     row(
-        "pcsss read, file (mapped), all 10 properties decoded",
+        "pcsss read, file (whole), all 10 properties decoded",
         Some(best(3, || read_file(&Select::All))),
     );
     row(
-        "pcsss read, file (mapped), only P and N decoded (rest lazy)",
+        "pcsss read, file (whole), only P and N decoded (rest lazy)",
         Some(best(3, || read_file(&Select::only(&["P", "N"])))),
     );
     row(
@@ -122,7 +122,7 @@ fn main() {
         "pcsss read, pipe, only P and N decoded",
         Some(best(3, || read_pipe(&bytes, &Select::only(&["P", "N"])))),
     );
-    // The same values as ASCII text: a mapped file's rows are parsed in
+    // The same values as ASCII text: a file's rows are parsed in
     // parallel, a stream's row by row.
     let ascii = dir.join(format!("ply_io_{n}_ascii.ply"));
     let mut f = BufWriter::new(File::create(&ascii).unwrap());
@@ -130,7 +130,7 @@ fn main() {
     f.flush().unwrap();
     drop(f);
     row(
-        "pcsss read, ASCII file (mapped: rows in parallel), all decoded",
+        "pcsss read, ASCII file (whole: rows in parallel), all decoded",
         Some(best(3, || {
             formats::read_cloud_file(&ascii, &Select::All).unwrap()
         })),

@@ -509,12 +509,13 @@ impl Column {
     }
 }
 
-/// Bytes read into memory, or a range of a memory-mapped file.
+/// Bytes read into memory: owned, or a range of a whole file's buffer
+/// that other columns share.
 #[derive(Debug)]
 pub enum Bytes {
     Owned(Vec<u8>),
-    Mapped {
-        map: Arc<memmap2::Mmap>,
+    Shared {
+        buf: Arc<Vec<u8>>,
         start: usize,
         len: usize,
     },
@@ -525,7 +526,7 @@ impl std::ops::Deref for Bytes {
     fn deref(&self) -> &[u8] {
         match self {
             Bytes::Owned(v) => v,
-            Bytes::Mapped { map, start, len } => &map[*start..*start + *len],
+            Bytes::Shared { buf, start, len } => &buf[*start..*start + *len],
         }
     }
 }

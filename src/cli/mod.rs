@@ -137,8 +137,8 @@ pub fn read_input(path: Option<&Path>, select: &Select) -> anyhow::Result<Cloud>
     let name = display_name(path);
     let result = match path {
         Some(p) if p != Path::new("-") => {
-            // `PCSSS_NO_MMAP`: read files as streams, not mapped.
-            formats::read_cloud_file_with(p, select, !env_flag("PCSSS_NO_MMAP"))
+            // `PCSSS_STREAM`: read files as streams, not whole.
+            formats::read_cloud_file_with(p, select, !env_flag("PCSSS_STREAM"))
                 .map_err(anyhow::Error::from)
         }
         _ => {
@@ -478,7 +478,7 @@ pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatch
 
 /// True when the environment variable `name` is set (to anything): the
 /// switches the binaries read for the library (`PCSSS_NO_AVX2`,
-/// `PCSSS_TIMES`, `PCSSS_NO_MMAP`).
+/// `PCSSS_TIMES`, `PCSSS_STREAM`).
 pub fn env_flag(name: &str) -> bool {
     std::env::var_os(name).is_some()
 }

@@ -8,7 +8,7 @@ pub mod exr;
 pub mod obj;
 pub mod ply;
 
-use std::io::{BufRead, Write};
+use std::io::{BufRead, Read, Write};
 use std::path::Path;
 use std::str::FromStr;
 
@@ -109,38 +109,59 @@ pub fn read_cloud<R: BufRead>(mut r: R, select: &Select) -> Result<Cloud> {
     }
 }
 
-/// Reads a cloud or mesh from a file, memory-mapped when it is a regular
-/// file: properties a stage does not decode are never copied.
+/// Reads a cloud or mesh from a file: a regular file is read whole into
+/// memory first, so that properties a stage does not decode are never
+/// copied again (they keep a range of the file's bytes).
 pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
     read_cloud_file_with(path, select, true)
 }
 
-/// [`read_cloud_file`], memory-mapped only when `mmap` (else streamed).
-/// The toolkit replaces files by renaming, never by rewriting them in
-/// place, so a mapping it reads cannot shrink under it.
-pub fn read_cloud_file_with(path: &Path, select: &Select, mmap: bool) -> Result<Cloud> {
-    let file = crate::files::open_input(path)?;
+/// [`read_cloud_file`], read whole only when `whole` (else streamed).
+///
+/// The file is read with `read(2)`, not mapped: a mapped file cut short
+/// by another program while a stage reads it (`cp` or `>` over it) kills
+/// the process with SIGBUS, and one rewritten in place changes under the
+/// stage's feet. Read, a file cut short gives a truncated read, and one
+/// changed while it was read (its size or modification time differ
+/// after) is an error naming it.
+pub fn read_cloud_file_with(path: &Path, select: &Select, whole: bool) -> Result<Cloud> {
+    let mut file = crate::files::open_input(path)?;
     let meta = file.metadata()?;
     if meta.is_dir() {
         return Err(Error::invalid("is a directory"));
     }
-    let use_map = mmap && meta.is_file() && meta.len() > 0;
-    let map = match use_map {
-        // SAFETY: the mapping is read-only; see the note above on files
-        // changing underneath it.
-        true => unsafe { memmap2::MmapOptions::new().populate().map(&file) }.ok(),
-        false => None,
-    };
-    let Some(map) = map else {
+    if !(whole && meta.is_file() && meta.len() > 0) {
         return read_cloud(std::io::BufReader::with_capacity(1 << 16, file), select);
-    };
-    match sniff(&map) {
-        Some(Kind::Ply) => {
-            ply::read::read_ply_from(ply::read::Mapped::new(std::sync::Arc::new(map)), select)
-        }
-        Some(Kind::Exr) => exr::read_exr(&map),
-        _ => read_cloud(&map[..], select),
     }
+    // The size is what the file system says the file holds, not what a
+    // header claims: reserving it is safe, and a file that grows is read
+    // to its end all the same.
+    let mut buf = Vec::new();
+    buf.try_reserve_exact(meta.len() as usize)
+        .map_err(|_| Error::unsupported(format!("{} bytes: more than memory holds", meta.len())))?;
+    file.read_to_end(&mut buf)?;
+    unchanged_since(&file, &meta)?;
+    let buf = std::sync::Arc::new(buf);
+    match sniff(&buf) {
+        Some(Kind::Ply) => ply::read::read_ply_from(ply::read::Whole::new(buf), select),
+        Some(Kind::Exr) => exr::read_exr(&buf),
+        _ => read_cloud(&buf[..], select),
+    }
+}
+
+/// An error when `file` changed since `before` was taken (its size or its
+/// modification time): read while another program wrote it, its bytes
+/// may mix two versions.
+fn unchanged_since(file: &std::fs::File, before: &std::fs::Metadata) -> Result<()> {
+    let now = file.metadata()?;
+    if now.len() != before.len() || now.modified().ok() != before.modified().ok() {
+        return Err(Error::invalid(format!(
+            "changed while it was read ({} bytes, then {}): read it again when it is complete",
+            before.len(),
+            now.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Writes a cloud in `format` (OpenEXR with the default options).

@@ -4,8 +4,8 @@
 //! path: rows are read in 1 MiB chunks and the selected properties decoded
 //! while the chunk is hot in cache; the rest stay as raw bytes, decoded only
 //! if asked for and otherwise copied through on write. Elements with lists
-//! (faces) and ASCII bodies are decoded row by row, but for a mapped ASCII
-//! file laid out one row a line, which is parsed in parallel, a chunk of
+//! (faces) and ASCII bodies are decoded row by row, but for an ASCII file
+//! read whole and laid out one row a line, which is parsed in parallel, a chunk of
 //! lines a task (`read_ascii_lines`). Nothing is allocated
 //! from a header's counts: buffers grow with the bytes that actually arrive,
 //! so a header that claims 10^12 vertices over a short body fails as
@@ -13,8 +13,6 @@
 
 use std::io::{BufRead, Read};
 use std::sync::Arc;
-
-use memmap2::Mmap;
 
 use super::header::{layout, read_header, roles, ElementDef, Encoding, Header, Layout, PropKind};
 use crate::cloud::{AttrData, Attribute, Cloud, Element, ListColumn};
@@ -51,28 +49,30 @@ impl Select {
 
 const CHUNK_BYTES: usize = 1 << 20;
 
-/// An input the reader may slice without copying: a memory-mapped file.
+/// An input the reader may slice without copying: a whole file read into
+/// one shared buffer.
 pub trait Source: BufRead {
-    /// The mapping and the current offset in it, when there is one.
-    fn mapped(&self) -> Option<(&Arc<Mmap>, usize)> {
+    /// The buffer and the current offset in it, when there is one.
+    fn whole(&self) -> Option<(&Arc<Vec<u8>>, usize)> {
         None
     }
 }
 
-/// A memory-mapped file, read from `pos` on.
-pub struct Mapped {
-    map: Arc<Mmap>,
+/// A whole file in memory, read from `pos` on: properties a stage does
+/// not decode keep a range of it, with no copy.
+pub struct Whole {
+    buf: Arc<Vec<u8>>,
     pos: usize,
 }
 
-impl Mapped {
-    /// Reads `map` from its start.
-    pub fn new(map: Arc<Mmap>) -> Self {
-        Mapped { map, pos: 0 }
+impl Whole {
+    /// Reads `buf` from its start.
+    pub fn new(buf: Arc<Vec<u8>>) -> Self {
+        Whole { buf, pos: 0 }
     }
 }
 
-impl Read for Mapped {
+impl Read for Whole {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         let n = self.fill_buf()?.read(buf)?;
         self.consume(n);
@@ -80,18 +80,18 @@ impl Read for Mapped {
     }
 }
 
-impl BufRead for Mapped {
+impl BufRead for Whole {
     fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
-        Ok(&self.map[self.pos..])
+        Ok(&self.buf[self.pos..])
     }
     fn consume(&mut self, amt: usize) {
-        self.pos = (self.pos + amt).min(self.map.len());
+        self.pos = (self.pos + amt).min(self.buf.len());
     }
 }
 
-impl Source for Mapped {
-    fn mapped(&self) -> Option<(&Arc<Mmap>, usize)> {
-        Some((&self.map, self.pos))
+impl Source for Whole {
+    fn whole(&self) -> Option<(&Arc<Vec<u8>>, usize)> {
+        Some((&self.buf, self.pos))
     }
 }
 
@@ -123,7 +123,7 @@ pub fn read_ply<R: BufRead>(r: R, select: &Select) -> Result<Cloud> {
     read_ply_from(Stream(r), select)
 }
 
-/// Reads a whole PLY file from any [`Source`]; a [`Mapped`] one keeps
+/// Reads a whole PLY file from any [`Source`]; a [`Whole`] one keeps
 /// undecoded properties in the mapping instead of copying them.
 pub fn read_ply_from<R: Source>(mut r: R, select: &Select) -> Result<Cloud> {
     let h = read_header(&mut r)?;
@@ -308,8 +308,8 @@ fn read_fixed<R: Source>(
             }
         }
     };
-    let bytes = if let Some((map, pos)) = r.mapped().map(|(m, p)| (m.clone(), p)) {
-        // Mapped: check the length, decode in place, keep a range.
+    let bytes = if let Some((map, pos)) = r.whole().map(|(m, p)| (m.clone(), p)) {
+        // In memory: check the length, decode in place, keep a range.
         let avail = (map.len() - pos) as u64;
         if avail < total {
             return Err(truncated(def, rows.start + avail / stride as u64));
@@ -323,8 +323,8 @@ fn read_fixed<R: Source>(
             decode(&mut cols, rows);
         }
         r.consume(total);
-        Bytes::Mapped {
-            map,
+        Bytes::Shared {
+            buf: map,
             start: pos,
             len: total,
         }

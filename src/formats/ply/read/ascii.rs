@@ -1,4 +1,4 @@
-//! ASCII bodies: one row a line parsed in parallel from a mapped file,
+//! ASCII bodies: one row a line parsed in parallel from a file read whole,
 //! or token by token, row by row, with line numbers for the errors.
 
 use std::io::{BufRead, Read};
@@ -12,7 +12,7 @@ use crate::formats::ply::header::{ElementDef, Layout, PropKind};
 /// Bytes of ASCII body parsed by one task of `read_ascii_lines`, about.
 const ASCII_TASK_BYTES: usize = 1 << 20;
 
-/// An ASCII element read from a mapped file by `read_ascii_lines`, when
+/// An ASCII element read from a file read whole by `read_ascii_lines`, when
 /// the reader stands at the start of a line; `None` leaves the reader
 /// where it was.
 pub(super) fn ascii_in_parallel<R: Source>(
@@ -25,7 +25,7 @@ pub(super) fn ascii_in_parallel<R: Source>(
         return None;
     }
     let (el, bytes) = {
-        let (map, pos) = r.mapped()?;
+        let (map, pos) = r.whole()?;
         read_ascii_lines(&map[pos..], def, lay)?
     };
     r.consume(bytes);
