@@ -129,9 +129,14 @@ fn collision(param: &str, output: &Path, input: &Path) -> Error {
 /// process dies.
 static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
-/// On SIGINT, SIGTERM or SIGHUP: remove the temp files in flight, then die
-/// of the signal as if it had no handler (the exit status a shell
-/// expects). Installed once, by the binaries (`cli::main_of`).
+/// The directories this process made for its outputs and has not kept
+/// yet ([`MadeDir`]): a signal removes them, after the temp files.
+static MADE_DIRS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// On SIGINT, SIGTERM or SIGHUP: remove the temp files in flight and the
+/// directories made and not yet kept, then die of the signal as if it had
+/// no handler (the exit status a shell expects). Installed once, by the
+/// binaries (`cli::main_of`).
 pub fn remove_temps_on_signals() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
@@ -148,6 +153,10 @@ pub fn remove_temps_on_signals() {
                 for p in paths.iter() {
                     let _ = std::fs::remove_file(p);
                 }
+                let dirs = MADE_DIRS.lock().unwrap_or_else(|e| e.into_inner());
+                for d in dirs.iter() {
+                    let _ = std::fs::remove_dir_all(d);
+                }
                 let _ = signal_hook::low_level::emulate_default_handler(sig);
                 std::process::exit(128 + sig);
             }
@@ -162,6 +171,65 @@ impl Drop for InFlight {
     fn drop(&mut self) {
         let mut v = IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
         v.retain(|p| *p != self.0);
+    }
+}
+
+/// A directory made for a run's outputs (a split's tiles): removed with
+/// all it holds when dropped (the run failed) or when a signal ends the
+/// process, kept once [`MadeDir::keep`] says the outputs are in place.
+pub struct MadeDir {
+    path: PathBuf,
+    kept: bool,
+}
+
+impl MadeDir {
+    /// Makes `path` (with its missing parents) when it is missing: `None`
+    /// when it was there already (and is left alone whatever happens).
+    /// The guard stands for the topmost directory it made.
+    pub fn make(path: &Path) -> Result<Option<MadeDir>> {
+        let about = |e: io::Error| Error::from(e).about(&path.display().to_string());
+        if path.exists() {
+            if !path.is_dir() {
+                let what = Error::invalid("not a directory");
+                return Err(what.about(&path.display().to_string()));
+            }
+            return Ok(None);
+        }
+        let mut top = path;
+        while let Some(parent) = top.parent().filter(|p| !p.as_os_str().is_empty()) {
+            if parent.exists() {
+                break;
+            }
+            top = parent;
+        }
+        // Registered before it exists, under the lock the signal handler
+        // takes: a signal can never leave it behind unregistered.
+        let mut v = MADE_DIRS.lock().unwrap_or_else(|e| e.into_inner());
+        v.push(top.to_path_buf());
+        if let Err(e) = std::fs::create_dir_all(path) {
+            v.pop();
+            let _ = std::fs::remove_dir_all(top);
+            return Err(about(e));
+        }
+        Ok(Some(MadeDir {
+            path: top.to_path_buf(),
+            kept: false,
+        }))
+    }
+
+    /// The run's outputs are in place: the directory stays.
+    pub fn keep(mut self) {
+        self.kept = true;
+    }
+}
+
+impl Drop for MadeDir {
+    fn drop(&mut self) {
+        let mut v = MADE_DIRS.lock().unwrap_or_else(|e| e.into_inner());
+        v.retain(|p| *p != self.path);
+        if !self.kept {
+            let _ = std::fs::remove_dir_all(&self.path);
+        }
     }
 }
 
@@ -337,6 +405,12 @@ impl Staged {
     /// The temp file.
     pub fn file(&self) -> &std::fs::File {
         self.tmp.as_file()
+    }
+
+    /// The temp file's path (for a spool: a staged file read back and
+    /// never committed, removed when dropped or by a signal).
+    pub fn temp_path(&self) -> &Path {
+        self.tmp.path()
     }
 
     /// Renames the temp file into place; refused (and the temp file

@@ -2,7 +2,7 @@
 //! (spooled: the split reads it three times), the halo given or taken
 //! from a stage's reach (or both, and checked), the tile count by number,
 //! size or memory, and the directory made for the tiles removed again
-//! when the split fails.
+//! when the split fails or a signal stops it.
 
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
@@ -11,6 +11,7 @@ use super::reach::{reach_for, StageParams, MARGIN};
 use super::split::{split, SplitOptions, TileCount};
 use super::{ForStage, Manifest};
 use crate::error::{Error, Result};
+use crate::files::{MadeDir, Staged};
 use crate::formats::ply::read::PlyChunks;
 use crate::progress::Progress;
 
@@ -44,18 +45,12 @@ impl Request {
     /// directory this made is removed again: a failed split leaves
     /// nothing behind.
     pub fn run(&self, progress: &Progress) -> Result<Manifest> {
-        let dir = &self.dir;
-        let about_dir = |e: std::io::Error| Error::from(e).about(&dir.display().to_string());
-        if dir.exists() && !dir.is_dir() {
-            return Err(Error::invalid("not a directory").about(&dir.display().to_string()));
+        let made = MadeDir::make(&self.dir)?;
+        let m = self.split_into_dir(progress)?;
+        if let Some(d) = made {
+            d.keep();
         }
-        let made = !dir.exists();
-        std::fs::create_dir_all(dir).map_err(about_dir)?;
-        let done = self.split_into_dir(progress);
-        if done.is_err() && made {
-            let _ = std::fs::remove_dir_all(dir);
-        }
-        done
+        Ok(m)
     }
 
     fn split_into_dir(&self, progress: &Progress) -> Result<Manifest> {
@@ -64,7 +59,7 @@ impl Request {
             Some(p) if p != Path::new("-") => p,
             _ => {
                 spool = spool_stdin(&self.dir)?;
-                spool.path()
+                spool.temp_path()
             }
         };
         let for_stage = match &self.for_stage {
@@ -113,14 +108,11 @@ impl Request {
     }
 }
 
-/// Standard input copied to a temp file in `dir`, removed when dropped.
-fn spool_stdin(dir: &Path) -> Result<tempfile::NamedTempFile> {
-    let about_dir = |e: std::io::Error| Error::from(e).about(&dir.display().to_string());
-    let spool = tempfile::Builder::new()
-        .prefix(".pctile-input-")
-        .tempfile_in(dir)
-        .map_err(about_dir)?;
-    let mut f = spool.as_file();
+/// Standard input copied to a temp file in `dir`, removed when dropped
+/// or by a signal (a staged file never committed).
+fn spool_stdin(dir: &Path) -> Result<Staged> {
+    let spool = Staged::create(&dir.join("stdin.ply"))?;
+    let mut f = spool.file();
     std::io::copy(&mut std::io::stdin().lock(), &mut f)
         .map_err(|e| Error::from(e).about("<stdin>"))?;
     Ok(spool)

@@ -327,3 +327,119 @@ fn an_output_that_cannot_be_written_is_refused_before_the_work() {
         assert_eq!(snapshot(dir), before, "{out}");
     }
 }
+
+#[test]
+fn an_input_cut_short_while_it_is_read_gives_one_line_or_a_whole_result() {
+    // What `cp` or `>` over a file do to a stage reading it: cut it short
+    // at any moment. Every run ends by itself (no signal), with the
+    // result of the whole file or one line naming it, and no temp file.
+    let d = tempdir();
+    let dir = d.path();
+    let n = 1_000_000;
+    let mut c = pcsss::Cloud::with_points(n);
+    let p: Vec<[f32; 3]> = (0..n).map(|i| [i as f32, 0.5, -1.0]).collect();
+    c.points_mut()
+        .set_vec3("P", pcsss::Role::Point, &p)
+        .unwrap();
+    c.points_mut()
+        .set_vec3("N", pcsss::Role::Normal, &p)
+        .unwrap();
+    let whole = to_bytes(&c, pcsss::formats::Format::DEFAULT);
+    let f = dir.join("cut.ply");
+    let mut outcomes = [0usize; 2];
+    for k in 0..12u64 {
+        std::fs::write(&f, &whole).unwrap();
+        let child = Command::new(bin("pcconvert"))
+            .args(["cut.ply", "-o", "out.ply"])
+            .current_dir(dir)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // From before the read starts to after it ended.
+        std::thread::sleep(std::time::Duration::from_millis(k * 4));
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&f)
+            .unwrap()
+            .set_len(whole.len() as u64 / 3)
+            .unwrap();
+        let o = child.wait_with_output().unwrap();
+        let err = stderr(&o);
+        match o.status.code() {
+            Some(0) => outcomes[0] += 1,
+            Some(1) => {
+                assert_eq!(err.lines().count(), 1, "{err}");
+                assert!(err.contains("cut.ply"), "{err}");
+                outcomes[1] += 1;
+            }
+            other => panic!("run {k}: {other:?} {:?}: {err}", o.status),
+        }
+        let temps = std::fs::read_dir(dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(".tmp")
+            })
+            .count();
+        assert_eq!(temps, 0, "run {k} left a temp file");
+        if o.status.success() {
+            // Read before the cut: the whole file, exactly.
+            assert_eq!(
+                std::fs::read(dir.join("out.ply")).unwrap(),
+                whole,
+                "run {k}"
+            );
+        }
+    }
+    eprintln!("whole results: {}, refused: {}", outcomes[0], outcomes[1]);
+}
+
+#[test]
+fn a_split_stopped_while_it_spools_its_input_leaves_nothing() {
+    let d = tempdir();
+    let dir = d.path();
+    bake(dir);
+    let out = dir.join("new/tiles");
+    let mut child = Command::new(bin("pctile"))
+        .args(["split", "--tiles", "2", "--halo", "0.5", "-o"])
+        .arg(&out)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Half the cloud, and standard input kept open: the split waits in
+    // its spool for the rest.
+    let cloud = std::fs::read(dir.join("cloud.ply")).unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    std::io::Write::write_all(&mut stdin, &cloud[..cloud.len() / 2]).unwrap();
+    let spooling = || {
+        std::fs::read_dir(&out)
+            .map(|r| {
+                r.filter_map(|e| e.ok())
+                    .any(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            })
+            .unwrap_or(false)
+    };
+    let mut seen = false;
+    for _ in 0..2000 {
+        if spooling() {
+            seen = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    assert!(seen, "the spool never appeared");
+    // SAFETY: kill(2) on the pid of a child this test started and has not
+    // reaped, so the pid is still its own.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let status = child.wait().unwrap();
+    drop(stdin);
+    use std::os::unix::process::ExitStatusExt;
+    assert_eq!(status.signal(), Some(libc::SIGTERM), "{status:?}");
+    // The directories the split made (new/tiles) are gone with its spool.
+    assert!(!dir.join("new").exists(), "the split's directory was left");
+}
