@@ -4,6 +4,8 @@
 //! stderr not a terminal, draws nothing). It also carries whether the
 //! stages print the time of their phases ([`Phases`]).
 
+use std::io::Write;
+
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// A progress counter, drawn or not.
@@ -133,7 +135,10 @@ impl Phases {
     pub fn mark(&mut self, name: &str) {
         if let Some(t) = self.last {
             let cpu = cpu_seconds();
-            eprintln!(
+            // (A stderr that cannot be written loses the line, and no
+            // more: `eprintln!` would panic.)
+            let _ = writeln!(
+                std::io::stderr().lock(),
                 "{} {name}: {:.2} ms, cpu {:.0} ms (system {:.0}){}",
                 self.what,
                 t.elapsed().as_secs_f64() * 1e3,

@@ -1,9 +1,11 @@
 //! `pcdiff A B`: compares two clouds attribute by attribute; exits 0 when
 //! they agree within tolerance, 1 when they differ, 2 on error.
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Parser;
 use pcsss::cli::{self, MsgArgs};
 use pcsss::formats::Select;
@@ -94,9 +96,12 @@ fn run(args: Args) -> anyhow::Result<bool> {
     for d in &rep.details {
         msg.debug(d);
     }
+    // (Errors returned, a broken pipe a success: `println!` panics.)
+    let mut out = std::io::stdout().lock();
     for d in &rep.differences {
-        println!("{d}");
+        writeln!(out, "{d}").context("<stdout>")?;
     }
+    out.flush().context("<stdout>")?;
     msg.info(format!(
         "{} attributes compared, {} differences",
         rep.compared,

@@ -1,9 +1,11 @@
 //! `pcinfo`: prints a cloud's summary (points, attributes with type, role
 //! and min/max/mean, detail attributes, faces).
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Parser;
 use pcsss::cli::{self, MsgArgs};
 use pcsss::formats::Select;
@@ -29,15 +31,18 @@ fn run(args: Args) -> anyhow::Result<()> {
         args.inputs.into_iter().map(Some).collect()
     };
     let many = inputs.len() > 1;
+    // Written with errors returned (a broken pipe is success), never
+    // `println!`, which panics on them.
+    let mut out = std::io::stdout().lock();
     for p in &inputs {
         let cloud = cli::read_input(p.as_deref(), &Select::All)?;
         let text = pcsss::tools::info::summary(&cloud);
         if many {
-            println!("{}:", cli::display_name(p.as_deref()));
+            writeln!(out, "{}:", cli::display_name(p.as_deref())).context("<stdout>")?;
         }
-        use std::io::Write;
-        std::io::stdout().lock().write_all(text.as_bytes())?;
+        out.write_all(text.as_bytes()).context("<stdout>")?;
     }
+    out.flush().context("<stdout>")?;
     Ok(())
 }
 

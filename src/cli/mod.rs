@@ -219,6 +219,14 @@ pub fn read_mesh(path: &Path) -> anyhow::Result<crate::geom::mesh::TriMesh> {
     Ok(mesh)
 }
 
+/// One line on stderr. A stderr that cannot be written (closed, a
+/// broken pipe) loses the line; it never ends the stage.
+pub fn say(line: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut e = io::stderr().lock();
+    let _ = e.write_fmt(line).and_then(|()| e.write_all(b"\n"));
+}
+
 /// Messages to stderr, prefixed with the stage name.
 #[derive(Clone, Copy, Debug)]
 pub struct Messages {
@@ -230,21 +238,21 @@ impl Messages {
     /// A normal message (silenced by `-q`).
     pub fn info(&self, msg: impl std::fmt::Display) {
         if self.level >= 1 {
-            eprintln!("{}: {msg}", self.stage);
+            say(format_args!("{}: {msg}", self.stage));
         }
     }
 
     /// A warning (silenced by `-q`).
     pub fn warn(&self, msg: impl std::fmt::Display) {
         if self.level >= 1 {
-            eprintln!("{}: warning: {msg}", self.stage);
+            say(format_args!("{}: warning: {msg}", self.stage));
         }
     }
 
     /// Detail shown with `-v`.
     pub fn debug(&self, msg: impl std::fmt::Display) {
         if self.level >= 2 {
-            eprintln!("{}: {msg}", self.stage);
+            say(format_args!("{}: {msg}", self.stage));
         }
     }
 
@@ -370,7 +378,10 @@ pub fn main_of(
     crate::alloc::keep_freed_memory();
     files::init_umask();
     files::remove_temps_on_signals();
-    match body() {
+    match check_environment()
+        .map_err(anyhow::Error::from)
+        .and_then(|()| body())
+    {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(mut e) => {
@@ -378,7 +389,7 @@ pub fn main_of(
                 lib.rename_params(flag);
             }
             let line = format!("{e:#}").replace('\n', " ");
-            eprintln!("{stage}: {line}");
+            say(format_args!("{stage}: {line}"));
             ExitCode::from(if is_param_error(&e) { 2 } else { 1 })
         }
     }
@@ -470,15 +481,68 @@ pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatch
                 .next()
                 .unwrap_or(text);
             let line: Vec<&str> = text.split_whitespace().collect();
-            eprintln!("{stage}: {} (see --help)", line.join(" "));
+            say(format_args!("{stage}: {} (see --help)", line.join(" ")));
             std::process::exit(2);
         }
     }
 }
 
-/// True when the environment variable `name` is set (to anything): the
-/// switches the binaries read for the library (`PCSSS_NO_AVX2`,
-/// `PCSSS_TIMES`, `PCSSS_STREAM`).
+/// The switches the binaries read from the environment: `PCSSS_NO_AVX2`
+/// (ssmulti's baseline pair loop), `PCSSS_TIMES` (each phase's time on
+/// stderr), `PCSSS_STREAM` (input files streamed, not read whole).
+pub const SWITCHES: [&str; 3] = ["PCSSS_NO_AVX2", "PCSSS_TIMES", "PCSSS_STREAM"];
+
+/// The most worker threads `RAYON_NUM_THREADS` may ask for.
+pub const MAX_THREADS: usize = 1024;
+
+/// A switch's value: off when unset, empty, `0`, `false`, `no` or `off`;
+/// on when `1`, `true`, `yes` or `on`; anything else is not a switch.
+fn switch_value(name: &str) -> Result<bool, String> {
+    let Some(v) = std::env::var_os(name) else {
+        return Ok(false);
+    };
+    match v.to_string_lossy().trim().to_ascii_lowercase().as_str() {
+        "" | "0" | "false" | "no" | "off" => Ok(false),
+        "1" | "true" | "yes" | "on" => Ok(true),
+        other => Err(format!("'{other}' is not 0 or 1 (off or on)")),
+    }
+}
+
+/// True when the switch `name` ([`SWITCHES`]) is on.
 pub fn env_flag(name: &str) -> bool {
-    std::env::var_os(name).is_some()
+    switch_value(name).unwrap_or(false)
+}
+
+/// Checks, before any work, what the binaries read from the environment:
+/// every switch is 0 or 1, and `RAYON_NUM_THREADS` (the thread pool's
+/// size) is empty, 0 (a thread a core) or a count up to [`MAX_THREADS`];
+/// the pool is built with it. A bad value is a bad parameter named by the
+/// variable.
+pub fn check_environment() -> crate::Result<()> {
+    for name in SWITCHES {
+        switch_value(name).map_err(|why| crate::Error::param(name, why))?;
+    }
+    const THREADS: &str = "RAYON_NUM_THREADS";
+    let Some(v) = std::env::var_os(THREADS) else {
+        return Ok(());
+    };
+    let v = v.to_string_lossy();
+    let n = match v.trim() {
+        "" => 0,
+        t => t
+            .parse::<usize>()
+            .map_err(|_| crate::Error::param(THREADS, format!("'{t}' is not a thread count")))?,
+    };
+    if n > MAX_THREADS {
+        let why = format!("{n} threads: at most {MAX_THREADS} (0 for one a core)");
+        return Err(crate::Error::param(THREADS, why));
+    }
+    // (Built here, with the count, so that rayon never reads the
+    // variable itself.)
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let n = if n == 0 { cores } else { n };
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global();
+    Ok(())
 }

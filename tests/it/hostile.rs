@@ -25,6 +25,28 @@ fn files(dir: &std::path::Path) -> (String, String) {
     (cloud.display().to_string(), mesh.display().to_string())
 }
 
+/// A lit cloud ssmulti can bake: `lit.ply` in `dir`.
+fn lit_cloud(dir: &std::path::Path) -> String {
+    let mut c = Cloud::with_points(3);
+    let p = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut()
+        .set_vec3("N", Role::Normal, &[[0.0f32, 0.0, 1.0]; 3])
+        .unwrap();
+    c.points_mut()
+        .set_vec3("illum", Role::Color, &[[1.0f32, 1.0, 1.0]; 3])
+        .unwrap();
+    c.points_mut()
+        .set(pcsss::Attribute::scalar(
+            "ptarea",
+            pcsss::Column::F32(vec![0.5; 3]),
+        ))
+        .unwrap();
+    let f = dir.join("lit.ply");
+    std::fs::write(&f, to_bytes(&c, LE)).unwrap();
+    f.display().to_string()
+}
+
 /// One line on stderr, no panic, the exit status; the line for checks.
 fn one_line(o: &std::process::Output, code: i32, what: &str) -> String {
     let err = stderr(o);
@@ -438,4 +460,86 @@ fn results_beyond_a_float_are_refused_or_written_finite() {
         &to_bytes(&c, LE),
     );
     assert!(one_line(&o, 2, "--half").contains("half"));
+}
+
+/// What the environment sets is a result or one line (issue 42): the
+/// switches take 0 or 1 (`PCSSS_TIMES=0` is off), and the thread pool's
+/// size is a count up to a ceiling, never a hang of 100,000 threads.
+#[test]
+fn environment_values_give_a_result_or_one_line() {
+    let dir = tempdir();
+    let cloud = lit_cloud(dir.path());
+    let ssmulti = |env: &[(&str, &str)]| {
+        Command::new(bin("ssmulti"))
+            .args([&cloud, "--sd", "1", "-o", "x.ply"])
+            .current_dir(dir.path())
+            .envs(env.iter().copied())
+            .output()
+            .unwrap()
+    };
+    for (k, v, want) in [
+        ("RAYON_NUM_THREADS", "abc", "RAYON_NUM_THREADS"),
+        ("RAYON_NUM_THREADS", "-1", "RAYON_NUM_THREADS"),
+        ("RAYON_NUM_THREADS", "100000", "at most 1024"),
+        ("PCSSS_TIMES", "maybe", "PCSSS_TIMES"),
+        ("PCSSS_NO_AVX2", "2", "PCSSS_NO_AVX2"),
+        ("PCSSS_STREAM", "yes please", "PCSSS_STREAM"),
+    ] {
+        let o = ssmulti(&[(k, v)]);
+        assert!(one_line(&o, 2, k).contains(want), "{k}={v}");
+        assert!(!dir.path().join("x.ply").exists(), "{k}={v} wrote anyway");
+    }
+    for (k, v) in [
+        ("RAYON_NUM_THREADS", "0"),
+        ("RAYON_NUM_THREADS", ""),
+        ("RAYON_NUM_THREADS", "3"),
+        ("PCSSS_TIMES", "0"),
+        ("PCSSS_TIMES", "off"),
+    ] {
+        let o = ssmulti(&[(k, v)]);
+        assert!(o.status.success(), "{k}={v}: {}", stderr(&o));
+        // Phase times only when asked for.
+        assert!(!stderr(&o).contains(" ms, cpu "), "{k}={v}: {}", stderr(&o));
+    }
+    let o = ssmulti(&[("PCSSS_TIMES", "1")]);
+    assert!(stderr(&o).contains(" ms, cpu "), "{}", stderr(&o));
+}
+
+/// A reader that goes away is success, not a panic, and a stderr that is
+/// closed or a broken pipe never ends a stage (issue 42).
+#[test]
+fn broken_pipes_and_a_closed_stderr_end_nothing_badly() {
+    let dir = tempdir();
+    let cloud = lit_cloud(dir.path());
+    // A big enough summary and diff that the pipe breaks while they write.
+    let many: Vec<&str> = std::iter::repeat_n(cloud.as_str(), 400).collect();
+    let sh = |cmd: String| {
+        Command::new("bash")
+            .args(["-c", &cmd])
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let o = sh(format!(
+        "{} {} | head -c 10 >/dev/null; echo ${{PIPESTATUS[0]}}",
+        bin("pcinfo").display(),
+        many.join(" ")
+    ));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "0",
+        "{}",
+        stderr(&o)
+    );
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    // Stderr closed, or a pipe nobody reads: the stage does its work.
+    for redirect in ["2>&-", "2> >(exec 0<&-)"] {
+        let o = sh(format!(
+            "{} {cloud} --sd 1 -o y.ply {redirect}; echo $?",
+            bin("ssmulti").display()
+        ));
+        assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "0", "{redirect}");
+        assert!(dir.path().join("y.ply").exists(), "{redirect}");
+        std::fs::remove_file(dir.path().join("y.ply")).unwrap();
+    }
 }
