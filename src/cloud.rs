@@ -669,6 +669,18 @@ impl Cloud {
         }
     }
 
+    /// Records what a stage ran with: the detail attributes `values`
+    /// (names starting with `prefix`, the stage's: `ssmulti_`), after
+    /// removing every other detail of that prefix an earlier run left, so
+    /// that what a cloud says of a stage is its last run, whole.
+    pub fn record(&mut self, prefix: &str, values: Vec<(&str, DetailValue)>) {
+        self.detail.retain(|d| !d.name.starts_with(prefix));
+        for (name, value) in values {
+            debug_assert!(name.starts_with(prefix), "{name}");
+            self.set_detail(name, value);
+        }
+    }
+
     /// Sets a detail attribute, replacing one of the same name in place.
     pub fn set_detail(&mut self, name: &str, value: DetailValue) {
         match self.detail.iter_mut().find(|d| d.name == name) {

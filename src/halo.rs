@@ -29,6 +29,11 @@ pub fn halo_mask(cloud: &Cloud, reach: Option<f64>, what: &str) -> Result<Option
                 "{what} has no bounded reach, so a tile's halo cannot hold its sources: run it on the whole cloud"
             )))
         }
+        (_, Some(w)) if !(w.is_finite() && w >= 0.0) => {
+            return Err(Error::invalid(format!(
+                "the tile's {D_HALO} is {w}: not a width (a tile pctile split made has one)"
+            )))
+        }
         (Some(r), Some(w)) if w < r => {
             return Err(Error::invalid(format!(
                 "the tile's halo ({D_HALO} {w}) is narrower than {what} ({r}): split again with a halo of {r} or more"

@@ -196,6 +196,16 @@ pub struct Light {
     pub samples: u32,
 }
 
+/// The lights' fingerprint: XXH3-128 of everything they are (names,
+/// colours, shapes, falloffs, samples), in 32 hex digits. Recorded by the
+/// stages that use them, so that clouds lit otherwise are told apart.
+pub fn digest(lights: &[Light]) -> String {
+    format!(
+        "{:032x}",
+        xxhash_rust::xxh3::xxh3_128(format!("{lights:?}").as_bytes())
+    )
+}
+
 /// The most samples an area light may ask for.
 pub const MAX_SAMPLES: u32 = 1 << 16;
 

@@ -70,6 +70,9 @@ pub struct Occluder {
     ids: Vec<u32>,
     centre: DVec3,
     inv_scale: f64,
+    /// The mesh's fingerprint ([`TriMesh::digest`]), for the stages that
+    /// record what they traced against.
+    pub mesh_digest: String,
 }
 
 impl Occluder {
@@ -113,6 +116,7 @@ impl Occluder {
             ids: Vec::new(),
             centre,
             inv_scale,
+            mesh_digest: mesh.digest(),
         };
         if input.is_empty() {
             return occ;

@@ -100,6 +100,25 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// The mesh's fingerprint: XXH3-128 of its positions and polygons, in
+    /// 32 hex digits. Recorded by the stages that trace rays against it,
+    /// so that clouds baked against other meshes are told apart.
+    pub fn digest(&self) -> String {
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        for p in &self.positions {
+            for x in p.to_array() {
+                h.update(&x.to_bits().to_le_bytes());
+            }
+        }
+        for o in &self.polys.offsets {
+            h.update(&(*o as u64).to_le_bytes());
+        }
+        for i in &self.polys.indices {
+            h.update(&i.to_le_bytes());
+        }
+        format!("{:032x}", h.digest128())
+    }
+
     /// The mesh of `cloud`: its `P` and faces, polygons triangulated by ear
     /// clipping. Errors on no faces, faces pointing at missing vertices and
     /// non-finite positions.

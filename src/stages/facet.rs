@@ -19,7 +19,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cloud::{Cloud, Role};
+use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::mesh::{ClosestPoint, TriMesh};
 use crate::geom::{self, unit_or_zero};
@@ -248,6 +248,21 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         zero_normals: normals.iter().filter(|n| **n == [0.0; 3]).count(),
     };
     cloud.points_mut().set_vec3("N", Role::Normal, &normals)?;
+    cloud.record(
+        "facet_",
+        vec![
+            (
+                "facet_mode",
+                DetailValue::Str(format!("{:?}", p.mode).to_lowercase()),
+            ),
+            (
+                "facet_weight",
+                DetailValue::Str(format!("{:?}", p.weight).to_lowercase()),
+            ),
+            ("facet_cusp", DetailValue::F64(p.cusp)),
+            ("facet_mesh_digest", DetailValue::Str(mesh.digest())),
+        ],
+    );
     Ok(report)
 }
 
@@ -271,5 +286,7 @@ pub fn facet_mesh(cloud: &mut Cloud, weight: Weight) -> Result<Report> {
         zero_normals: normals.iter().filter(|n| **n == [0.0; 3]).count(),
     };
     cloud.points_mut().set_vec3("N", Role::Normal, &normals)?;
+    let weight = DetailValue::Str(format!("{weight:?}").to_lowercase());
+    cloud.record("facet_", vec![("facet_weight", weight)]);
     Ok(report)
 }

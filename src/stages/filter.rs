@@ -28,7 +28,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cloud::{Cloud, Role};
+use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::grid::bounds;
 use crate::geom::grid::dense::RadiusGrid;
@@ -630,6 +630,17 @@ pub fn filter(
             .unwrap_or(Role::Color);
         shade.points_mut().set_vec3(source.name(), role, rows)?;
     }
+    let reach = match p.reach {
+        Reach::Nearest(n) => format!("nearest {n}"),
+        Reach::Radius(r) => format!("radius {r:?}"),
+    };
+    shade.record(
+        "filter_",
+        vec![
+            ("filter_reach", DetailValue::Str(reach)),
+            ("filter_facing", DetailValue::I32(p.facing as i32)),
+        ],
+    );
     report.mean_used = if receivers == 0 {
         0.0
     } else {

@@ -175,7 +175,21 @@ pub fn illum(
         report.dark += dark;
     }
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
+    // What the run was: the lights (their names, and all they are), the
+    // mesh that shadowed them, the area lights' seed.
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
-    cloud.set_detail("illum_lights", DetailValue::Str(names.join(",")));
+    let shadows = occluder.map_or("none".to_string(), |o| o.mesh_digest.clone());
+    cloud.record(
+        "illum_",
+        vec![
+            ("illum_lights", DetailValue::Str(names.join(","))),
+            (
+                "illum_lights_digest",
+                DetailValue::Str(crate::lights::digest(lights)),
+            ),
+            ("illum_shadows", DetailValue::Str(shadows)),
+            ("illum_seed", DetailValue::Str(seed.to_string())),
+        ],
+    );
     Ok(report)
 }

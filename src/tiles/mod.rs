@@ -37,7 +37,7 @@ pub use split::{split, SplitOptions, TileCount};
 pub use crate::names::{D_HALO, D_SPLIT, D_TILE, HALO, INDEX};
 
 /// The manifest's `format` value.
-pub const FORMAT: &str = "pcsss-tiles 1";
+pub const FORMAT: &str = "pcsss-tiles 2";
 /// The manifest's file name in the tile directory.
 pub const MANIFEST: &str = "manifest.json";
 /// The most tiles a split makes (each is an open file while it is
@@ -93,6 +93,9 @@ pub struct Manifest {
     pub split: String,
     /// The input's name as given, for people (not checked).
     pub input: String,
+    /// The input's bytes' XXH3-128, in 32 hex digits: two splits of
+    /// different data never share an id.
+    pub input_hash: String,
     /// Points in the input.
     pub points: u64,
     pub halo: f64,
@@ -167,7 +170,70 @@ impl Manifest {
                 m.points
             )));
         }
+        m.check_consistent().map_err(bad)?;
         Ok(m)
+    }
+
+    /// What the checksum cannot catch in a manifest edited with its id
+    /// recomputed: file names that leave the folder, a `vertex` count that
+    /// is not `points` (the merged file's header would disagree with its
+    /// body), a rest file with no elements to hold or elements without
+    /// one, more tiles than a split makes, a halo that is not a width.
+    fn check_consistent(&self) -> std::result::Result<(), String> {
+        let plain = |f: &str| {
+            let p = std::path::Path::new(f);
+            let mut parts = p.components();
+            matches!(
+                (parts.next(), parts.next()),
+                (Some(std::path::Component::Normal(_)), None)
+            )
+        };
+        for t in &self.tiles {
+            if !plain(&t.file) {
+                return Err(format!(
+                    "tile {} is '{}': a tile is a plain file name in the split's folder",
+                    t.index, t.file
+                ));
+            }
+        }
+        if let Some(r) = &self.rest {
+            if !plain(r) {
+                return Err(format!(
+                    "rest is '{r}': a plain file name in the split's folder"
+                ));
+            }
+        }
+        if self.tiles.is_empty() || self.tiles.len() > MAX_TILES {
+            return Err(format!(
+                "{} tiles: a split makes 1 to {MAX_TILES}",
+                self.tiles.len()
+            ));
+        }
+        let vertices: Vec<u64> = self
+            .elements
+            .iter()
+            .filter(|e| e.name == crate::cloud::POINTS)
+            .map(|e| e.count)
+            .collect();
+        if vertices != [self.points] {
+            return Err(format!(
+                "its elements list {vertices:?} '{}' rows, not one of {} points",
+                crate::cloud::POINTS,
+                self.points
+            ));
+        }
+        let others = self.elements.len() > 1;
+        if others != self.rest.is_some() {
+            return Err(format!(
+                "rest is {:?} with {} elements besides the points",
+                self.rest,
+                self.elements.len() - 1
+            ));
+        }
+        if !(self.halo.is_finite() && self.halo >= 0.0) {
+            return Err(format!("halo {}: not a width >= 0", self.halo));
+        }
+        Ok(())
     }
 }
 

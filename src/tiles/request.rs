@@ -63,11 +63,21 @@ impl Request {
             }
         };
         let for_stage = match &self.for_stage {
-            Some(f) => Some(ForStage {
-                stage: f.stage.clone(),
-                args: f.args.clone(),
-                reach: self.stage_reach(path, &f.params)?,
-            }),
+            Some(f) => {
+                let reach = self.stage_reach(path, &f.params)?;
+                if !reach.is_finite() {
+                    let what = format!(
+                        "{}'s reach with these arguments is {reach}: no halo holds it",
+                        f.stage
+                    );
+                    return Err(Error::param("stage_args", what));
+                }
+                Some(ForStage {
+                    stage: f.stage.clone(),
+                    args: f.args.clone(),
+                    reach,
+                })
+            }
             None => None,
         };
         let halo = match (self.halo, &for_stage) {

@@ -3,12 +3,15 @@
 //! memory holds a chunk of rows, the sample and one write buffer a tile,
 //! whatever the input's size.
 
+use std::cell::RefCell;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::Path;
+use std::rc::Rc;
 
 use glam::DVec3;
 use rayon::prelude::*;
+use xxhash_rust::xxh3::Xxh3;
 
 use super::{ElementEntry, ForStage, Manifest, Plan, Tile, D_HALO, D_SPLIT, D_TILE, FORMAT};
 use super::{HALO, INDEX, MANIFEST, MAX_TILES};
@@ -153,12 +156,36 @@ pub struct SplitOptions {
     pub for_stage: Option<ForStage>,
 }
 
+/// A reader that hashes every byte it passes on (XXH3-128): the split's
+/// first pass reads the whole input through it, so the split's id covers
+/// the input's bytes.
+struct Hashing<R> {
+    inner: R,
+    hash: Rc<RefCell<Xxh3>>,
+}
+
+impl<R: Read> Read for Hashing<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.hash.borrow_mut().update(&buf[..n]);
+        Ok(n)
+    }
+}
+
 fn open(path: &Path) -> Result<PlyChunks<BufReader<File>>> {
+    open_through(path, |f| f)
+}
+
+/// The PLY file at `path`, its bytes read through `wrap`.
+fn open_through<R: Read>(
+    path: &Path,
+    wrap: impl FnOnce(File) -> R,
+) -> Result<PlyChunks<BufReader<R>>> {
     let f = crate::files::open_input(path)?;
     if f.metadata()?.is_dir() {
         return Err(Error::invalid("is a directory"));
     }
-    let mut r = BufReader::with_capacity(1 << 20, f);
+    let mut r = BufReader::with_capacity(1 << 20, wrap(f));
     let head = std::io::BufRead::fill_buf(&mut r)?;
     match crate::formats::sniff(head) {
         Some(crate::formats::Kind::Ply) => {}
@@ -205,8 +232,13 @@ pub fn split(
         return Err(Error::param("halo", what));
     }
     let at = |e: Error| e.about(input_name);
-    // Pass 1: the box and the sample.
-    let mut r = open(input).map_err(at)?;
+    // Pass 1: the box and the sample, and the hash of every byte.
+    let hash = Rc::new(RefCell::new(Xxh3::new()));
+    let hashing = |f| Hashing {
+        inner: f,
+        hash: hash.clone(),
+    };
+    let mut r = open_through(input, hashing).map_err(at)?;
     let header = r.header().clone();
     let Some(v) = header.elements.iter().position(|e| e.name == POINTS) else {
         let what = format!("no '{POINTS}' element: nothing to tile");
@@ -267,6 +299,8 @@ pub fn split(
         progress.inc(pos.len() as u64);
     }
     progress.finish();
+    drop(r);
+    let input_hash = format!("{:032x}", hash.borrow().digest128());
     if seen == 0 {
         (lo, hi) = (DVec3::ZERO, DVec3::ZERO);
     }
@@ -308,6 +342,7 @@ pub fn split(
         format: FORMAT.to_string(),
         split: String::new(),
         input: input_name.to_string(),
+        input_hash,
         points: count,
         halo: h,
         for_stage: opt.for_stage.clone(),

@@ -47,8 +47,8 @@ fn inputs(dir: &Path) {
     let ply = bytes(&good, LE);
     w("cloud.ply", &ply);
     w("trunc.ply", &ply[..ply.len() - 7]);
-    let text = String::from_utf8_lossy(&ply[..200]).into_owned();
     let head_end = ply.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let text = String::from_utf8_lossy(&ply[..head_end]).into_owned();
     let lying = [
         String::from_utf8(ply[..head_end].to_vec())
             .unwrap()

@@ -29,3 +29,4 @@ mod ssmulti;
 mod sssingle;
 mod tiled_bake;
 mod tiles;
+mod tiles_belong;

@@ -53,7 +53,7 @@ use glam::DVec3;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
-use crate::cloud::{Cloud, Role};
+use crate::cloud::{Cloud, DetailValue, Role};
 use crate::column::ScalarType;
 use crate::error::{Error, Result};
 use crate::geom::grid::PointGrid;
@@ -334,6 +334,23 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         .map(|s| [s.w[1] as f32, s.w[2] as f32, 0.0])
         .collect();
     pts.set_vec3("sourceuv", Role::Vector, &uv)?;
+    let mut record = vec![
+        ("scatter_count", DetailValue::F64(n as f64)),
+        ("scatter_seed", DetailValue::Str(p.seed.to_string())),
+        (
+            "scatter_ptarea",
+            DetailValue::Str(format!("{:?}", p.ptarea).to_lowercase()),
+        ),
+        (
+            "scatter_relax",
+            DetailValue::I32(p.relax.min(i32::MAX as u32) as i32),
+        ),
+        ("scatter_blue", DetailValue::I32(p.blue as i32)),
+    ];
+    if p.blue {
+        record.push(("scatter_candidates", DetailValue::F64(p.candidates)));
+    }
+    cloud.record("scatter_", record);
     Ok(cloud)
 }
 

@@ -171,6 +171,29 @@ impl Default for Params {
 }
 
 impl Params {
+    /// What a run records in the cloud's detail: every parameter that
+    /// changes `ssM` (not the instruction set, which changes its last
+    /// bits only).
+    pub fn details(&self) -> Vec<(&'static str, DetailValue)> {
+        let falloff = match self.falloff {
+            Falloff::Smooth => "smooth".to_string(),
+            Falloff::Exp { sigma } => format!("exp {sigma:?}"),
+            Falloff::Burley { kappa } => format!("burley {kappa:?}"),
+        };
+        vec![
+            ("ssmulti_sd", DetailValue::F64(self.sd)),
+            ("ssmulti_rd", DetailValue::V3D(self.rd)),
+            ("ssmulti_rgb", DetailValue::I32(self.rgb as i32)),
+            ("ssmulti_falloff", DetailValue::Str(falloff)),
+            (
+                "ssmulti_norm",
+                DetailValue::Str(format!("{:?}", self.norm).to_lowercase()),
+            ),
+            ("ssmulti_bounce", DetailValue::F64(self.bounce)),
+            ("ssmulti_tolerance", DetailValue::F64(self.tolerance)),
+        ]
+    }
+
     /// The farthest a source can be from a point whose `ssM` it changes:
     /// the kernel's truncation at the largest distance `max(Rd * sd)`
     /// ([`reach`]). A tile's halo must be at least this wide.
@@ -291,8 +314,7 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
     }
     let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
-    cloud.set_detail("ssmulti_sd", DetailValue::F64(p.sd));
-    cloud.set_detail("ssmulti_rd", DetailValue::V3D(p.rd));
+    cloud.record("ssmulti_", p.details());
     Ok(report)
 }
 

@@ -82,6 +82,37 @@ pub struct Params {
     pub cusp: f64,
 }
 
+impl Params {
+    /// What a run records in the cloud's detail: every parameter that
+    /// changes `ssS` (the lights and the mesh are added by the stage).
+    pub fn details(&self) -> Vec<(&'static str, DetailValue)> {
+        let mut d = vec![
+            (
+                "sssingle_model",
+                DetailValue::Str(format!("{:?}", self.model).to_lowercase()),
+            ),
+            ("sssingle_eye", DetailValue::V3D(self.eye.to_array())),
+            ("sssingle_g", DetailValue::F64(self.g)),
+            ("sssingle_eta", DetailValue::F64(self.eta)),
+            ("sssingle_samples", DetailValue::I32(self.samples as i32)),
+            ("sssingle_seed", DetailValue::Str(self.seed.to_string())),
+            ("sssingle_cusp", DetailValue::F64(self.cusp)),
+        ];
+        match self.model {
+            Model::Seed => d.extend([
+                ("sssingle_sd", DetailValue::F64(self.sd)),
+                ("sssingle_rd", DetailValue::V3D(self.rd)),
+                ("sssingle_rgb", DetailValue::I32(self.rgb as i32)),
+            ]),
+            Model::Physical => d.extend([
+                ("sssingle_albedo", DetailValue::V3D(self.albedo)),
+                ("sssingle_mfp", DetailValue::V3D(self.mfp)),
+            ]),
+        }
+        d
+    }
+}
+
 impl Default for Params {
     fn default() -> Self {
         Params {
@@ -197,18 +228,15 @@ pub fn sssingle(
     let own = crate::halo::halo_mask(cloud, Some(0.0), "sssingle")?;
     let (out, report) = sssingle_values(cloud, mesh, lights, p, own.as_deref(), progress)?;
     cloud.points_mut().set_vec3("ssS", Role::Color, &out)?;
-    cloud.set_detail("sssingle_eye", DetailValue::V3D(p.eye.to_array()));
-    cloud.set_detail(
-        "sssingle_model",
-        DetailValue::Str(format!("{:?}", p.model).to_lowercase()),
-    );
-    match p.model {
-        Model::Seed => {
-            cloud.set_detail("sssingle_sd", DetailValue::F64(p.sd));
-            cloud.set_detail("sssingle_rd", DetailValue::V3D(p.rd));
-        }
-        Model::Physical => cloud.set_detail("sssingle_mfp", DetailValue::V3D(p.mfp)),
-    }
+    let mut details = p.details();
+    let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+    details.push(("sssingle_lights", DetailValue::Str(names.join(","))));
+    details.push((
+        "sssingle_lights_digest",
+        DetailValue::Str(crate::lights::digest(lights)),
+    ));
+    details.push(("sssingle_mesh_digest", DetailValue::Str(mesh.digest())));
+    cloud.record("sssingle_", details);
     Ok(report)
 }
 
