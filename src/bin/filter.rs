@@ -53,18 +53,19 @@ struct Args {
     #[arg(long, value_name = "PATTERNS", default_value = "*")]
     single_lmask: String,
     /// Lazy ssS: the mesh the cloud lies on.
-    #[arg(long, value_name = "MESH")]
+    #[arg(long, value_name = "MESH", requires = "single_lights")]
     single_mesh: Option<PathBuf>,
     /// Lazy ssS: the eye, X,Y,Z.
     #[arg(
         long,
         value_name = "X,Y,Z",
         allow_hyphen_values = true,
-        conflicts_with = "camera"
+        conflicts_with = "camera",
+        requires = "single_lights"
     )]
     eye: Option<String>,
     /// Lazy ssS: the eye of a camera file.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", requires = "single_lights")]
     camera: Option<PathBuf>,
     #[command(flatten)]
     single: SingleArgs,

@@ -1,53 +1,12 @@
 //! `sssingle`: single scattering `ssS` at every point, for one eye.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::Parser;
-use pcsss::cli::{self, IoArgs, SingleArgs};
+use pcsss::cli::{self, SssingleArgs as Args};
 use pcsss::formats::Select;
 use pcsss::stages::sssingle;
 
 pcsss::global_allocator!();
-
-/// Single scattering at every point for one eye (Marengo's ssIntegSingle,
-/// or Jensen et al.'s physical model): light refracted into the surface,
-/// scattered once towards the eye and refracted out. Reads P and N; adds
-/// ssS. The maths: docs/DESIGN.md#sssingle.
-#[derive(Parser, Debug)]
-#[command(version, allow_negative_numbers = true)]
-#[command(group = clap::ArgGroup::new("view").required(true).args(["eye", "camera"]))]
-struct Args {
-    #[command(flatten)]
-    io: IoArgs,
-    /// The mesh the points lie on (where light enters, and the far side).
-    #[arg(long, value_name = "MESH")]
-    mesh: PathBuf,
-    /// The lights (JSON, formats/LIGHTS.md), as illum's.
-    #[arg(long, value_name = "FILE")]
-    lights: PathBuf,
-    /// Lights to use: names and glob patterns, separated by commas or
-    /// spaces; ^PATTERN excludes ('*': all).
-    #[arg(long, value_name = "PATTERNS", default_value = "*")]
-    lmask: String,
-    /// The eye: X,Y,Z (e.g. --eye=-3,4,5).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    eye: Option<String>,
-    /// The eye of a camera file (formats/CAMERA.md).
-    #[arg(long, value_name = "FILE")]
-    camera: Option<PathBuf>,
-    /// Seed model: diffuse reflectance R,G,B (or one value).
-    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
-    rd: String,
-    /// Seed model: scattering distance (per channel: Rd * sd).
-    #[arg(long, value_name = "D")]
-    sd: Option<f64>,
-    /// Seed model: per-channel distances (Marengo's t_rgb).
-    #[arg(long)]
-    rgb: bool,
-    #[command(flatten)]
-    single: SingleArgs,
-}
 
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("sssingle");

@@ -1,8 +1,14 @@
 //! The options several stages share: ssmulti's (`ssmulti`, and `filter`
 //! and `render` to compute `ssM` lazily), sssingle's model (`sssingle`,
-//! `filter`, `render`), and the parsers of `R,G,B` and `X,Y,Z` values.
+//! `filter`, `render`), and the parsers of `R,G,B` and `X,Y,Z` values;
+//! and the whole command lines of `sssingle` and `illum`, which `pctile
+//! split --for` parses too.
 
-use super::env_flag;
+use std::path::PathBuf;
+
+use clap::Parser;
+
+use super::{env_flag, IoArgs};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle::{self, Model};
 
@@ -194,4 +200,70 @@ pub fn parse_bytes(flag: &str, s: &str) -> anyhow::Result<u64> {
         return Err(bad().into());
     }
     Ok((x * mul as f64) as u64)
+}
+
+/// Single scattering at every point for one eye (Marengo's ssIntegSingle,
+/// or Jensen et al.'s physical model): light refracted into the surface,
+/// scattered once towards the eye and refracted out. Reads P and N; adds
+/// ssS. The maths: docs/DESIGN.md#sssingle.
+#[derive(Parser, Debug)]
+#[command(version, allow_negative_numbers = true)]
+#[command(group = clap::ArgGroup::new("view").required(true).args(["eye", "camera"]))]
+pub struct SssingleArgs {
+    #[command(flatten)]
+    pub io: IoArgs,
+    /// The mesh the points lie on (where light enters, and the far side).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// The lights (JSON, formats/LIGHTS.md), as illum's.
+    #[arg(long, value_name = "FILE")]
+    pub lights: PathBuf,
+    /// Lights to use: names and glob patterns, separated by commas or
+    /// spaces; ^PATTERN excludes ('*': all).
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    pub lmask: String,
+    /// The eye: X,Y,Z (e.g. --eye=-3,4,5).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub eye: Option<String>,
+    /// The eye of a camera file (formats/CAMERA.md).
+    #[arg(long, value_name = "FILE")]
+    pub camera: Option<PathBuf>,
+    /// Seed model: diffuse reflectance R,G,B (or one value).
+    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
+    pub rd: String,
+    /// Seed model: scattering distance (per channel: Rd * sd).
+    #[arg(long, value_name = "D")]
+    pub sd: Option<f64>,
+    /// Seed model: per-channel distances (Marengo's t_rgb).
+    #[arg(long)]
+    pub rgb: bool,
+    #[command(flatten)]
+    pub single: SingleArgs,
+}
+
+/// Light arriving at every point (Houdini's pcIllum): illum = sum over
+/// the lights in the mask of Cl * max(0, N.L) * visibility, visibility from
+/// shadow rays against --mesh.
+#[derive(Parser, Debug)]
+#[command(version)]
+#[command(group = clap::ArgGroup::new("shadows").required(true).args(["mesh", "no_shadows"]))]
+pub struct IllumArgs {
+    #[command(flatten)]
+    pub io: IoArgs,
+    /// The lights (JSON, formats/LIGHTS.md).
+    #[arg(long, value_name = "FILE")]
+    pub lights: PathBuf,
+    /// The mesh that casts shadows (usually the one the points lie on).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: Option<PathBuf>,
+    /// No shadows: every light reaches every point that faces it.
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Lights to use: names and glob patterns, separated by commas or
+    /// spaces; ^PATTERN excludes ('*': all).
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    pub lmask: String,
+    /// Seed of the area lights' sample offsets.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
 }

@@ -18,7 +18,7 @@
 pub mod args;
 pub mod stage_args;
 
-pub use args::{parse_bytes, parse_rgb, parse_xyz, SingleArgs, SsArgs};
+pub use args::{parse_bytes, parse_rgb, parse_xyz, IllumArgs, SingleArgs, SsArgs, SssingleArgs};
 
 use std::io::{self, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};
@@ -273,6 +273,50 @@ impl Messages {
     }
 }
 
+/// The command line with each option's value that is a negative number
+/// joined to the option (`--halo -1e-300` as `--halo=-1e-300`): clap
+/// takes a negative number with a signed exponent for short flags.
+fn join_negative_numbers(
+    cmd: &clap::Command,
+    argv: Vec<std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    fn options(cmd: &clap::Command, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            if a.get_action().takes_values() {
+                out.extend(a.get_long().map(|l| format!("--{l}")));
+                out.extend(a.get_short().map(|c| format!("-{c}")));
+            }
+        }
+        for sub in cmd.get_subcommands() {
+            options(sub, out);
+        }
+    }
+    let mut takes = Vec::new();
+    options(cmd, &mut takes);
+    let mut out = Vec::with_capacity(argv.len());
+    let mut it = argv.into_iter().peekable();
+    while let Some(a) = it.next() {
+        let joined = match (a.to_str(), it.peek().and_then(|v| v.to_str())) {
+            (Some(opt), Some(v))
+                if takes.iter().any(|t| t == opt)
+                    && v.starts_with('-')
+                    && v.parse::<f64>().is_ok() =>
+            {
+                Some(format!("{opt}={v}"))
+            }
+            _ => None,
+        };
+        match joined {
+            Some(j) => {
+                it.next();
+                out.push(j.into());
+            }
+            None => out.push(a),
+        }
+    }
+    out
+}
+
 /// True when an error chain holds a broken pipe.
 pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
@@ -464,8 +508,9 @@ pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatch
                 a
             }
         });
+    let argv = join_negative_numbers(&cmd, std::env::args_os().collect());
     let parsed = cmd
-        .try_get_matches()
+        .try_get_matches_from(argv)
         .and_then(|m| T::from_arg_matches(&m).map(|t| (t, m)));
     match parsed {
         Ok(t) => t,

@@ -59,12 +59,36 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
                 multi: a.ss.params().map_err(|e| within(stage, e))?,
             }
         }
-        "sssingle" | "illum" => StageParams::Local,
+        // Their reach is 0 whatever they are given, but what they are
+        // given must be theirs: parsed by their own command lines (the
+        // input, output and files they name may be left out).
+        "sssingle" => {
+            checked::<super::SssingleArgs>(args, &["view"]).map_err(bad)?;
+            StageParams::Local
+        }
+        "illum" => {
+            checked::<super::IllumArgs>(args, &["shadows"]).map_err(bad)?;
+            StageParams::Local
+        }
         _ => {
             let what = format!("unknown stage '{stage}' (one of: {STAGES})");
             return Err(Error::param("for_stage", what).into());
         }
     })
+}
+
+/// Parses `args` with `T`'s command line, nothing required (its required
+/// arguments and the groups `groups` relaxed): the options are the
+/// stage's own and their values of their types.
+fn checked<T: clap::Parser>(args: &[String], groups: &[&str]) -> Result<(), clap::Error> {
+    let mut cmd = T::command()
+        .no_binary_name(true)
+        .allow_negative_numbers(true)
+        .mut_args(|a| a.required(false));
+    for g in groups {
+        cmd = cmd.mut_group(*g, |g| g.required(false));
+    }
+    cmd.try_get_matches_from(args).map(|_| ())
 }
 
 /// The option of `stage` that sets its parameter `name` (`--radius`).

@@ -103,30 +103,42 @@ fn tiles_for_memory(
     bytes: u64,
     per_point: u64,
 ) -> Result<usize> {
-    let need = |t: usize| -> u64 {
-        let mut s = sample.to_vec();
-        let plan = Plan::new(&mut s, lo, hi, t);
-        let most = tile_counts(&plan, sample, h)
-            .iter()
-            .map(|c| c[0] + c[1])
-            .max()
-            .unwrap_or(0);
-        BASE_MEMORY + most * stride * per_point
-    };
     if bytes <= BASE_MEMORY {
         return Err(Error::param(
             "tile_memory",
             format!("{bytes} bytes: a stage needs more than {BASE_MEMORY} besides its points"),
         ));
     }
+    // The most sample points a tile may hold, halo included (each stands
+    // for `stride` points).
+    let limit = (bytes - BASE_MEMORY) / (stride * per_point).max(1);
+    // Whether `t` tiles fit: the sample is counted a block at a time and
+    // the count stops at the first block after which a tile is over the
+    // limit, so that a budget the halo outgrows is refused without
+    // counting every point into thousands of halos.
+    let fits = |t: usize| -> bool {
+        let mut s = sample.to_vec();
+        let plan = Plan::new(&mut s, lo, hi, t);
+        let mut total = vec![[0u64; 2]; t];
+        for block in sample.chunks(1 << 16) {
+            for (x, y) in total.iter_mut().zip(&tile_counts(&plan, block, h)) {
+                x[0] += y[0];
+                x[1] += y[1];
+            }
+            if total.iter().any(|c| c[0] + c[1] > limit) {
+                return false;
+            }
+        }
+        true
+    };
     let mut t = 1;
-    while need(t) > bytes {
+    while !fits(t) {
         if t >= MAX_TILES {
             return Err(Error::param(
                 "tile_memory",
                 format!(
-                    "{bytes}: even {MAX_TILES} tiles need {} bytes each (the halo alone outgrows the budget: give more memory, or a narrower reach)",
-                    need(MAX_TILES)
+                    "{bytes}: even {MAX_TILES} tiles hold more than {} points each, halo included (the halo alone outgrows the budget: give more memory, or a narrower reach)",
+                    limit * stride
                 ),
             ));
         }
@@ -136,13 +148,106 @@ fn tiles_for_memory(
     let (mut a, mut b) = (t / 2, t);
     while b - a > 1 {
         let m = (a + b) / 2;
-        if need(m) <= bytes {
+        if fits(m) {
             b = m;
         } else {
             a = m;
         }
     }
     Ok(b.max(1))
+}
+
+/// Files a split holds open besides its tiles: the input, the rest file,
+/// the manifest, a spool, the standard streams, a margin.
+const OTHER_FILES: u64 = 16;
+
+/// Makes sure `tiles` tile files can be open at once: raises the process's
+/// soft limit on open files towards its hard limit if need be, and
+/// refuses, naming the limit, when even that is too low.
+fn ensure_open_files(tiles: usize) -> Result<()> {
+    let need = tiles as u64 + OTHER_FILES;
+    let mut lim = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit fills the struct it is given.
+    if unsafe { libc::getrlimit(libc::RLIMIT_NOFILE, &mut lim) } != 0 {
+        return Ok(());
+    }
+    if lim.rlim_cur >= need {
+        return Ok(());
+    }
+    if lim.rlim_max >= need {
+        let raised = libc::rlimit {
+            rlim_cur: need,
+            rlim_max: lim.rlim_max,
+        };
+        // SAFETY: setrlimit reads the struct it is given; raising the
+        // soft limit up to the hard one is always allowed.
+        if unsafe { libc::setrlimit(libc::RLIMIT_NOFILE, &raised) } == 0 {
+            return Ok(());
+        }
+    }
+    let most = lim.rlim_max.max(lim.rlim_cur).saturating_sub(OTHER_FILES);
+    Err(Error::param(
+        "tiles",
+        format!(
+            "{tiles} tiles need {need} open files, and this process may open {} (ulimit -n): make at most {most} tiles",
+            lim.rlim_max.max(lim.rlim_cur)
+        ),
+    ))
+}
+
+/// Refuses, before a byte is written, a split whose tiles the disk under
+/// `dir` cannot hold: each tile's rows at the input's bytes a point (plus
+/// the two properties a tile adds), and the other elements.
+fn check_disk(dir: &Path, m: &Manifest, input_bytes: u64) -> Result<()> {
+    match free_bytes(dir) {
+        Some(free) => disk_holds(m, input_bytes, free, dir),
+        None => Ok(()),
+    }
+}
+
+/// [`check_disk`] with `free` bytes free under `dir`.
+fn disk_holds(m: &Manifest, input_bytes: u64, free: u64, dir: &Path) -> Result<()> {
+    let rows: u64 = m.tiles.iter().map(|t| t.owned + t.halo).sum();
+    let per_point = input_bytes / m.points.max(1) + 5;
+    let need = rows.saturating_mul(per_point).saturating_add(input_bytes);
+    if need <= free {
+        return Ok(());
+    }
+    Err(Error::param(
+        "halo",
+        format!(
+            "the {} tiles would take about {} ({rows} rows for {} points: the halos), and {} has {} free: a narrower halo, fewer tiles, or another disk",
+            m.tiles.len(),
+            size(need),
+            m.points,
+            dir.display(),
+            size(free)
+        ),
+    ))
+}
+
+/// Bytes for people: `12.3 GB`, `45.6 MB`.
+fn size(b: u64) -> String {
+    match b {
+        b if b >= 1_000_000_000 => format!("{:.1} GB", b as f64 / 1e9),
+        b => format!("{:.1} MB", b as f64 / 1e6),
+    }
+}
+
+/// The bytes free for this user on the file system holding `dir`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let path = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    // SAFETY: an all-zero statvfs is a valid value for statvfs to fill.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    // SAFETY: statvfs reads the NUL-terminated path and fills `st`.
+    if unsafe { libc::statvfs(path.as_ptr(), &mut st) } != 0 {
+        return None;
+    }
+    Some((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
 }
 
 /// What `split` is asked for.
@@ -228,7 +333,7 @@ pub fn split(
     progress: &Progress,
 ) -> Result<Manifest> {
     if !(opt.halo.is_finite() && opt.halo >= 0.0) {
-        let what = format!("{}: must be a finite width >= 0", opt.halo);
+        let what = format!("{:?}: must be a finite width >= 0", opt.halo);
         return Err(Error::param("halo", what));
     }
     let at = |e: Error| e.about(input_name);
@@ -310,6 +415,7 @@ pub fn split(
             .unwrap_or(DEFAULT_POINT_BYTES);
         tiles = tiles_for_memory(&sample, stride, (lo, hi), opt.halo, bytes, per_point)?;
     }
+    ensure_open_files(tiles)?;
     let plan = Plan::new(&mut sample, lo, hi, tiles);
     drop(sample);
 
@@ -373,8 +479,10 @@ pub fn split(
     };
     manifest.split = manifest.checksum();
 
-    // Pass 3: the tiles.
+    // Pass 3: the tiles, when the disk holds them.
     std::fs::create_dir_all(dir).map_err(|e| Error::from(e).about(&dir.display().to_string()))?;
+    let input_bytes = std::fs::metadata(input).map_or(0, |m| m.len());
+    check_disk(dir, &manifest, input_bytes)?;
     let mut r = open(input).map_err(at)?;
     let vschema = {
         let mut el = r.schema_of(v).map_err(at)?;
@@ -497,4 +605,53 @@ pub fn split(
         s.commit()?;
     }
     Ok(manifest)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn manifest(points: u64, tiles: &[(u64, u64)]) -> Manifest {
+        Manifest {
+            format: super::super::FORMAT.into(),
+            split: String::new(),
+            input: "in.ply".into(),
+            input_hash: String::new(),
+            points,
+            halo: 1.0,
+            for_stage: None,
+            lo: [0.0; 3],
+            hi: [1.0; 3],
+            elements: Vec::new(),
+            rest: None,
+            tiles: tiles
+                .iter()
+                .enumerate()
+                .map(|(i, &(owned, halo))| Tile {
+                    index: i as u32,
+                    file: format!("tile_{i:04}.ply"),
+                    lo: [0.0; 3],
+                    hi: [1.0; 3],
+                    owned,
+                    halo,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_split_the_disk_cannot_hold_is_refused_before_writing() {
+        // 1,000 points of 40 bytes, two tiles whose halos hold every
+        // point again: 3,000 rows of 45 bytes and the input, 175,000.
+        let m = manifest(1000, &[(500, 1000), (500, 1000)]);
+        let dir = Path::new("T");
+        assert!(disk_holds(&m, 40_000, 175_000, dir).is_ok());
+        let e = disk_holds(&m, 40_000, 174_999, dir).unwrap_err();
+        assert!(e.is_param(), "{e}");
+        let text = e.to_string();
+        assert!(
+            text.contains("0.2 MB") && text.contains("3000 rows"),
+            "{text}"
+        );
+    }
 }

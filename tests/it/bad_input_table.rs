@@ -229,6 +229,8 @@ const TABLE: &[Row] = &[
     row("filter", &["nan.ply", "--cloud", "cloud.ply", "-o", "@OUT"], 1, "nan.ply"),
     row("filter", &["cloud.ply", "--cloud", "cloud.ply", "--nfp", "0", "-o", "@OUT"], 2, "--nfp"),
     row("filter", &["cloud.ply", "--cloud", "cloud.ply", "--radius", "-1", "-o", "@OUT"], 2, "--radius"),
+    row("filter", &["cloud.ply", "--cloud", "cloud.ply", "--single-mesh", "cube.obj", "-o", "@OUT"], 2, "--single-lights"),
+    row("filter", &["cloud.ply", "--cloud", "cloud.ply", "--eye", "0,0,5", "-o", "@OUT"], 2, "--single-lights"),
     row("filter", &["cloud.ply", "--cloud", "cloud.ply", "--attr", "nosuch", "-o", "@OUT"], 1, "nosuch"),
     row("filter", &["zeroN.ply", "--cloud", "cloud.ply", "--facing", "-o", "@OUT"], 1, "zeroN.ply"),
     // sssingle
@@ -268,6 +270,11 @@ const TABLE: &[Row] = &[
     row("pctile", &["split", "cloud.ply", "--tile-memory", "1K", "--halo", "0.1", "-o", "@OUT"], 2, "--tile-memory"),
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd nope", "-o", "@OUT"], 2, "--stage-args"),
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd 0.5", "--halo", "0.1", "-o", "@OUT"], 2, "--halo"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--halo", "-1e-300", "-o", "@OUT"], 2, "--halo: -1e-300"),
+    row("pctile", &["split", "cloud.ply", "--tile-memory", "32M", "--halo", "1000", "-o", "@OUT"], 2, "--tile-memory"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "sssingle", "--stage-args", "--bogus 3", "-o", "@OUT"], 2, "sssingle: unexpected argument"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "illum", "--stage-args", "--seed x", "-o", "@OUT"], 2, "illum: invalid value"),
+    row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "ssmulti", "--stage-args", "--sd 1e308 --rd 1e10", "-o", "@OUT"], 2, "--stage-args: ssmulti's reach"),
     // A stage's parameter is named as its option within --stage-args.
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "filter", "--stage-args", "--sd 0.5 --radius -1", "-o", "@OUT"], 2, "--stage-args --radius"),
     row("pctile", &["split", "cloud.ply", "--tiles", "2", "--for", "filter", "--stage-args", "--nfp 8", "-o", "@OUT"], 2, "--stage-args --nfp"),

@@ -257,3 +257,41 @@ fn a_forged_manifest_is_refused_and_one_that_never_ends_is_not_read_whole() {
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("larger than"), "{err}");
 }
+
+#[test]
+fn a_split_opens_the_files_its_tiles_need_or_says_how_many_it_can() {
+    let d = tempdir();
+    let input = d.path().join("in.ply");
+    std::fs::write(&input, to_bytes(&cloud(0.0), LE)).unwrap();
+    let split = |limits: &str, tiles: &str, out: &str| {
+        let cmd = format!(
+            "{limits}; exec {} split {} --tiles {tiles} --halo 0.01 -q -o {}",
+            bin("pctile").display(),
+            s(&input),
+            s(&d.path().join(out))
+        );
+        std::process::Command::new("bash")
+            .args(["-c", &cmd])
+            .output()
+            .unwrap()
+    };
+    // A soft limit below the tiles, a hard one above: raised, and done.
+    let o = split("ulimit -Hn 4096; ulimit -Sn 64", "300", "raised");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        Manifest::read(&d.path().join("raised"))
+            .unwrap()
+            .tiles
+            .len(),
+        300
+    );
+    // Both below: refused before any file, naming what would do.
+    let o = split("ulimit -n 64", "300", "refused");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--tiles") && err.contains("at most 48 tiles"),
+        "{err}"
+    );
+    assert!(!d.path().join("refused").exists());
+}
