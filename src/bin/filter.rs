@@ -135,7 +135,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     let (info, warn) = rep.messages();
     info.iter().for_each(|m| msg.info(m));
-    if let Some(w) = warn {
+    for w in warn {
         msg.warn(w);
     }
     args.io.write(&shade)

@@ -180,7 +180,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     ));
     let (info, warn) = frep.messages();
     info.iter().skip(1).for_each(|m| msg.info(m));
-    if let Some(w) = warn {
+    for w in warn {
         msg.warn(w);
     }
     let opt = ExrOptions {

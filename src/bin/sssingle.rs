@@ -28,14 +28,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         "{} points, {} seen from the eye; {} rays towards the lights, {} entered",
         rep.points, rep.computed, rep.rays, rep.entered
     ));
-    let dark = rep.points - rep.computed;
-    if rep.eye_inside {
-        msg.warn(format!(
-            "the eye is inside the mesh: {dark} of {} points saw nothing",
-            rep.points
-        ));
-    } else if dark == rep.points && rep.points > 0 {
-        msg.warn("no point is seen from the eye: ssS is 0 everywhere");
+    for w in rep.warnings() {
+        msg.warn(w);
     }
     if rep.reflected > 0 {
         msg.info(format!(

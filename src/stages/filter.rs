@@ -73,6 +73,8 @@ pub struct Report {
     /// some shade point and the cloud points it was computed at (ssM:
     /// whole leaves; ssS: those the eye sees).
     pub lazy: Vec<(String, usize, usize)>,
+    /// What the lazy stages warned of (sssingle's points off the mesh...).
+    pub warnings: Vec<String>,
 }
 
 /// The cloud's positions indexed for one kind of reach: a dense grid for
@@ -422,8 +424,8 @@ impl<'a> Setup<'a> {
 }
 
 impl Report {
-    /// What a stage says of the run: information lines, and a warning.
-    pub fn messages(&self) -> (Vec<String>, Option<String>) {
+    /// What a stage says of the run: information lines, and warnings.
+    pub fn messages(&self) -> (Vec<String>, Vec<String>) {
         let mut info = vec![format!(
             "{} shade points from {} cloud points, {:.1} read each on average",
             self.shade_points, self.cloud_points, self.mean_used
@@ -434,12 +436,13 @@ impl Report {
                 self.cloud_points
             ));
         }
-        let warn = (self.empty > 0).then(|| {
-            format!(
+        let mut warn = self.warnings.clone();
+        if self.empty > 0 {
+            warn.push(format!(
                 "{} shade points had no cloud point in reach: 0 there",
                 self.empty
-            )
-        });
+            ));
+        }
         (info, warn)
     }
 }
@@ -578,6 +581,7 @@ pub fn filter(
                 )
                 .map_err(about_cloud)?;
                 report.lazy.push(("ssS".into(), read, rep.computed));
+                report.warnings.extend(rep.warnings());
                 v
             }
         });

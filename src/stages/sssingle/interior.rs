@@ -36,6 +36,8 @@ pub struct Interior<'a> {
     /// How far behind its origin a light's ray still finds a surface (1e-6
     /// of the mesh's size: a point that rounding put just outside).
     behind: f64,
+    /// The mesh's size: the longest side of its box.
+    size: f64,
 }
 
 impl<'a> Interior<'a> {
@@ -61,7 +63,22 @@ impl<'a> Interior<'a> {
             tri_face: mesh.tri_faces(),
             margin: 1e-5 * size,
             behind: 1e-6 * size,
+            size,
         }
+    }
+
+    /// The mesh's size (the longest side of its box).
+    pub fn size(&self) -> f64 {
+        self.size
+    }
+
+    /// The closest point of the mesh to `p`: its distance, and the face
+    /// normal (unnormalised, as the winding gives it) of the triangle it
+    /// lies on.
+    pub fn closest(&self, p: DVec3) -> Option<(f64, DVec3)> {
+        let (t, _, d) = self.occ.closest_point(self.mesh, p)?;
+        let [a, b, c] = self.mesh.tri(t);
+        Some((d, geom::tri_cross(a, b, c)))
     }
 
     /// The BVH (for counting and benchmarks).

@@ -146,8 +146,67 @@ pub struct Report {
     pub rays: u64,
     /// Of those, rays that found where their light enters.
     pub entered: u64,
+    /// Points seen from the eye where no light entered: `ssS` 0.
+    pub dark: usize,
     /// The eye is inside the mesh.
     pub eye_inside: bool,
+    /// Points checked against the mesh (a sample, at most
+    /// [`DIAGNOSIS_SAMPLE`]), of them those farther from it than
+    /// [`OFF_MESH`] of its size, and those whose normal faces against
+    /// the mesh's face there.
+    pub sampled: usize,
+    pub off_mesh: usize,
+    pub against: usize,
+    /// Lights (by name) whose place is inside the mesh.
+    pub lights_inside: Vec<String>,
+}
+
+/// At most this many points are checked against the mesh.
+pub const DIAGNOSIS_SAMPLE: usize = 1024;
+/// A point farther than this part of the mesh's size from it is off it.
+pub const OFF_MESH: f64 = 1e-3;
+
+impl Report {
+    /// Where the run computed nothing it was asked for, or what it
+    /// computed cannot be right, each as a line with its counts: points
+    /// off the mesh, a mesh wound against its points' normals, lights
+    /// inside it, the eye inside it, points no light entered.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.off_mesh > 0 {
+            w.push(format!(
+                "{} of {} points checked lie off the mesh (farther than {OFF_MESH} of its size): ssS needs the mesh the points lie on",
+                self.off_mesh, self.sampled
+            ));
+        }
+        if self.against * 2 > self.sampled {
+            w.push(format!(
+                "{} of {} points checked face against the mesh (its faces wound inwards, or the normals flipped): light is found entering the wrong side",
+                self.against, self.sampled
+            ));
+        }
+        for l in &self.lights_inside {
+            w.push(format!(
+                "light '{l}' is inside the mesh: its light enters nowhere"
+            ));
+        }
+        let dark = self.points - self.computed - self.reflected;
+        if self.eye_inside {
+            w.push(format!(
+                "the eye is inside the mesh: {dark} of {} points saw nothing",
+                self.points
+            ));
+        } else if self.computed == 0 && self.points > 0 {
+            w.push("no point is seen from the eye: ssS is 0 everywhere".into());
+        }
+        if self.dark * 2 > self.computed && self.computed > 0 {
+            w.push(format!(
+                "{} of {} points seen from the eye had no light enter the mesh: ssS is 0 there",
+                self.dark, self.computed
+            ));
+        }
+        w
+    }
 }
 
 /// Checks the parameters; an error names the one at fault.
@@ -304,6 +363,7 @@ pub fn sssingle_values(
         eye_inside: interior.contains(p.eye),
         ..Report::default()
     };
+    diagnose(&interior, &pos, &nrm, lights, want, &mut report);
     let mut out = Vec::with_capacity(per_point.len());
     for (i, (v, o)) in per_point.into_iter().enumerate() {
         // Never a non-finite value it did not read: too much light for a
@@ -326,10 +386,53 @@ pub fn sssingle_values(
                 report.computed += 1;
                 report.rays += rays;
                 report.entered += entered;
+                report.dark += (entered == 0) as usize;
             }
         }
     }
     Ok((out, report))
+}
+
+/// Checks a sample of the (wanted) points against the mesh, and the
+/// lights' places: the counts [`Report::warnings`] speaks of.
+fn diagnose(
+    interior: &Interior,
+    pos: &[[f64; 3]],
+    nrm: &[[f64; 3]],
+    lights: &[Light],
+    want: Option<&[bool]>,
+    report: &mut Report,
+) {
+    let ids: Vec<usize> = (0..pos.len())
+        .filter(|&i| want.is_none_or(|w| w[i]))
+        .collect();
+    let step = ids.len().div_ceil(DIAGNOSIS_SAMPLE).max(1);
+    let far = OFF_MESH * interior.size();
+    let checked: Vec<(bool, bool)> = ids
+        .par_iter()
+        .step_by(step)
+        .filter_map(|&i| {
+            let (d, face) = interior.closest(DVec3::from_array(pos[i]))?;
+            Some((d > far, face.dot(DVec3::from_array(nrm[i])) < 0.0))
+        })
+        .collect();
+    report.sampled = checked.len();
+    report.off_mesh = checked.iter().filter(|c| c.0).count();
+    report.against = checked.iter().filter(|c| !c.0 && c.1).count();
+    report.lights_inside = lights
+        .iter()
+        .filter(|l| {
+            let place = match l.shape {
+                Shape::Distant { .. } => None,
+                Shape::Point { position } | Shape::Spot { position, .. } => Some(position),
+                Shape::Rect { centre, .. }
+                | Shape::Disk { centre, .. }
+                | Shape::Sphere { centre, .. } => Some(centre),
+            };
+            place.is_some_and(|p| interior.contains(p))
+        })
+        .map(|l| l.name.clone())
+        .collect();
 }
 
 /// A thread's reusable buffers.

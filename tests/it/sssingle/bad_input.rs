@@ -170,3 +170,87 @@ fn an_eye_inside_the_object_is_warned_about_with_a_count() {
         stderr(&o)
     );
 }
+
+/// What computes nothing, or nothing right, says so with counts (issue
+/// 42): points off the mesh, a mesh wound against them, a light inside
+/// it; and a scene where all is well says nothing.
+#[test]
+fn points_off_the_mesh_a_mesh_wound_inwards_and_a_buried_light_are_warned_about() {
+    let dir = tempdir();
+    let (cloud, mesh, lights) = files(dir.path());
+    let w = |name: &str, c: &pcsss::Cloud| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, to_bytes(c, pcsss::formats::Format::DEFAULT)).unwrap();
+        p.display().to_string()
+    };
+    // The slab moved away from its points, and the slab wound inwards.
+    let moved = w(
+        "moved.ply",
+        &slab_mesh(5.0, 1.0, DVec3::new(20.0, 0.0, 0.0)),
+    );
+    let mut p = Vec::new();
+    for &z in &[-1.0, 0.0] {
+        for &(x, y) in &[(-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0)] {
+            p.push([x, y, z]);
+        }
+    }
+    // slab_mesh's quads, each wound the other way.
+    let faces = vec![
+        vec![7, 6, 5, 4],
+        vec![1, 2, 3, 0],
+        vec![4, 5, 1, 0],
+        vec![5, 6, 2, 1],
+        vec![6, 7, 3, 2],
+        vec![7, 4, 0, 3],
+    ];
+    let flipped = w("flipped.ply", &mesh_from(&p, &faces));
+    let buried = dir.path().join("buried.json");
+    std::fs::write(
+        &buried,
+        r#"{"lights": [{"type": "distant", "name": "sun", "direction": [0, 0, -1]},
+                       {"type": "point", "name": "buried", "position": [0, 0, -0.5]}]}"#,
+    )
+    .unwrap();
+    let buried = buried.display().to_string();
+    let out = dir.path().join("out.ply").display().to_string();
+    let sssingle = |mesh: &str, lights: &str| {
+        let o = run_in(
+            Some(dir.path()),
+            "sssingle",
+            &[
+                &cloud,
+                "--mesh",
+                mesh,
+                "--lights",
+                lights,
+                "--eye=0,0,5",
+                "--sd",
+                "1",
+                "-o",
+                &out,
+            ],
+            b"",
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let ok = sssingle(&mesh, &lights);
+    assert!(!ok.contains("warning"), "{ok}");
+    let err = sssingle(&moved, &lights);
+    assert!(
+        err.contains("9 of 9 points checked lie off the mesh"),
+        "{err}"
+    );
+    assert!(
+        err.contains("9 of 9 points seen from the eye had no light enter"),
+        "{err}"
+    );
+    let err = sssingle(&flipped, &lights);
+    assert!(
+        err.contains("9 of 9 points checked face against the mesh"),
+        "{err}"
+    );
+    let err = sssingle(&mesh, &buried);
+    assert!(err.contains("light 'buried' is inside the mesh"), "{err}");
+    assert!(!err.contains("sun"), "{err}");
+}
