@@ -100,6 +100,81 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// The surface's open edges: each edge that exactly one triangle of
+    /// non-zero area has (vertices at the same position counted as one,
+    /// so a seam between copies is no edge), as its two ends and the
+    /// triangle's third corner, in triangle order. A closed mesh costs a
+    /// sort of its edges by vertex index and nothing more: positions are
+    /// compared only for the edges that one triangle has by index.
+    pub fn open_edges(&self) -> Vec<[DVec3; 3]> {
+        use rayon::prelude::*;
+        let pair = |a: u32, b: u32| (a.min(b) as u64) << 32 | a.max(b) as u64;
+        // The edges of the triangles of non-zero area, by their ends'
+        // indices; the rest's slots hold a key no edge has, three times.
+        const DEAD: u64 = u64::MAX;
+        let live = |t: usize| {
+            let [a, b, c] = self.tri(t);
+            geom::tri_cross(a, b, c) != DVec3::ZERO
+        };
+        let mut keys = vec![DEAD; 3 * self.tris.len()];
+        keys.par_chunks_mut(3).enumerate().for_each(|(t, e)| {
+            if live(t) {
+                let v = self.tris[t].map(|c| self.vertex(c) as u32);
+                for k in 0..3 {
+                    e[k] = pair(v[(k + 1) % 3], v[(k + 2) % 3]);
+                }
+            }
+        });
+        // (A radix sort over the bits the indices use.)
+        let bits = 64 - (self.positions.len() as u64).leading_zeros();
+        crate::radix::sort_bits(&mut keys, 0, 32 + bits);
+        let once: std::collections::HashSet<u64> = keys
+            .chunk_by(|x, y| x == y)
+            .filter(|r| r.len() == 1)
+            .map(|r| r[0])
+            .collect();
+        drop(keys);
+        if once.is_empty() {
+            return Vec::new();
+        }
+        // Those edges' triangles, and the edges again by their ends'
+        // positions: a seam between copies of vertices is no edge.
+        let ends = |tk: usize| {
+            let (t, k) = (tk / 3, tk % 3);
+            let c = self.tri(t);
+            [c[(k + 1) % 3], c[(k + 2) % 3], c[k]]
+        };
+        let once = &once;
+        let candidates: Vec<usize> = (0..self.tris.len())
+            .into_par_iter()
+            .filter(|&t| live(t))
+            .flat_map_iter(|t| {
+                let v = self.tris[t].map(|c| self.vertex(c) as u32);
+                (0..3)
+                    .filter(move |&k| once.contains(&pair(v[(k + 1) % 3], v[(k + 2) % 3])))
+                    .map(move |k| t * 3 + k)
+            })
+            .collect();
+        let bits = |p: DVec3| p.to_array().map(|x| (x + 0.0).to_bits());
+        let mut by_pos: Vec<([[u64; 3]; 2], usize)> = candidates
+            .iter()
+            .filter_map(|&tk| {
+                let [a, b, _] = ends(tk);
+                let (a, b) = (bits(a), bits(b));
+                // (Both ends at one position: no edge.)
+                (a != b).then(|| ([a.min(b), a.max(b)], tk))
+            })
+            .collect();
+        by_pos.par_sort_unstable();
+        let mut open: Vec<usize> = by_pos
+            .chunk_by(|x, y| x.0 == y.0)
+            .filter(|r| r.len() == 1)
+            .map(|r| r[0].1)
+            .collect();
+        open.sort_unstable();
+        open.into_iter().map(ends).collect()
+    }
+
     /// The mesh's fingerprint: XXH3-128 of its positions and polygons, in
     /// 32 hex digits. Recorded by the stages that trace rays against it,
     /// so that clouds baked against other meshes are told apart.
@@ -282,6 +357,9 @@ pub struct Adjacency {
     /// Each triangle's corner positions, copied: a walk reads one
     /// triangle's 72 bytes where `TriMesh::tri` follows three indices.
     tri: Vec<[DVec3; 3]>,
+    /// The open edges (of exactly one triangle), as `triangle * 3 +
+    /// corner` (the edge opposite the corner), sorted.
+    open: Vec<u32>,
 }
 
 impl Adjacency {
@@ -357,25 +435,58 @@ impl Adjacency {
             runs.push(run);
             rest = tail;
         }
-        // An edge with exactly two triangles links them; a degenerate edge
-        // (both ends at one position) leads nowhere.
-        let links: Vec<(u32, u32)> = runs
+        // An edge with exactly two triangles links them; one with exactly
+        // one is open (the surface's boundary); a degenerate edge (both
+        // ends at one position) leads nowhere.
+        let (links, open): (Vec<(u32, u32)>, Vec<u32>) = runs
             .into_par_iter()
             .enumerate()
-            .flat_map_iter(|(a, run)| {
+            .map(|(a, run)| {
                 run.sort_unstable();
-                run.chunk_by(|x, y| x >> 32 == y >> 32)
-                    .filter(move |e| e.len() == 2 && (e[0] >> 32) as usize != a)
-                    .map(|e| (e[0] as u32, e[1] as u32))
+                let (mut links, mut open) = (Vec::new(), Vec::new());
+                for e in run.chunk_by(|x, y| x >> 32 == y >> 32) {
+                    if (e[0] >> 32) as usize == a {
+                        continue;
+                    }
+                    match e.len() {
+                        1 => open.push(e[0] as u32),
+                        2 => links.push((e[0] as u32, e[1] as u32)),
+                        _ => {}
+                    }
+                }
+                (links, open)
             })
-            .collect();
+            .reduce(
+                || (Vec::new(), Vec::new()),
+                |(mut l, mut o), (l2, o2)| {
+                    l.extend(l2);
+                    o.extend(o2);
+                    (l, o)
+                },
+            );
         let mut adj = vec![[NO_TRIANGLE; 3]; mesh.tris.len()];
         for (e, f) in links {
             let (e, f) = (e as usize, f as usize);
             adj[e / 3][e % 3] = (f / 3) as u32;
             adj[f / 3][f % 3] = (e / 3) as u32;
         }
-        Adjacency { adj, tri }
+        let mut open = open;
+        open.sort_unstable();
+        Adjacency { adj, tri, open }
+    }
+
+    /// The surface's open edges: each edge that exactly one triangle of
+    /// non-zero area has, as its two ends and the triangle's third corner
+    /// (the side the surface lies on), in triangle order.
+    pub fn open_edges(&self) -> Vec<[DVec3; 3]> {
+        self.open
+            .iter()
+            .map(|&e| {
+                let (t, k) = (e as usize / 3, e as usize % 3);
+                let c = self.tri[t];
+                [c[(k + 1) % 3], c[(k + 2) % 3], c[k]]
+            })
+            .collect()
     }
 
     /// The neighbours of triangle `t` across its edges.

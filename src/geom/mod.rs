@@ -309,6 +309,18 @@ pub fn clip_half_plane(
     }
 }
 
+/// The distance from `p` to the segment `ab`.
+pub fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + ab * t - p).length()
+}
+
 /// The area of a simple 2D polygon (shoelace formula).
 pub fn polygon_area_2d(poly: &[[f64; 2]]) -> f64 {
     let n = poly.len();

@@ -355,3 +355,82 @@ fn prim_ptarea_covers_triangles_without_points() {
     let mean = total / 1000.0;
     assert!(a.iter().all(|&x| x > 0.1 * mean && x < 10.0 * mean));
 }
+
+/// Voronoi cells stop at a surface's open edges (issue 42): on a square,
+/// and on a square with a square hole, the areas of every mode sum to the
+/// surface's area, and a point at the edge weighs no more than one inside
+/// (the bounding square made an edge point's cell 3.4 times an inner
+/// one's, and the square's areas sum to 1.28).
+#[test]
+fn voronoi_cells_stop_at_open_edges_and_sum_to_the_area() {
+    // The square [0, 3]^2, whole and with the hole [1, 2]^2.
+    let mut p = Vec::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            p.push([i as f64, j as f64, 0.0]);
+        }
+    }
+    let quad = |i: i32, j: i32| {
+        vec![
+            j * 4 + i,
+            j * 4 + i + 1,
+            (j + 1) * 4 + i + 1,
+            (j + 1) * 4 + i,
+        ]
+    };
+    let all: Vec<Vec<i32>> = (0..3)
+        .flat_map(|j| (0..3).map(move |i| quad(i, j)))
+        .collect();
+    let holed: Vec<Vec<i32>> = all.iter().filter(|f| *f != &quad(1, 1)).cloned().collect();
+    for (faces, area) in [(&all, 9.0), (&holed, 8.0)] {
+        let mesh = mesh_from(&p, faces);
+        for mode in [PtareaMode::Voronoi, PtareaMode::Centroid] {
+            for blue in [false, true] {
+                let c = scatter::scatter(
+                    &mesh,
+                    &scatter::Params {
+                        ptarea: mode,
+                        blue,
+                        ..scatter::Params::new(scatter::Amount::Count(4000))
+                    },
+                )
+                .unwrap();
+                let a = c.points().scalar_f64("ptarea").unwrap();
+                let pos = positions(&c);
+                let sum: f64 = a.iter().sum();
+                let what = format!("{mode:?} blue {blue} on area {area}");
+                assert!(
+                    (sum / area - 1.0).abs() < 1e-3,
+                    "{what}: areas sum to {sum}"
+                );
+                // Points within half a spacing of an edge, outer or the
+                // hole's, against the others.
+                let spacing = (2.0 * area / (3f64.sqrt() * a.len() as f64)).sqrt();
+                let to_edge = |q: glam::DVec3| {
+                    let outer = q.x.min(q.y).min(3.0 - q.x).min(3.0 - q.y);
+                    let hole = (q.x - 1.5).abs().max((q.y - 1.5).abs()) - 0.5;
+                    if area == 9.0 {
+                        outer
+                    } else {
+                        outer.min(hole.abs())
+                    }
+                };
+                let (mut edge, mut inner) = ((0.0, 0), (0.0, 0));
+                for (q, &w) in pos.iter().zip(&a) {
+                    let b = if to_edge(*q) < 0.5 * spacing {
+                        &mut edge
+                    } else {
+                        &mut inner
+                    };
+                    b.0 += w;
+                    b.1 += 1;
+                }
+                let ratio = (edge.0 / edge.1 as f64) / (inner.0 / inner.1 as f64);
+                assert!(
+                    ratio < 1.1,
+                    "{what}: an edge point weighs {ratio} inner ones"
+                );
+            }
+        }
+    }
+}

@@ -298,6 +298,11 @@ impl PointGrid {
         &self.order
     }
 
+    /// The grid's corner, which [`PointGrid::rel`] positions are relative to.
+    pub fn corner(&self) -> DVec3 {
+        self.lo
+    }
+
     /// Positions in cell order, relative to the grid's corner.
     pub fn rel(&self) -> &[DVec3] {
         &self.rel

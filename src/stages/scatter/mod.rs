@@ -264,6 +264,10 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         ph.mark("candidates");
         (samples, None)
     };
+    // The surface's open edges, where Voronoi cells stop (from the
+    // polish's adjacency when there is one).
+    let voronoi = matches!(p.ptarea, PtareaMode::Voronoi | PtareaMode::Centroid);
+    let mut open_edges: Option<Vec<[DVec3; 3]>> = None;
     if polishing {
         let adjacency = adjacency.unwrap_or_else(|| Adjacency::new(&m));
         progress.start("relaxing", (relax_iters + separate) as u64);
@@ -280,6 +284,9 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
         );
         progress.finish();
         ph.mark("polish");
+        if voronoi {
+            open_edges = Some(adjacency.open_edges());
+        }
     }
     let ptarea: Vec<f32> = match p.ptarea {
         PtareaMode::Prim => prim_area(&m, &areas, total, &samples),
@@ -299,10 +306,12 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
             } else {
                 voronoi::REACH
             };
+            let open = open_edges.unwrap_or_else(|| m.open_edges());
+            ph.mark("open edges");
             if p.ptarea == PtareaMode::Centroid {
-                voronoi::voronoi_weights_within(&pos, &nrm, total, reach)
+                voronoi::voronoi_weights_within(&pos, &nrm, total, reach, &open)
             } else {
-                voronoi::voronoi_areas_within(&pos, &nrm, total, reach)
+                voronoi::voronoi_areas_within(&pos, &nrm, total, reach, &open)
             }
         }
     };

@@ -14,8 +14,13 @@
 //! it), at most the 256 nearest (a surface folded onto itself many
 //! times). Exact for points on a plane away from its edges; on a smooth
 //! surface the error is of the order of the cell's size over the radius
-//! of curvature. Cells at an open boundary stop at the square and come
-//! out too large (`promote --normalize` rescales the total). Each edge of
+//! of curvature. At the surface's open edges (its boundary, a hole's rim)
+//! a cell is cut by each open edge within its reach that it lies on the
+//! inner side of, projected into its plane: the cells then sum to the
+//! surface's area there too, where the square alone would make a
+//! boundary point's cell several times an inner one's. (The cut is by
+//! the edge's whole line: at a reflex corner of the boundary it takes a
+//! little too much.) Each edge of
 //! a cell remembers the point whose bisector made it: consecutive edges
 //! give the Delaunay triangles around the point, which `centroid` shares
 //! each area over.
@@ -26,6 +31,7 @@
 //! point's cell depends only on the positions, so the result does not
 //! depend on the thread count (nor on the first reach).
 
+use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::DVec3;
@@ -177,6 +183,126 @@ impl<'a> Cells<'a> {
     }
 }
 
+/// The open edges of the surface the points lie on, indexed by the grid
+/// cells they pass through, for cutting the cells of the points next to
+/// them.
+pub(super) struct OpenEdges {
+    /// Each edge's ends and its triangle's third corner, relative to the
+    /// point grid's corner.
+    edges: Vec<[DVec3; 3]>,
+    /// Edges by the cells (of side `side`) they pass through.
+    cells: HashMap<[i64; 3], Vec<u32>>,
+    side: f64,
+}
+
+impl OpenEdges {
+    /// `edges` (ends and third corner, as `Adjacency::open_edges` gives
+    /// them) relative to `corner`, in cells of side `side`.
+    fn new(edges: &[[DVec3; 3]], corner: DVec3, side: f64) -> OpenEdges {
+        let edges: Vec<[DVec3; 3]> = edges.iter().map(|e| e.map(|p| p - corner)).collect();
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for (i, [a, b, _]) in edges.iter().enumerate() {
+            // Every cell the edge passes through: points along it at most
+            // half a cell apart.
+            let steps = ((*b - *a).length() / (0.5 * side)).ceil().min(1e6) as usize + 1;
+            for k in 0..=steps {
+                let p = *a + (*b - *a) * (k as f64 / steps as f64);
+                let ids = cells.entry(key(p, side)).or_default();
+                if ids.last() != Some(&(i as u32)) {
+                    ids.push(i as u32);
+                }
+            }
+        }
+        OpenEdges { edges, cells, side }
+    }
+
+    /// The edges that pass through the 27 cells around `q`, each once, in
+    /// their order.
+    fn near(&self, q: DVec3, out: &mut Vec<u32>) {
+        out.clear();
+        let c = key(q, self.side);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(ids) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        out.extend_from_slice(ids);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
+/// The cell of side `side` that holds `p`.
+fn key(p: DVec3, side: f64) -> [i64; 3] {
+    (p / side).floor().to_array().map(|x| x as i64)
+}
+
+impl Cells<'_> {
+    /// Cuts the cell of sorted point `s` (in `self.cell`, in the tangent
+    /// basis `(t1, t2)`) by the open edges within its reach whose inner
+    /// side the point is on.
+    fn cut_at_edges(
+        &mut self,
+        s: usize,
+        (t1, t2): (DVec3, DVec3),
+        open: &OpenEdges,
+        near: &mut Vec<u32>,
+    ) {
+        let q = self.grid.rel()[s];
+        // No corner of the cell is farther than this.
+        let reach = std::f64::consts::SQRT_2 * self.square * (1.0 + 1e-9);
+        open.near(q, near);
+        for &e in near.iter() {
+            let [a, b, c] = open.edges[e as usize];
+            if geom::segment_distance(q, a, b) > reach {
+                continue;
+            }
+            let flat = |x: DVec3| {
+                let d = x - q;
+                [d.dot(t1), d.dot(t2)]
+            };
+            let (a2, b2, c2) = (flat(a), flat(b), flat(c));
+            // The edge's line in the plane, `v . x = k`, the surface on
+            // the side of its triangle's third corner (`v . c < k`).
+            let mut v = [b2[1] - a2[1], a2[0] - b2[0]];
+            let mut k = v[0] * a2[0] + v[1] * a2[1];
+            let inner = v[0] * c2[0] + v[1] * c2[1] - k;
+            if inner == 0.0 || !inner.is_finite() {
+                // Seen end on, or a triangle of no width in this plane.
+                continue;
+            }
+            if inner > 0.0 {
+                v = [-v[0], -v[1]];
+                k = -k;
+            }
+            // A point beyond the edge (across a gap, a hole's far rim)
+            // is not cut by it; one on it (to its rounding) is.
+            let len = (v[0] * v[0] + v[1] * v[1]).sqrt();
+            if k < -1e-9 * len * self.square {
+                continue;
+            }
+            if self
+                .cell
+                .iter()
+                .any(|p| p[0] * v[0] + p[1] * v[1] - k > 0.0)
+            {
+                geom::clip_half_plane(
+                    (&self.cell, &self.lab),
+                    v,
+                    k,
+                    NONE,
+                    (&mut self.tmp, &mut self.tlab),
+                );
+                std::mem::swap(&mut self.cell, &mut self.tmp);
+                std::mem::swap(&mut self.lab, &mut self.tlab);
+            }
+        }
+    }
+}
+
 /// The area and centroid (from the origin) of a convex polygon.
 fn area_centroid(poly: &[[f64; 2]]) -> (f64, [f64; 2]) {
     let n = poly.len();
@@ -206,20 +332,22 @@ fn corner2(cell: &[[f64; 2]]) -> f64 {
 /// module), for points on a surface of area `area` (which sets the first
 /// reach); a lone point gets `area`.
 pub fn voronoi_areas(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f32> {
-    voronoi_areas_within(positions, normals, area, REACH)
+    voronoi_areas_within(positions, normals, area, REACH, &[])
 }
 
-/// `voronoi_areas` with a first reach of `reach` spacings.
+/// `voronoi_areas` with a first reach of `reach` spacings, the cells cut
+/// at the surface's `open` edges (`Adjacency::open_edges`).
 pub(super) fn voronoi_areas_within(
     positions: &[DVec3],
     normals: &[DVec3],
     area: f64,
     reach: f64,
+    open: &[[DVec3; 3]],
 ) -> Vec<f32> {
     if positions.len() <= 1 {
         return vec![area as f32; positions.len()];
     }
-    let (grid, by_sorted) = per_cell(positions, normals, area, reach, |cells, _, _| {
+    let (grid, by_sorted) = per_cell(positions, normals, area, reach, open, |cells, _, _| {
         geom::polygon_area_2d(&cells.cell)
     });
     in_input_order(&grid, by_sorted.into_iter())
@@ -238,54 +366,63 @@ pub(super) fn voronoi_areas_within(
 /// to an empty patch) is moved onto it; a cell with no such triangle (at
 /// an open edge) keeps its area.
 pub fn voronoi_weights(positions: &[DVec3], normals: &[DVec3], area: f64) -> Vec<f32> {
-    voronoi_weights_within(positions, normals, area, REACH)
+    voronoi_weights_within(positions, normals, area, REACH, &[])
 }
 
-/// `voronoi_weights` with a first reach of `reach` spacings.
+/// `voronoi_weights` with a first reach of `reach` spacings, the cells
+/// cut at the surface's `open` edges.
 pub(super) fn voronoi_weights_within(
     positions: &[DVec3],
     normals: &[DVec3],
     area: f64,
     reach: f64,
+    open: &[[DVec3; 3]],
 ) -> Vec<f32> {
     let n = positions.len();
     if n <= 1 {
         return vec![area as f32; n];
     }
-    let (grid, shares) = per_cell(positions, normals, area, reach, |cells, s, (t1, t2)| {
-        let (a, c) = area_centroid(&cells.cell);
-        let rel = cells.grid.rel();
-        let at = |k: u32| {
-            let d = rel[k as usize] - rel[s];
-            [d.dot(t1), d.dot(t2)]
-        };
-        // Consecutive neighbours around the cell, in its edges' order.
-        let mut labs = cells.lab.iter().copied().filter(|&k| k != NONE);
-        let Some(first) = labs.next() else {
-            return (a, [(NONE, 0.0); 2]);
-        };
-        let mut last = first;
-        for kb in labs.chain(std::iter::once(first)) {
-            let ka = std::mem::replace(&mut last, kb);
-            let (pa, pb) = (at(ka), at(kb));
-            let det = pa[0] * pb[1] - pa[1] * pb[0];
-            if !det.is_finite() || det <= 0.0 {
-                continue;
+    let (grid, shares) = per_cell(
+        positions,
+        normals,
+        area,
+        reach,
+        open,
+        |cells, s, (t1, t2)| {
+            let (a, c) = area_centroid(&cells.cell);
+            let rel = cells.grid.rel();
+            let at = |k: u32| {
+                let d = rel[k as usize] - rel[s];
+                [d.dot(t1), d.dot(t2)]
+            };
+            // Consecutive neighbours around the cell, in its edges' order.
+            let mut labs = cells.lab.iter().copied().filter(|&k| k != NONE);
+            let Some(first) = labs.next() else {
+                return (a, [(NONE, 0.0); 2]);
+            };
+            let mut last = first;
+            for kb in labs.chain(std::iter::once(first)) {
+                let ka = std::mem::replace(&mut last, kb);
+                let (pa, pb) = (at(ka), at(kb));
+                let det = pa[0] * pb[1] - pa[1] * pb[0];
+                if !det.is_finite() || det <= 0.0 {
+                    continue;
+                }
+                let ba = (c[0] * pb[1] - c[1] * pb[0]) / det;
+                let bb = (pa[0] * c[1] - pa[1] * c[0]) / det;
+                if ba >= 0.0 && bb >= 0.0 {
+                    let sum = ba + bb;
+                    let (ba, bb, own) = if sum > 1.0 {
+                        (ba / sum, bb / sum, 0.0)
+                    } else {
+                        (ba, bb, 1.0 - sum)
+                    };
+                    return (a * own, [(ka, a * ba), (kb, a * bb)]);
+                }
             }
-            let ba = (c[0] * pb[1] - c[1] * pb[0]) / det;
-            let bb = (pa[0] * c[1] - pa[1] * c[0]) / det;
-            if ba >= 0.0 && bb >= 0.0 {
-                let sum = ba + bb;
-                let (ba, bb, own) = if sum > 1.0 {
-                    (ba / sum, bb / sum, 0.0)
-                } else {
-                    (ba, bb, 1.0 - sum)
-                };
-                return (a * own, [(ka, a * ba), (kb, a * bb)]);
-            }
-        }
-        (a, [(NONE, 0.0); 2])
-    });
+            (a, [(NONE, 0.0); 2])
+        },
+    );
     let mut w: Vec<f64> = shares.iter().map(|s| s.0).collect();
     // In sorted order, one point after another: the same sums on any
     // thread count.
@@ -307,17 +444,24 @@ fn per_cell<T: Send>(
     normals: &[DVec3],
     area: f64,
     spacings: f64,
+    open: &[[DVec3; 3]],
     f: impl Fn(&Cells, usize, (DVec3, DVec3)) -> T + Sync,
 ) -> (PointGrid, Vec<T>) {
     let square = first_reach(positions, area, REACH);
     let reach = square * spacings / REACH;
     let grid = PointGrid::new(positions, 2.0 * reach);
     let order = grid.order();
+    // (A cell reaches at most sqrt 2 of the square from its point: the 27
+    // cells of side 1.5 squares around it hold every edge it may meet.)
+    let open = (!open.is_empty()).then(|| OpenEdges::new(open, grid.corner(), 1.5 * square));
     let out = grid.map_near_runs(
         reach,
-        || Cells::new(&grid, square, reach),
-        |cells, s, first, runs| {
+        || (Cells::new(&grid, square, reach), Vec::new()),
+        |(cells, near), s, first, runs| {
             let basis = cells.cell(s, normals[order[s] as usize], first, runs);
+            if let Some(open) = &open {
+                cells.cut_at_edges(s, basis, open, near);
+            }
             f(cells, s, basis)
         },
     );
@@ -385,14 +529,14 @@ mod tests {
         for (name, pos) in [("lattice", lattice), ("random", random)] {
             let area = (side * side) as f64 * 0.75f64.sqrt();
             let nrm = vec![DVec3::Z; pos.len()];
-            let wide = voronoi_areas_within(&pos, &nrm, area, REACH);
+            let wide = voronoi_areas_within(&pos, &nrm, area, REACH, &[]);
             for reach in [SPACED_REACH, 1.0] {
-                let short = voronoi_areas_within(&pos, &nrm, area, reach);
+                let short = voronoi_areas_within(&pos, &nrm, area, reach, &[]);
                 let same = wide.iter().zip(&short).filter(|(a, b)| a == b).count();
                 assert_eq!(same, pos.len(), "{name}: areas, reach {reach}");
             }
-            let wide = voronoi_weights_within(&pos, &nrm, area, REACH);
-            let short = voronoi_weights_within(&pos, &nrm, area, SPACED_REACH);
+            let wide = voronoi_weights_within(&pos, &nrm, area, REACH, &[]);
+            let short = voronoi_weights_within(&pos, &nrm, area, SPACED_REACH, &[]);
             for (i, (a, b)) in wide.iter().zip(&short).enumerate() {
                 assert!(
                     (a - b).abs() <= 1e-6 * a.abs(),
