@@ -279,6 +279,25 @@ pub fn beauty(
                 .collect()
         }
     };
+    // A sum of values each within a float can leave it: refused, with
+    // the pixel, never written as infinity.
+    let px = shade.points().scalar_f64(PIXEL_X).ok();
+    let py = shade.points().scalar_f64(PIXEL_Y).ok();
+    if let Some(i) = out.iter().position(|v| v.iter().any(|x| !x.is_finite())) {
+        let at = match (&px, &py) {
+            (Some(x), Some(y)) => format!("pixel ({}, {})", x[i], y[i]),
+            _ => format!("shade point {i}"),
+        };
+        return Err(Error::invalid(format!(
+            "{at}: the beauty would be beyond the range of a float attribute ({} summed{})",
+            names.join(" + "),
+            if direct.is_some() {
+                ", + kd * illum"
+            } else {
+                ""
+            }
+        )));
+    }
     shade.points_mut().set_vec3("beauty", Role::Color, &out)?;
     Ok(())
 }

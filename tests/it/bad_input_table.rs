@@ -246,6 +246,7 @@ const TABLE: &[Row] = &[
     row("render", &["--mesh", "cube.obj", "--camera", "hugecam.json", "--cloud", "cloud.ply", "-o", "@OUT.exr"], 1, "hugecam.json"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.ply"], 2, "--output"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--png", "@OUT.exr"], 2, "--png"),
+    row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--direct", "lights.json", "--kd", "3e38"], 1, "beyond the range"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--png", "nodir/r.png"], 1, "nodir"),
     row("render", &["--mesh", "cube.obj", "--camera", "/dev/zero", "--cloud", "cloud.ply", "-o", "@OUT.exr"], 1, "/dev/zero"),
     row("render", &["--mesh", "cube.obj", "--camera", "flatcam.json", "--cloud", "cloud.ply", "-o", "@OUT.exr"], 1, "flatcam.json"),
