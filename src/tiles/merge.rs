@@ -143,7 +143,7 @@ pub fn merge(
                 format!("element '{}' in a tile (tiles hold points only)", e.name),
             ));
         }
-        let want = m.tiles[t].owned + m.tiles[t].halo;
+        let want = m.tiles[t].owned.saturating_add(m.tiles[t].halo);
         if h.elements[v].count != want {
             return Err(bad(
                 &name,

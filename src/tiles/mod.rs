@@ -131,7 +131,6 @@ impl Manifest {
     pub fn read(dir: &std::path::Path) -> Result<Manifest> {
         let path = dir.join(MANIFEST);
         let name = path.display().to_string();
-        let bad = |what: String| Error::invalid(what).about(&name);
         let io = |e: std::io::Error| Error::from(e).about(&name);
         let mut bytes = Vec::new();
         crate::files::open_input(&path)
@@ -139,15 +138,21 @@ impl Manifest {
             .take(MAX_MANIFEST_BYTES + 1)
             .read_to_end(&mut bytes)
             .map_err(io)?;
+        Manifest::parse(&bytes).map_err(|e| e.about(&name))
+    }
+
+    /// A manifest's bytes, checked as [`Manifest::read`] checks them.
+    pub fn parse(bytes: &[u8]) -> Result<Manifest> {
         if bytes.len() as u64 > MAX_MANIFEST_BYTES {
             let what = format!(
                 "larger than {} MiB: not a manifest pctile split wrote",
                 MAX_MANIFEST_BYTES >> 20
             );
-            return Err(bad(what));
+            return Err(Error::invalid(what));
         }
-        let text = String::from_utf8(bytes).map_err(|_| bad("not UTF-8 text".into()))?;
-        let m: Manifest = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let bad = |what: String| Error::invalid(what);
+        let text = std::str::from_utf8(bytes).map_err(|_| bad("not UTF-8 text".into()))?;
+        let m: Manifest = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
         if m.format != FORMAT {
             return Err(bad(format!("format '{}', not '{FORMAT}'", m.format)));
         }
@@ -163,10 +168,10 @@ impl Manifest {
                 return Err(bad(format!("tile {i} is numbered {}", t.index)));
             }
         }
-        let owned: u64 = m.tiles.iter().map(|t| t.owned).sum();
-        if owned != m.points {
+        let owned = m.tiles.iter().try_fold(0u64, |a, t| a.checked_add(t.owned));
+        if owned != Some(m.points) {
             return Err(bad(format!(
-                "the tiles own {owned} points, the input had {}",
+                "the tiles own {owned:?} points, the input had {}",
                 m.points
             )));
         }

@@ -82,3 +82,27 @@ fn mesh(cloud: &crate::Cloud) {
         let _ = crate::stages::measure::measure(&mut c);
     }
 }
+
+/// A tile manifest (`pctile merge` reads it): parsed and checked; what
+/// passes has its checksum recomputed and its tiles' plan rebuilt from
+/// their boxes' corners.
+pub fn manifest(data: &[u8]) {
+    let Ok(m) = crate::tiles::Manifest::parse(data) else {
+        return;
+    };
+    let _ = m.checksum();
+    let mut corners: Vec<DVec3> = m.tiles.iter().map(|t| DVec3::from_array(t.lo)).collect();
+    let plan = crate::tiles::Plan::new(
+        &mut corners,
+        DVec3::from_array(m.lo),
+        DVec3::from_array(m.hi),
+        m.tiles.len(),
+    );
+    for t in &m.tiles {
+        let p = DVec3::from_array(t.lo);
+        if p.is_finite() {
+            let owner = plan.owner(p);
+            plan.halo_of(p, owner, m.halo, |_| {});
+        }
+    }
+}
