@@ -21,3 +21,20 @@ pub fn check_available(bytes: u64, param: &str, what: &str) -> Result<()> {
         ),
     ))
 }
+
+/// Checks that a stage can hold its structures over a mesh of `triangles`
+/// triangles, at `per_triangle` bytes each (what the stage measured at its
+/// peak, with a margin): a mesh too large for the machine is one line
+/// about the mesh, not an abort halfway.
+pub fn check_mesh(triangles: usize, per_triangle: u64) -> Result<()> {
+    let bytes = triangles as u64 * per_triangle;
+    let mut probe: Vec<u8> = Vec::new();
+    let ok = usize::try_from(bytes).is_ok_and(|b| probe.try_reserve_exact(b).is_ok());
+    if ok {
+        return Ok(());
+    }
+    Err(Error::unsupported(format!(
+        "{triangles} triangles would need about {:.1} GiB of memory ({per_triangle} bytes a triangle), more than can be allocated here: a coarser mesh, or a machine with more memory",
+        bytes as f64 / (1u64 << 30) as f64
+    )))
+}

@@ -9,6 +9,7 @@ use pcsss::cli::{self, IoArgs, SingleArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
 use pcsss::stages::filter::{self, SingleSetup};
+use pcsss::stages::sssingle;
 use pcsss::Error;
 
 pcsss::global_allocator!();
@@ -94,7 +95,10 @@ fn run(args: Args) -> anyhow::Result<()> {
             let lights = cli::read_lights(lights, &args.single_lmask)
                 .map_err(|e| cli::as_param(e, "single_lmask"))?;
             let mesh_path = args.single_mesh.as_ref().expect("clap requires it");
-            Some((params, lights, cli::read_mesh(mesh_path)?))
+            let mesh = cli::read_mesh(mesh_path)?;
+            let mesh_name = mesh_path.display().to_string();
+            sssingle::check_mesh(&mesh).map_err(cli::at(&mesh_name))?;
+            Some((params, lights, mesh))
         }
     };
     let lazy_single = single.as_ref().map(|(params, lights, mesh)| SingleSetup {

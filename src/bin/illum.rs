@@ -5,7 +5,6 @@ use std::process::ExitCode;
 
 use pcsss::cli::{self, IllumArgs as Args};
 use pcsss::formats::Select;
-use pcsss::geom::bvh::Occluder;
 use pcsss::stages::illum;
 
 pcsss::global_allocator!();
@@ -16,7 +15,10 @@ fn run(args: Args) -> anyhow::Result<()> {
     let used = cli::read_lights(&args.lights, &args.lmask)?;
     // The mesh first: a missing or broken mesh fails before the cloud is read.
     let occluder = match &args.mesh {
-        Some(path) => Some(Occluder::new(&cli::read_mesh(path)?)),
+        Some(path) => {
+            let name = path.display().to_string();
+            Some(illum::occluder(&cli::read_mesh(path)?).map_err(cli::at(&name))?)
+        }
         None => None,
     };
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;

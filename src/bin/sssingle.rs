@@ -20,6 +20,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     let params = args.single.params(&args.rd, args.sd, args.rgb, eye)?;
     let lights = cli::read_lights(&args.lights, &args.lmask)?;
     let mesh = cli::read_mesh(&args.mesh)?;
+    let mesh_name = args.mesh.display().to_string();
+    sssingle::check_mesh(&mesh).map_err(cli::at(&mesh_name))?;
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;
     let progress = msg.progress();
     let rep = sssingle::sssingle(&mut cloud, &mesh, &lights, &params, &progress)

@@ -32,6 +32,7 @@ use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::bvh::Occluder;
 use crate::geom::columns::{self, Columns};
+use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
 use crate::progress::Progress;
 
@@ -52,6 +53,19 @@ const CHUNK: usize = 4096;
 
 /// Adds `illum` to `cloud` from `lights` (already masked), with shadows
 /// from `occluder` when given.
+/// Bytes a mesh's triangle takes at illum's peak (its BVH and the build's
+/// work, the mesh itself, a distant light's grid), with a margin: peaks
+/// measured on the Stanford dragon and a mesh of 1e7 triangles
+/// (benches/results/HISTORY.md, "Memory a triangle").
+pub const MESH_BYTES: u64 = 500;
+
+/// The shadow-ray BVH over `mesh`, after checking that the machine holds
+/// it ([`MESH_BYTES`] a triangle).
+pub fn occluder(mesh: &TriMesh) -> Result<Occluder> {
+    crate::memory::check_mesh(mesh.tris.len(), MESH_BYTES)?;
+    Ok(Occluder::new(mesh))
+}
+
 pub fn illum(
     cloud: &mut Cloud,
     lights: &[Light],

@@ -407,6 +407,33 @@ fn requests_beyond_memory_are_refused_not_aborted() {
         b.drain(c..c + cc.len() + 8);
     }
     std::fs::write(&exr, &b).unwrap();
+    // A mesh whose structures the machine cannot hold (2M triangles at
+    // sssingle's 800 bytes each, under the 2 GiB limit): one line naming
+    // the mesh, before the work, not an abort halfway.
+    let big = dir.path().join("big.ply");
+    std::fs::write(&big, to_bytes(&uv_sphere(1000, 1000, 1.0, [0.0; 3]), LE)).unwrap();
+    let lit = lit_cloud(dir.path());
+    let lights = dir.path().join("l.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"type": "distant", "name": "sun", "direction": [0, 0, -1]}]}"#,
+    )
+    .unwrap();
+    let o = limited(
+        dir.path(),
+        "sssingle",
+        &[
+            &lit, "--mesh", "big.ply", "--lights", "l.json", "--eye", "0,0,5", "--sd", "0.1", "-o",
+            "s.ply",
+        ],
+        120,
+    );
+    let err = one_line(&o, 1, "mesh beyond memory");
+    assert!(
+        err.contains("big.ply") && err.contains("1998000 triangles would need"),
+        "{err}"
+    );
+    assert!(!dir.path().join("s.ply").exists());
     let o = limited(dir.path(), "pcinfo", &[&exr.display().to_string()], 120);
     let err = one_line(&o, 1, "lying data window");
     assert!(

@@ -99,6 +99,12 @@ pub struct Params {
     pub candidates: f64,
 }
 
+/// Bytes a mesh's triangle takes at scatter's peak (its areas and
+/// sampling tables, `--blue`'s adjacency for the relaxation), with a
+/// margin: peaks measured on the Stanford dragon and a mesh of 1e7
+/// triangles (benches/results/HISTORY.md, "Memory a triangle").
+pub const MESH_BYTES: u64 = 300;
+
 /// The default candidates per point of `--blue`: see `blue` for what
 /// more or fewer buy (benches/results/blue_noise.txt).
 pub const CANDIDATES: f64 = 3.0;
@@ -176,6 +182,7 @@ pub fn scatter_with(mesh: &Cloud, p: &Params, progress: &Progress) -> Result<Clo
     }
     let mut ph = progress.phases("scatter");
     let m = TriMesh::from_cloud(mesh)?;
+    crate::memory::check_mesh(m.tris.len(), MESH_BYTES)?;
     let areas = m.tri_areas();
     let total = areas.iter().copied().collect::<Sum>().value();
     if !(total > 0.0 && total.is_finite()) {

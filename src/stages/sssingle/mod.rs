@@ -299,6 +299,18 @@ pub fn sssingle(
     Ok(report)
 }
 
+/// Bytes a mesh's triangle takes at sssingle's peak (its BVH, its
+/// normals, the grids down distant lights, the mesh itself), with a
+/// margin: peaks measured on the Stanford dragon and a mesh of 1e7
+/// triangles (benches/results/HISTORY.md, "Memory a triangle").
+pub const MESH_BYTES: u64 = 800;
+
+/// Checks that the machine holds sssingle's structures over `mesh`
+/// ([`MESH_BYTES`] a triangle).
+pub fn check_mesh(mesh: &TriMesh) -> Result<()> {
+    crate::memory::check_mesh(mesh.tris.len(), MESH_BYTES)
+}
+
 /// `ssS` of `cloud`'s points without changing the cloud: of every point,
 /// or (`want`, one flag a point) only of the wanted ones (others get 0;
 /// `Report::computed` counts the wanted points the eye sees).
@@ -311,6 +323,7 @@ pub fn sssingle_values(
     progress: &Progress,
 ) -> Result<(Vec<[f32; 3]>, Report)> {
     validate(p)?;
+    check_mesh(mesh)?;
     let pts = cloud.points();
     if !pts.has("N") {
         return Err(pts.missing("N"));
