@@ -317,13 +317,38 @@ fn output_mode(path: &Path) -> u32 {
     }
 }
 
-/// Writes through `body` to `path` atomically, or to stdout when `None`.
+/// Whether standard output was closed when the process started: Rust's
+/// runtime then puts `/dev/null` opened read-write in its place, where a
+/// shell's `> /dev/null` opens it write-only. Writing there would lose
+/// the output and succeed.
+pub fn stdout_was_closed() -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    // SAFETY: F_GETFL on descriptor 1 reads its flags and nothing else.
+    let flags = unsafe { libc::fcntl(1, libc::F_GETFL) };
+    if flags < 0 || flags & libc::O_ACCMODE != libc::O_RDWR {
+        return false;
+    }
+    let (Ok(out), Ok(null)) = (
+        std::fs::metadata("/proc/self/fd/1"),
+        std::fs::metadata("/dev/null"),
+    ) else {
+        return false;
+    };
+    out.file_type().is_char_device() && out.rdev() == null.rdev()
+}
+
+/// Writes through `body` to `path` atomically, or to stdout when `None`
+/// (refused when stdout was closed: the output would be lost).
 pub fn write_output(
     path: Option<&Path>,
     body: impl FnOnce(&mut dyn Write) -> Result<()>,
 ) -> Result<()> {
     match path {
         None => {
+            if stdout_was_closed() {
+                let why = "closed: the output has nowhere to go (give -o FILE, or a pipe)";
+                return Err(Error::invalid(why).about("<stdout>"));
+            }
             let stdout = io::stdout();
             grow_pipe(&stdout);
             let mut w = BufWriter::with_capacity(1 << 16, stdout.lock());

@@ -400,6 +400,13 @@ pub fn check_named_paths(
     more_inputs: &[&Path],
 ) -> anyhow::Result<()> {
     let (outputs, inputs) = named_paths(cmd, m);
+    // No output file named where a stage can name one: the output is
+    // stdout, which must be open.
+    let has_output = cmd.get_arguments().any(|a| a.get_id() == "output");
+    if has_output && outputs.is_empty() && files::stdout_was_closed() {
+        let why = "closed: the output has nowhere to go (give -o FILE, or a pipe)";
+        return Err(crate::Error::invalid(why).about("<stdout>").into());
+    }
     let outs: Vec<files::Output> = outputs
         .iter()
         .map(|&(ref path, param, dir)| files::Output { path, param, dir })

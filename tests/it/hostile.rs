@@ -570,3 +570,42 @@ fn broken_pipes_and_a_closed_stderr_end_nothing_badly() {
         std::fs::remove_file(dir.path().join("y.ply")).unwrap();
     }
 }
+
+/// A closed stdout is not a place to write: one line, exit 1, before the
+/// work (Rust's runtime puts /dev/null where stdout was closed, and the
+/// output would be lost with exit 0).
+#[test]
+fn a_closed_stdout_is_refused() {
+    let dir = tempdir();
+    let cloud = lit_cloud(dir.path());
+    let o = Command::new("bash")
+        .args([
+            "-c",
+            &format!("{} {cloud} --sd 1 >&-; echo $?", bin("ssmulti").display()),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "1");
+    let err = stderr(&o);
+    assert!(
+        err.contains("<stdout>: invalid: closed") && !err.contains("pairs"),
+        "{err}"
+    );
+    // `> /dev/null` is a place to write.
+    let o = Command::new("bash")
+        .args([
+            "-c",
+            &format!(
+                "{} -q {cloud} --sd 1 > /dev/null; echo $?",
+                bin("ssmulti").display()
+            ),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "0",
+        "{}",
+        stderr(&o)
+    );
+}
