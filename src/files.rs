@@ -321,7 +321,7 @@ fn output_mode(path: &Path) -> u32 {
 /// runtime then puts `/dev/null` opened read-write in its place, where a
 /// shell's `> /dev/null` opens it write-only. Writing there would lose
 /// the output and succeed.
-pub fn stdout_was_closed() -> bool {
+fn stdout_was_closed() -> bool {
     use std::os::unix::fs::FileTypeExt;
     // SAFETY: F_GETFL on descriptor 1 reads its flags and nothing else.
     let flags = unsafe { libc::fcntl(1, libc::F_GETFL) };
@@ -337,6 +337,16 @@ pub fn stdout_was_closed() -> bool {
     out.file_type().is_char_device() && out.rdev() == null.rdev()
 }
 
+/// Refuses a closed standard output, where what a binary writes would
+/// be lost with success: one line naming `<stdout>`.
+pub fn check_stdout_open() -> Result<()> {
+    if stdout_was_closed() {
+        let why = "closed: the output has nowhere to go (give -o FILE, or a pipe)";
+        return Err(Error::invalid(why).about("<stdout>"));
+    }
+    Ok(())
+}
+
 /// Writes through `body` to `path` atomically, or to stdout when `None`
 /// (refused when stdout was closed: the output would be lost).
 pub fn write_output(
@@ -345,10 +355,7 @@ pub fn write_output(
 ) -> Result<()> {
     match path {
         None => {
-            if stdout_was_closed() {
-                let why = "closed: the output has nowhere to go (give -o FILE, or a pipe)";
-                return Err(Error::invalid(why).about("<stdout>"));
-            }
+            check_stdout_open()?;
             let stdout = io::stdout();
             grow_pipe(&stdout);
             let mut w = BufWriter::with_capacity(1 << 16, stdout.lock());

@@ -73,6 +73,9 @@ fn run(args: Args) -> anyhow::Result<bool> {
             "{n} must be a finite number >= 0"
         );
     }
+    // The differences would be lost behind an exit code (as diff, a
+    // closed stdout is trouble, exit 2).
+    pcsss::files::check_stdout_open()?;
     let msg = args.msg.messages("pcdiff");
     let a = cli::read_input(Some(&args.a), &Select::All)?;
     let b = cli::read_input(Some(&args.b), &Select::All)?;

@@ -25,6 +25,8 @@ struct Args {
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
+    // The report is the product: nowhere to write it is an error.
+    pcsss::files::check_stdout_open()?;
     let inputs: Vec<Option<PathBuf>> = if args.inputs.is_empty() {
         vec![None]
     } else {

@@ -403,9 +403,8 @@ pub fn check_named_paths(
     // No output file named where a stage can name one: the output is
     // stdout, which must be open.
     let has_output = cmd.get_arguments().any(|a| a.get_id() == "output");
-    if has_output && outputs.is_empty() && files::stdout_was_closed() {
-        let why = "closed: the output has nowhere to go (give -o FILE, or a pipe)";
-        return Err(crate::Error::invalid(why).about("<stdout>").into());
+    if has_output && outputs.is_empty() {
+        files::check_stdout_open()?;
     }
     let outs: Vec<files::Output> = outputs
         .iter()

@@ -591,6 +591,21 @@ fn a_closed_stdout_is_refused() {
         err.contains("<stdout>: invalid: closed") && !err.contains("pairs"),
         "{err}"
     );
+    // pcinfo's report and pcdiff's differences too (pcdiff's trouble is
+    // exit 2, as diff's).
+    for (cmd, code) in [
+        (format!("{} {cloud}", bin("pcinfo").display()), "1"),
+        (format!("{} {cloud} {cloud}", bin("pcdiff").display()), "2"),
+    ] {
+        let o = Command::new("bash")
+            .args(["-c", &format!("{cmd} >&-; echo $?")])
+            .output()
+            .unwrap();
+        assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), code, "{cmd}");
+        let err = stderr(&o);
+        assert!(err.contains("<stdout>: invalid: closed"), "{cmd}: {err}");
+        assert_eq!(err.lines().count(), 1, "{cmd}: {err}");
+    }
     // `> /dev/null` is a place to write.
     let o = Command::new("bash")
         .args([
