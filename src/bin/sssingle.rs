@@ -27,8 +27,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     let rep = sssingle::sssingle(&mut cloud, &mesh, &lights, &params, &progress)
         .map_err(cli::at(&name))?;
     msg.info(format!(
-        "{} points, {} seen from the eye; {} rays towards the lights, {} entered",
-        rep.points, rep.computed, rep.rays, rep.entered
+        "{} points, {} seen from the eye; {} rays towards the lights, {} entered; {} shadow rays, {} blocked",
+        rep.points, rep.computed, rep.rays, rep.entered, rep.shadow_rays, rep.shadowed
     ));
     for w in rep.warnings() {
         msg.warn(w);

@@ -76,6 +76,11 @@ pub struct SingleArgs {
     /// (degrees), as facet's.
     #[arg(long, default_value_t = 60.0)]
     pub cusp: f64,
+    /// Single scattering without shadow rays from where light enters the
+    /// mesh to the light: Marengo's unshadowed estimator (light passes
+    /// through whatever lies beyond the surface it enters by).
+    #[arg(long)]
+    pub no_shadows: bool,
 }
 
 impl SingleArgs {
@@ -121,6 +126,7 @@ impl SingleArgs {
             seed: self.seed,
             eye: glam::DVec3::from_array(eye),
             cusp: self.cusp,
+            shadows: !self.no_shadows,
         };
         sssingle::validate(&p)?;
         Ok(p)

@@ -194,6 +194,18 @@ impl<'a> Interior<'a> {
         })
     }
 
+    /// Is the segment from `from` (where a ray from inside left the
+    /// mesh) along unit `dir` for `dist` (infinite: a distant light)
+    /// blocked by the mesh? The ray starts a few ulps out along `dir`
+    /// (the face it left by is behind it), through `cols` when they were
+    /// built for `dir`.
+    pub fn blocked(&self, cols: Option<&Columns>, from: DVec3, dir: DVec3, dist: f64) -> bool {
+        match cols {
+            Some(c) => c.occluded(&self.occ, from, dir, dir, dist),
+            None => self.occ.occluded(from, dir, dir, dist),
+        }
+    }
+
     /// Is `eye` inside the mesh? The nearest surface a ray from it meets
     /// faces away from it (a closed mesh).
     pub fn contains(&self, eye: DVec3) -> bool {

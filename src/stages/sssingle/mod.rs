@@ -3,7 +3,8 @@
 //! writes it. Along the view ray refracted into the surface, `samples`
 //! depths (stratified, from the point's own random stream: the same bits
 //! on any thread count); from each, a ray towards every light sample finds
-//! where that light enters the mesh; the light is carried to the depth
+//! where that light enters the mesh, and a shadow ray from there on to
+//! the light whether anything blocks it; the light is carried to the depth
 //! along the refracted path, scattered towards the eye by a
 //! Henyey-Greenstein phase function and refracted out, with Fresnel at
 //! both crossings.
@@ -17,7 +18,8 @@
 //!
 //! Work skipped: a point the eye does not see (`dot(N, eye - P) <= 0`)
 //! costs nothing; a light sample that sends nothing to a depth (outside a
-//! spot's cone, a one-sided emitter facing away) costs no ray; one
+//! spot's cone, a one-sided emitter facing away) costs no ray, nor a
+//! shadow ray a pair that brings nothing (the seed falloff past `lu1`); one
 //! channel's distances or mean free paths equal: one density.
 
 pub mod interior;
@@ -80,6 +82,10 @@ pub struct Params {
     /// The mesh's normals are smooth across edges up to this angle
     /// (degrees), as `facet --mode smooth`'s.
     pub cusp: f64,
+    /// Light that enters the mesh is first traced from the entry point to
+    /// its light sample: the mesh (the object itself, or another in the
+    /// same file) shadows it. Off: Marengo's unshadowed estimator.
+    pub shadows: bool,
 }
 
 impl Params {
@@ -97,6 +103,7 @@ impl Params {
             ("sssingle_samples", DetailValue::I32(self.samples as i32)),
             ("sssingle_seed", DetailValue::Str(self.seed.to_string())),
             ("sssingle_cusp", DetailValue::F64(self.cusp)),
+            ("sssingle_shadows", DetailValue::I32(self.shadows as i32)),
         ];
         match self.model {
             Model::Seed => d.extend([
@@ -128,6 +135,7 @@ impl Default for Params {
             seed: 0,
             eye: DVec3::ZERO,
             cusp: 60.0,
+            shadows: true,
         }
     }
 }
@@ -146,6 +154,10 @@ pub struct Report {
     pub rays: u64,
     /// Of those, rays that found where their light enters.
     pub entered: u64,
+    /// Shadow rays traced from where light enters towards the light, and
+    /// of them those the mesh blocked.
+    pub shadow_rays: u64,
+    pub shadowed: u64,
     /// Points seen from the eye where no light entered: `ssS` 0.
     pub dark: usize,
     /// The eye is inside the mesh.
@@ -395,10 +407,17 @@ pub fn sssingle_values(
             Outcome::Skipped => {}
             Outcome::Unseen => report.unseen += 1,
             Outcome::Reflected => report.reflected += 1,
-            Outcome::Lit { rays, entered } => {
+            Outcome::Lit {
+                rays,
+                entered,
+                shadow_rays,
+                shadowed,
+            } => {
                 report.computed += 1;
                 report.rays += rays;
                 report.entered += entered;
+                report.shadow_rays += shadow_rays;
+                report.shadowed += shadowed;
                 report.dark += (entered == 0) as usize;
             }
         }
@@ -465,6 +484,8 @@ enum Outcome {
     Lit {
         rays: u64,
         entered: u64,
+        shadow_rays: u64,
+        shadowed: u64,
     },
 }
 
@@ -560,6 +581,7 @@ impl<'a> Run<'a> {
         sums.clear();
         sums.resize(self.lights.len(), ([0.0; 3], 0));
         let (mut rays, mut entered) = (0u64, 0u64);
+        let (mut shadow_rays, mut shadowed) = (0u64, 0u64);
         for j in 0..k {
             let (s, weight) = self.depth(j, uniform24(&mut rng), d);
             let ps = x0 + to * s;
@@ -582,9 +604,22 @@ impl<'a> Run<'a> {
                     }
                     entered += 1;
                     let f = self.pair(&view, e, &hit, ci, weight);
+                    // A shadowed pair still counts (it entered, and
+                    // brings nothing); one that adds nothing needs no
+                    // shadow ray.
+                    let lit = !p.shadows || f == [0.0; 3] || {
+                        shadow_rays += 1;
+                        let from = ps + e.dir * hit.dist;
+                        let rest = e.dist - hit.dist;
+                        let blocked = self.interior.blocked(cols, from, e.dir, rest);
+                        shadowed += blocked as u64;
+                        !blocked
+                    };
                     let (sum, n) = &mut sums[l];
-                    for c in 0..3 {
-                        sum[c] += f[c];
+                    if lit {
+                        for c in 0..3 {
+                            sum[c] += f[c];
+                        }
                     }
                     *n += 1;
                 }
@@ -609,7 +644,15 @@ impl<'a> Run<'a> {
             Model::Physical => p.albedo.map(|a| a * view.kto / (p.eta * p.eta)),
         };
         let out = [0, 1, 2].map(|c| v[c] * scale[c]);
-        (out, Outcome::Lit { rays, entered })
+        (
+            out,
+            Outcome::Lit {
+                rays,
+                entered,
+                shadow_rays,
+                shadowed,
+            },
+        )
     }
 
     /// The depth of sample `j` (of `samples`, jittered by `xi` in its

@@ -19,6 +19,7 @@ use pcsss::Cloud;
 
 mod bad_input;
 mod filter;
+mod shadow;
 mod slab;
 mod stability;
 
