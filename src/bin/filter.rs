@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::cli::{self, IoArgs, SingleArgs, SsArgs};
+use pcsss::cli::{self, IoArgs, MaterialArgs, SingleArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::facet::{self, Weight};
 use pcsss::stages::filter::{self, SingleSetup};
@@ -70,13 +70,15 @@ struct Args {
     camera: Option<PathBuf>,
     #[command(flatten)]
     single: SingleArgs,
+    #[command(flatten)]
+    material: MaterialArgs,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
     let cloud_name = cli::display_name(Some(&args.cloud));
-    let multi = args.ss.params()?;
+    let multi = args.ss.params(&args.material)?;
     // Lazy single scattering: its parameters, lights and mesh first.
     let single = match &args.single_lights {
         None => None,
@@ -89,9 +91,9 @@ fn run(args: Args) -> anyhow::Result<()> {
                     return Err(Error::param("single_lights", why).into());
                 }
             };
-            let params = args
-                .single
-                .params(&args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
+            let params =
+                args.single
+                    .params(&args.material, &args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
             let lights = cli::read_lights(lights, &args.single_lmask)
                 .map_err(|e| cli::as_param(e, "single_lmask"))?;
             let mesh_path = args.single_mesh.as_ref().expect("clap requires it");

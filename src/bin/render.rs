@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::cli::{self, MsgArgs, SingleArgs, SsArgs};
+use pcsss::cli::{self, MaterialArgs, MsgArgs, SingleArgs, SsArgs};
 use pcsss::files;
 use pcsss::formats::exr::{Compression, ExrOptions};
 use pcsss::formats::{self, Format, Select};
@@ -83,6 +83,8 @@ struct Args {
     #[command(flatten)]
     single: SingleArgs,
     #[command(flatten)]
+    material: MaterialArgs,
+    #[command(flatten)]
     msg: MsgArgs,
 }
 
@@ -115,7 +117,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let cam = cli::read_camera(&args.camera)?;
-    let lazy = args.ss.params()?;
+    let lazy = args.ss.params(&args.material)?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
@@ -127,9 +129,13 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     let single = match &args.single_lights {
         Some(path) => {
-            let params = args
-                .single
-                .params(&args.ss.rd, args.ss.sd, args.ss.rgb, cam.position)?;
+            let params = args.single.params(
+                &args.material,
+                &args.ss.rd,
+                args.ss.sd,
+                args.ss.rgb,
+                cam.position,
+            )?;
             let lights = cli::read_lights(path, &args.single_lmask)
                 .map_err(|e| cli::as_param(e, "single_lmask"))?;
             Some((params, lights))

@@ -3,28 +3,33 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::cli::{self, IoArgs, SsArgs};
+use pcsss::cli::{self, IoArgs, MaterialArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::ssmulti;
 
 pcsss::global_allocator!();
 
-/// Multiple scattering at every point (Marengo's ssIntegMulti): reads P,
-/// N, ptarea, illum; adds ssM.
+/// Multiple scattering at every point (Marengo's ssIntegMulti, or with
+/// --model physical a medium's photon beam diffusion): reads P, N,
+/// ptarea, illum; adds ssM.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
-#[command(mut_arg("sd", |a| a.required(true)))]
 struct Args {
     #[command(flatten)]
     io: IoArgs,
     #[command(flatten)]
     ss: SsArgs,
+    #[command(flatten)]
+    material: MaterialArgs,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("ssmulti");
     let name = args.io.input_name();
-    let params = args.ss.params()?.expect("clap requires --sd");
+    let Some(params) = args.ss.params(&args.material)? else {
+        let why = "required by --model seed (the scattering distance; or --model physical)";
+        return Err(pcsss::Error::param("sd", why).into());
+    };
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
     let mut cloud = args
@@ -43,6 +48,12 @@ fn run(args: Args) -> anyhow::Result<()> {
             ""
         }
     ));
+    if rep.isolated > 0 {
+        msg.warn(format!(
+            "{} of {} points are farther apart than their kernel reaches (give more points, or longer distances): each returns its own light",
+            rep.isolated, rep.points
+        ));
+    }
     args.io.write(&cloud)
 }
 

@@ -17,7 +17,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         (None, None) => unreachable!("clap requires one"),
     };
     // Parameters and the lights before the geometry: a bad one fails fast.
-    let params = args.single.params(&args.rd, args.sd, args.rgb, eye)?;
+    let params = args
+        .single
+        .params(&args.material, &args.rd, args.sd, args.rgb, eye)?;
     let lights = cli::read_lights(&args.lights, &args.lmask)?;
     let mesh = cli::read_mesh(&args.mesh)?;
     let mesh_name = args.mesh.display().to_string();

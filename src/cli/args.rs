@@ -9,8 +9,9 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use super::{env_flag, IoArgs};
+use crate::stages::medium::{Medium, Model};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
-use crate::stages::sssingle::{self, Model};
+use crate::stages::sssingle;
 
 /// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
 #[derive(clap::Args, Debug, Clone)]
@@ -45,27 +46,81 @@ pub struct SsArgs {
     pub tolerance: f64,
 }
 
-/// `sssingle`'s model parameters (also `filter`'s and `render`'s, to
-/// compute `ssS` for the points they read); the seed model's Rd, sd and
-/// t_rgb are ssmulti's options.
+/// The material: the model both `ssmulti` and `sssingle` use (and
+/// `filter` and `render` for what they compute lazily), with the physical
+/// model's medium (docs/DESIGN.md#physical-medium).
 #[derive(clap::Args, Debug, Clone)]
-pub struct SingleArgs {
-    /// Single scattering: seed, Marengo's (--rd, --sd); physical, Jensen
-    /// et al. 2001 (--albedo, --mfp).
+pub struct MaterialArgs {
+    /// seed: Marengo's (ssmulti --rd, --sd and the falloffs; sssingle
+    /// likewise); physical: a medium (--albedo or --color, --mfp or
+    /// --dmfp, --eta, --g): photon beam diffusion's reflectance for ssM,
+    /// Jensen et al. 2001 for ssS.
     #[arg(long, value_enum, default_value = "seed")]
     pub model: Model,
     /// Physical model: single-scattering albedo R,G,B in [0, 1].
     #[arg(long, value_name = "R,G,B", default_value = "0.8")]
     pub albedo: String,
+    /// Physical model: the surface colour R,G,B a flat slab of the medium
+    /// shows (its whole diffuse reflectance), in place of --albedo: the
+    /// single-scattering albedo is found from it.
+    #[arg(long, visible_alias = "colour", value_name = "R,G,B")]
+    pub color: Option<String>,
     /// Physical model: mean free path R,G,B (1 / extinction).
-    #[arg(long, value_name = "R,G,B")]
+    #[arg(long, value_name = "R,G,B", conflicts_with = "dmfp")]
     pub mfp: Option<String>,
-    /// Henyey-Greenstein asymmetry in [-1, 1] (used within +-0.998).
+    /// Physical model: diffuse mean free path R,G,B (1 / sigma_tr, the
+    /// distance the diffusion decays over), in place of --mfp.
+    #[arg(long, value_name = "R,G,B")]
+    pub dmfp: Option<String>,
+    /// Henyey-Greenstein asymmetry in [-1, 1] (sssingle uses it within
+    /// +-0.998).
     #[arg(long, default_value_t = 0.0)]
     pub g: f64,
     /// Relative index of refraction, inside over outside.
     #[arg(long, default_value_t = 1.3)]
     pub eta: f64,
+}
+
+impl MaterialArgs {
+    /// The physical model's medium; `None` for the seed model.
+    pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
+        if self.model == Model::Seed {
+            return Ok(None);
+        }
+        let (dist, diffuse) = match (&self.mfp, &self.dmfp) {
+            (Some(m), _) => (parse_rgb("--mfp", m)?, false),
+            (None, Some(d)) => (parse_rgb("--dmfp", d)?, true),
+            (None, None) => {
+                return Err(crate::Error::param(
+                    "--mfp",
+                    "required by --model physical (the mean free path; or --dmfp)",
+                )
+                .into())
+            }
+        };
+        let m = match &self.color {
+            Some(c) => {
+                Medium::from_colour(parse_rgb("--color", c)?, dist, diffuse, self.eta, self.g)
+            }
+            None => {
+                let albedo = parse_rgb("--albedo", &self.albedo)?;
+                let mfp = if diffuse {
+                    Medium::mfp_of_dmfp(albedo, dist, self.eta, self.g)
+                } else {
+                    dist
+                };
+                Medium::new(albedo, mfp, self.eta, self.g)
+            }
+        };
+        Ok(Some(m?))
+    }
+}
+
+/// `sssingle`'s sampling options (also `filter`'s and `render`'s, to
+/// compute `ssS` for the points they read); the model is
+/// [`MaterialArgs`], the seed model's Rd, sd and t_rgb ssmulti's options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SingleArgs {
     /// Depth samples per point (stratified), 1 to 4096.
     #[arg(long, default_value_t = 16)]
     pub samples: u32,
@@ -84,43 +139,36 @@ pub struct SingleArgs {
 }
 
 impl SingleArgs {
-    /// The parameters for the eye `eye`, with the seed model's `rd`, `sd`
-    /// and `rgb`; checked. An error names the option at fault.
+    /// The parameters for the eye `eye`, with the material `mat` and the
+    /// seed model's `rd`, `sd` and `rgb`; checked. An error names the
+    /// option at fault.
     pub fn params(
         &self,
+        mat: &MaterialArgs,
         rd: &str,
         sd: Option<f64>,
         rgb: bool,
         eye: [f64; 3],
     ) -> anyhow::Result<sssingle::Params> {
-        let (sd, mfp) = match self.model {
-            sssingle::Model::Seed => {
-                let sd = sd.ok_or_else(|| {
-                    crate::Error::param(
-                        "--sd",
-                        "required by --model seed (the scattering distance)",
-                    )
-                })?;
-                (sd, [1.0; 3])
+        let medium = mat.medium()?;
+        let sd = match (mat.model, sd) {
+            (Model::Seed, None) => {
+                return Err(crate::Error::param(
+                    "--sd",
+                    "required by --model seed (the scattering distance)",
+                )
+                .into())
             }
-            sssingle::Model::Physical => {
-                let mfp = self.mfp.as_deref().ok_or_else(|| {
-                    crate::Error::param(
-                        "--mfp",
-                        "required by --model physical (the mean free path)",
-                    )
-                })?;
-                (0.0, parse_rgb("--mfp", mfp)?)
-            }
+            (_, sd) => sd.unwrap_or(0.0),
         };
         let p = sssingle::Params {
-            model: self.model,
+            model: mat.model,
             rd: parse_rgb("--rd", rd)?,
             sd,
-            albedo: parse_rgb("--albedo", &self.albedo)?,
-            mfp,
-            g: self.g,
-            eta: self.eta,
+            albedo: medium.map_or(parse_rgb("--albedo", &mat.albedo)?, |m| m.albedo),
+            mfp: medium.map_or([1.0; 3], |m| m.mfp),
+            g: mat.g,
+            eta: mat.eta,
             samples: self.samples,
             rgb,
             seed: self.seed,
@@ -134,10 +182,16 @@ impl SingleArgs {
 }
 
 impl SsArgs {
-    /// The parameters, `None` without `--sd`; checked. `PCSSS_NO_AVX2`
-    /// in the environment forces the baseline pair loop.
-    pub fn params(&self) -> anyhow::Result<Option<Params>> {
-        let Some(sd) = self.sd else { return Ok(None) };
+    /// The parameters with the material `mat`, `None` for the seed model
+    /// without `--sd`; checked. `PCSSS_NO_AVX2` in the environment forces
+    /// the baseline pair loop.
+    pub fn params(&self, mat: &MaterialArgs) -> anyhow::Result<Option<Params>> {
+        let medium = mat.medium()?;
+        let sd = match (self.sd, medium) {
+            (Some(sd), _) => sd,
+            (None, Some(_)) => 1.0,
+            (None, None) => return Ok(None),
+        };
         let params = Params {
             rd: parse_rgb("--rd", &self.rd)?,
             sd,
@@ -151,6 +205,7 @@ impl SsArgs {
             } else {
                 Simd::Auto
             },
+            medium,
         };
         ssmulti::validate(&params)?;
         Ok(Some(params))
@@ -245,6 +300,8 @@ pub struct SssingleArgs {
     pub rgb: bool,
     #[command(flatten)]
     pub single: SingleArgs,
+    #[command(flatten)]
+    pub material: MaterialArgs,
 }
 
 /// Light arriving at every point (Houdini's pcIllum): illum = sum over

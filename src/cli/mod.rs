@@ -18,7 +18,9 @@
 pub mod args;
 pub mod stage_args;
 
-pub use args::{parse_bytes, parse_rgb, parse_xyz, IllumArgs, SingleArgs, SsArgs, SssingleArgs};
+pub use args::{
+    parse_bytes, parse_rgb, parse_xyz, IllumArgs, MaterialArgs, SingleArgs, SsArgs, SssingleArgs,
+};
 
 use std::io::{self, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};

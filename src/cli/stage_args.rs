@@ -4,7 +4,7 @@
 
 use clap::{CommandFactory, Parser};
 
-use super::args::SsArgs;
+use super::args::{MaterialArgs, SsArgs};
 use crate::error::Error;
 use crate::tiles::reach::{StageParams, STAGES};
 
@@ -16,6 +16,8 @@ struct Multi {
     io: super::IoArgs,
     #[command(flatten)]
     ss: SsArgs,
+    #[command(flatten)]
+    mat: MaterialArgs,
 }
 
 /// The options of `filter` that set its reach; the others are skipped.
@@ -32,6 +34,8 @@ struct Filter {
     radius: f64,
     #[command(flatten)]
     ss: SsArgs,
+    #[command(flatten)]
+    mat: MaterialArgs,
 }
 
 /// The parameters of `stage` given `args` (its words); an error is about
@@ -46,9 +50,15 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
     Ok(match stage {
         "ssmulti" => {
             let a = Multi::try_parse_from(args).map_err(bad)?;
-            match a.ss.params().map_err(|e| within(stage, e))? {
+            match a.ss.params(&a.mat).map_err(|e| within(stage, e))? {
                 Some(p) => StageParams::Ssmulti(p),
-                None => return Err(Error::param("stage_args", "ssmulti needs --sd").into()),
+                None => {
+                    return Err(Error::param(
+                        "stage_args",
+                        "ssmulti needs --sd (or --model physical)",
+                    )
+                    .into())
+                }
             }
         }
         "filter" => {
@@ -56,7 +66,7 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
             StageParams::Filter {
                 nfp: a.nfp,
                 radius: a.radius,
-                multi: a.ss.params().map_err(|e| within(stage, e))?,
+                multi: a.ss.params(&a.mat).map_err(|e| within(stage, e))?,
             }
         }
         // Their reach is 0 whatever they are given, but what they are

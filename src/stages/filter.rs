@@ -324,8 +324,13 @@ pub fn distance(
         }
         Some(Ok(sd_v * max3(&rd_v)))
     };
+    let physical = cloud
+        .detail("ssmulti_distances")
+        .map(|v| max3(&v.components()));
     let d = if let Some(p) = multi {
-        p.sd * max(p.rd)
+        max(p.distances())
+    } else if let Some(d) = physical.filter(|d| d.is_finite() && *d > 0.0) {
+        d
     } else if let Some(d) = recorded("ssmulti_sd", "ssmulti_rd") {
         d?
     } else if let Some(p) = single {

@@ -5,6 +5,7 @@ pub mod facet;
 pub mod filter;
 pub mod illum;
 pub mod measure;
+pub mod medium;
 pub mod promote;
 pub mod render;
 pub mod scatter;

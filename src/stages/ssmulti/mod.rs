@@ -62,6 +62,7 @@ use crate::column::Scalar;
 use crate::disjoint::Disjoint;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use crate::stages::medium::Medium;
 
 use self::columns::build;
 use self::gather::Gathered;
@@ -134,6 +135,12 @@ pub enum Norm {
     Channel,
     /// By the kernel-weighted area present within reach, times Rd.
     Local,
+    /// Each source's light spread over the kernel-weighted area within
+    /// its own reach, times Rd (the physical model's default): an even
+    /// surface returns Rd times its light whatever its sampling, and a
+    /// closed one all the light that enters, times Rd. Twice the work:
+    /// a first pass sums each point's area within reach.
+    Source,
 }
 
 /// Parameters.
@@ -153,7 +160,17 @@ pub struct Params {
     pub tolerance: f64,
     /// The pair loop's instruction set (the fused one rounds differently).
     pub simd: Simd,
+    /// The physical model (`docs/DESIGN.md#physical-multiple-scattering`):
+    /// a medium's diffusion in place of Rd, sd and the falloff. `None`:
+    /// Marengo's model.
+    pub medium: Option<Medium>,
 }
+
+/// The Burley shape `kappa = D / d` of the physical model: the truncation
+/// at `D` keeps 99% of the untruncated profile's energy
+/// (`1 - e^-kappa / 4 - 3 e^(-kappa/3) / 4 = 0.99`); the 1% beyond is given
+/// back inside, so a flat surface still returns the whole reflectance.
+pub const PHYSICAL_KAPPA: f64 = 12.952_642_092_055_077;
 
 impl Default for Params {
     fn default() -> Self {
@@ -166,6 +183,7 @@ impl Default for Params {
             norm: Norm::Seed,
             tolerance: 0.0,
             simd: Simd::Auto,
+            medium: None,
         }
     }
 }
@@ -175,6 +193,31 @@ impl Params {
     /// changes `ssM` (not the instruction set, which changes its last
     /// bits only).
     pub fn details(&self) -> Vec<(&'static str, DetailValue)> {
+        if let Some(m) = &self.medium {
+            let p = self.resolved();
+            return vec![
+                ("ssmulti_model", DetailValue::Str("physical".into())),
+                ("ssmulti_albedo", DetailValue::V3D(m.albedo)),
+                ("ssmulti_mfp", DetailValue::V3D(m.mfp)),
+                ("ssmulti_eta", DetailValue::F64(m.eta)),
+                ("ssmulti_g", DetailValue::F64(m.g)),
+                ("ssmulti_reflectance", DetailValue::V3D(m.rm)),
+                ("ssmulti_colour", DetailValue::V3D(m.colour())),
+                ("ssmulti_dmfp", DetailValue::V3D(m.dmfp)),
+                ("ssmulti_distances", DetailValue::V3D(p.distances())),
+                (
+                    "ssmulti_falloff",
+                    DetailValue::Str(format!("burley {:?}", physical_kappa(&p))),
+                ),
+                (
+                    "ssmulti_norm",
+                    DetailValue::Str(format!("{:?}", p.norm).to_lowercase()),
+                ),
+                ("ssmulti_bounce", DetailValue::F64(self.bounce)),
+                ("ssmulti_tolerance", DetailValue::F64(self.tolerance)),
+                ("ssmulti_radiance", DetailValue::Str(RADIANCE.into())),
+            ];
+        }
         let falloff = match self.falloff {
             Falloff::Smooth => "smooth".to_string(),
             Falloff::Exp { sigma } => format!("exp {sigma:?}"),
@@ -198,7 +241,62 @@ impl Params {
     /// the kernel's truncation at the largest distance `max(Rd * sd)`
     /// ([`reach`]). A tile's halo must be at least this wide.
     pub fn reach(&self) -> f64 {
-        reach(self.falloff, Distances::of(self).ld1)
+        let p = self.resolved();
+        reach(p.falloff, Distances::of(&p).ld1)
+    }
+
+    /// The parameters the sums run with: for the physical model, the
+    /// Burley kernel (its `kappa` from `--sigma`, else
+    /// [`PHYSICAL_KAPPA`]), a distance a channel, and a normalisation by
+    /// each channel's own disk (`Channel`, unless `Local` was asked for).
+    pub fn resolved(&self) -> Params {
+        let Some(_) = self.medium else { return *self };
+        let kappa = match self.falloff {
+            Falloff::Burley { kappa } => kappa,
+            _ => PHYSICAL_KAPPA,
+        };
+        Params {
+            falloff: Falloff::Burley { kappa },
+            rgb: true,
+            norm: match self.norm {
+                Norm::Seed => Norm::Source,
+                n => n,
+            },
+            ..*self
+        }
+    }
+
+    /// Each channel's kernel distance `D`: `Rd * sd`, or for the physical
+    /// model `kappa d` with the Burley shape `d` a third of the diffuse
+    /// mean free path (the profile's long exponential, `e^(-r / 3d)`,
+    /// decays as the diffusion does, `e^(-sigma_tr r)`).
+    pub fn distances(&self) -> [f64; 3] {
+        match &self.medium {
+            None => self.rd.map(|r| r * self.sd),
+            Some(m) => {
+                let kappa = physical_kappa(&self.resolved());
+                m.dmfp.map(|l| kappa * l / 3.0)
+            }
+        }
+    }
+
+    /// What each channel's normalised sum is multiplied by: `Rd`, or the
+    /// medium's multiple-scattering reflectance.
+    pub fn gains(&self) -> [f64; 3] {
+        match &self.medium {
+            None => self.rd,
+            Some(m) => m.rm,
+        }
+    }
+}
+
+/// How `ssM` becomes radiance, as the physical model records it.
+pub const RADIANCE: &str = "ssM / pi (Lambertian exit)";
+
+fn physical_kappa(resolved: &Params) -> f64 {
+    match resolved.falloff {
+        Falloff::Burley { kappa } => kappa,
+        _ => PHYSICAL_KAPPA,
     }
 }
 
@@ -216,6 +314,9 @@ pub struct Report {
     /// Every `illum` had three equal channels (white light) and one kernel
     /// served all channels: one channel was summed, the others copied.
     pub grey: bool,
+    /// Source normalisation: points whose kernel is too narrow to weigh
+    /// even their own disk; they return their own light times the gain.
+    pub isolated: usize,
 }
 
 /// The largest tolerance of the approximate method: a cluster half as wide
@@ -230,6 +331,41 @@ pub const LEAF: usize = 64;
 
 /// Checks the parameters; an error names the one at fault.
 pub fn validate(p: &Params) -> Result<()> {
+    if let Some(m) = &p.medium {
+        if let Some(c) = m.dmfp.iter().position(|d| !d.is_finite()) {
+            return Err(Error::param(
+                "albedo",
+                format!(
+                    "channel {c} is {:?}: a medium that absorbs nothing diffuses without end (give an albedo below 1)",
+                    m.albedo[c]
+                ),
+            ));
+        }
+        let r = p.resolved();
+        let ld = r.distances();
+        let kappa = physical_kappa(&r) as f32;
+        if let Some(c) = (0..3).find(|&c| !(ld[c] > 0.0 && (kappa / ld[c] as f32).is_finite())) {
+            return Err(Error::param(
+                "mfp",
+                format!(
+                    "channel {c}: a kernel distance of {:e} is too small for the float pair loop: give the scene in larger units",
+                    ld[c]
+                ),
+            ));
+        }
+        return validate_rest(&Params {
+            medium: None,
+            rd: ld,
+            sd: 1.0,
+            ..r
+        });
+    }
+    validate_rest(p)
+}
+
+/// [`validate`] of Marengo's parameters (and of the physical model's
+/// kernels, given as distances with sd 1).
+fn validate_rest(p: &Params) -> Result<()> {
     for (c, &x) in p.rd.iter().enumerate() {
         if !(x.is_finite() && x >= 0.0) {
             return Err(Error::param(
@@ -268,8 +404,7 @@ pub fn validate(p: &Params) -> Result<()> {
     // The pair loop's f32 kernel constants (1 / D^2, sigma / D) must be
     // finite: below about 5e-20 they overflow and every weight would come
     // out 0.
-    let ld = p.rd.map(|r| r * p.sd);
-    for d in ld.into_iter().filter(|&d| d > 0.0) {
+    for d in p.distances().into_iter().filter(|&d| d > 0.0) {
         let inv = 1.0 / d as f32;
         let ok = match p.falloff {
             Falloff::Smooth => (inv * inv).is_finite(),
@@ -342,8 +477,9 @@ fn ssmulti_columns(
     progress: &Progress,
 ) -> Result<([Vec<f32>; 3], Report)> {
     validate(p)?;
+    let p = &p.resolved();
     let mut ph = progress.phases("ssmulti");
-    let inp = inputs(cloud, p.bounce > 0.0)?;
+    let mut inp = inputs(cloud, p.bounce > 0.0)?;
     ph.mark("inputs");
     let n = inp.pts.len();
     if let Some(w) = want {
@@ -357,7 +493,24 @@ fn ssmulti_columns(
         ..Report::default()
     };
     if n > 0 && Distances::of(p).ld1 > 0.0 {
+        let own = if p.norm == Norm::Source {
+            spread_by_source(&mut inp, p, progress, &mut out)
+        } else {
+            Vec::new()
+        };
         sum_all(&inp, p, want, progress, &mut report, &mut out);
+        // A point whose own kernel gives it no weight (the kernel far
+        // narrower than the point's disk) returns its own light: the
+        // sum's limit as the kernel shrinks to a point.
+        let gains = p.gains();
+        for &(i, c, e) in &own {
+            out[c as usize][i as usize] = (gains[c as usize] * e as f64) as f32;
+        }
+        report.isolated = own
+            .iter()
+            .map(|o| o.0)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len();
     } else {
         report.computed = n;
     }
@@ -384,7 +537,7 @@ struct Distances {
 
 impl Distances {
     fn of(p: &Params) -> Distances {
-        let ld = p.rd.map(|r| r * p.sd);
+        let ld = p.distances();
         Distances {
             ld,
             ld1: ld.iter().copied().fold(0.0, f64::max),
@@ -395,6 +548,57 @@ impl Distances {
     fn single(&self, rgb: bool) -> bool {
         !rgb || (self.ld[0] == self.ld[1] && self.ld[1] == self.ld[2])
     }
+}
+
+/// [`Norm::Source`]'s first pass: every point's kernel-weighted area
+/// within reach, `A_i = sum_o ptarea_o W(r, ld[c])` over `I(ld[c])` (1 on
+/// an even plane), summed by the same loop with a white light everywhere;
+/// each source's `illum` is then divided by it, so the second pass, a
+/// `Channel` sum, spreads each source's light over the area it reaches.
+/// (Every point's, even for a lazy run that wants a few: a wanted
+/// point's sources are any within reach.) `scratch` is the output columns,
+/// reused. Returns the points and channels whose area came out 0 (their
+/// kernel too narrow to weigh even themselves), with their light.
+fn spread_by_source(
+    inp: &mut Inputs<'_>,
+    p: &Params,
+    progress: &Progress,
+    scratch: &mut [Vec<f32>; 3],
+) -> Vec<(u32, u8, f32)> {
+    let lit: Vec<[f32; 3]> = inp.pts.iter().map(|q| q.illum).collect();
+    let grey = inp.grey;
+    for q in inp.pts.iter_mut() {
+        q.illum = [1.0; 3];
+    }
+    inp.grey = true;
+    let areas = Params {
+        norm: Norm::Channel,
+        bounce: 0.0,
+        ..*p
+    };
+    sum_all(inp, &areas, None, progress, &mut Report::default(), scratch);
+    let gains = p.gains();
+    let mut own = Vec::new();
+    for (i, q) in inp.pts.iter_mut().enumerate() {
+        q.illum = [0, 1, 2].map(|c| {
+            // (The pass multiplied by the gain: divided out.)
+            let a = scratch[c][i] as f64 / gains[c];
+            if a > 0.0 && a.is_finite() {
+                (lit[i][c] as f64 / a) as f32
+            } else {
+                if gains[c] > 0.0 && q.area > 0.0 {
+                    own.push((i as u32, c as u8, lit[i][c]));
+                }
+                0.0
+            }
+        });
+    }
+    // Still grey when one kernel served every channel.
+    inp.grey = grey && Distances::of(p).single(p.rgb);
+    for c in scratch.iter_mut() {
+        c.fill(0.0);
+    }
+    own
 }
 
 /// The exact method (`tolerance == 0`) or the approximate one, for the

@@ -19,18 +19,21 @@ impl Normaliser {
     pub(super) fn new(p: &Params, dist: Distances, area_scale: f64) -> Normaliser {
         let Distances { ld, ld1 } = dist;
         let i1 = disk_integral(p.falloff, ld1);
+        let rd = p.gains();
         let factor = [0, 1, 2].map(|c| {
             let f = match (p.norm, p.rgb) {
-                (Norm::Seed, false) | (Norm::Channel, false) => p.rd[c] / i1,
+                (Norm::Seed | Norm::Channel | Norm::Source, false) => rd[c] / i1,
                 (Norm::Seed, true) => 1.0 / i1,
-                (Norm::Channel, true) if ld[c] > 0.0 => p.rd[c] / disk_integral(p.falloff, ld[c]),
+                (Norm::Channel | Norm::Source, true) if ld[c] > 0.0 => {
+                    rd[c] / disk_integral(p.falloff, ld[c])
+                }
                 _ => 0.0,
             };
             f / area_scale
         });
         Normaliser {
             factor,
-            rd: p.rd,
+            rd,
             local: p.norm == Norm::Local,
             single: dist.single(p.rgb),
         }

@@ -40,17 +40,11 @@ use crate::progress::Progress;
 use self::interior::{Entry, Interior};
 use self::optics::*;
 
-/// Which estimator.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum Model {
-    /// Marengo's ssIntegSingle: Rd and sd, the smooth falloff over the
-    /// refracted path, HG scaled to peak 1.
-    #[default]
-    Seed,
-    /// Jensen et al. 2001: albedo and mean free path per channel,
-    /// exponential attenuation, HG normalised.
-    Physical,
-}
+/// Which estimator: Marengo's (`Seed`: Rd, sd, the smooth falloff over
+/// the refracted path, HG scaled to peak 1) or the physical one (Jensen
+/// et al. 2001: albedo and mean free path per channel, exponential
+/// attenuation, HG normalised).
+pub use crate::stages::medium::Model;
 
 /// The most samples a point may ask for.
 pub const MAX_SAMPLES: u32 = 4096;

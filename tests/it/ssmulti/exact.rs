@@ -13,7 +13,7 @@ fn exact_method_equals_the_f64_double_loop_for_every_setting() {
         .into_iter()
         .flat_map(|c| falloffs().map(|f| (c, f)))
     {
-        for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
+        for norm in [Norm::Seed, Norm::Channel, Norm::Local, Norm::Source] {
             for (rgb, rd) in [
                 (false, [0.8, 0.5, 0.3]),
                 (true, [0.8, 0.5, 0.3]),
@@ -108,7 +108,7 @@ fn a_steep_exp_equals_the_double_loop() {
         run_report(&c, &p).1.pairs
     };
     for sigma in [60.0, 300.0, 1e3, 1e6] {
-        for norm in [Norm::Seed, Norm::Channel, Norm::Local] {
+        for norm in [Norm::Seed, Norm::Channel, Norm::Local, Norm::Source] {
             let p = Params {
                 rd: [1.0, 0.5, 0.25],
                 sd: 0.6,

@@ -18,6 +18,7 @@ use pcsss::Cloud;
 mod approx;
 mod closed_form;
 mod exact;
+mod physical;
 mod pipe;
 mod scale;
 
@@ -54,6 +55,28 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
     let ld: Vec<f64> = p.rd.iter().map(|r| r * p.sd).collect();
     let ld1 = ld.iter().copied().fold(0.0, f64::max);
     let w = |r: f64, d: f64, i: usize| ssmulti::falloff(p.falloff, r, d, burley::rmin(area[i]));
+    // Norm::Source: each point's kernel-weighted area within reach (its
+    // neighbours' r_min, as Local's sum).
+    let reached: Vec<[f64; 3]> = if p.norm == Norm::Source {
+        (0..pos.len())
+            .map(|i| {
+                let xi = DVec3::from_array(pos[i]);
+                let mut a = [0.0; 3];
+                for o in 0..pos.len() {
+                    let r = (xi - DVec3::from_array(pos[o])).length();
+                    for c in 0..3 {
+                        let d = if p.rgb { ld[c] } else { ld1 };
+                        if d > 0.0 && r <= d {
+                            a[c] += area[o] * w(r, d, o);
+                        }
+                    }
+                }
+                a
+            })
+            .collect()
+    } else {
+        vec![[1.0; 3]; pos.len()]
+    };
     let mut out = Vec::new();
     for o in 0..pos.len() {
         let xo = DVec3::from_array(pos[o]);
@@ -75,8 +98,8 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
                 if d <= 0.0 || r > d {
                     continue;
                 }
-                if kb > 0.0 {
-                    ssm[c] += kb * illum[i][c] * area[i] * w(r, d, i);
+                if kb > 0.0 && reached[i][c] > 0.0 {
+                    ssm[c] += kb * illum[i][c] * area[i] * w(r, d, i) / reached[i][c];
                 }
                 loc[c] += area[i] * w(r, d, i);
             }
@@ -93,6 +116,7 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
                 (Norm::Channel, true) => 0.0,
                 (Norm::Local, _) if loc[c] > 0.0 => p.rd[c] * ssm[c] / loc[c],
                 (Norm::Local, _) => 0.0,
+                (Norm::Source, _) => p.rd[c] * ssm[c],
             };
         }
         out.push(v);
