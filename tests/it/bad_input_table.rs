@@ -223,6 +223,12 @@ const TABLE: &[Row] = &[
     row("ssmulti", &["nan.ply", "--sd", "1", "-o", "@OUT"], 1, "nan.ply"),
     row("ssmulti", &["partialN.ply", "--sd", "1", "-o", "@OUT"], 1, "nx"),
     piped("ssmulti", &["--sd", "1", "-o", "@OUT"], "lying.ply", 1, "<stdin>"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "-o", "@OUT"], 2, "--mfp"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--albedo", "1", "-o", "@OUT"], 2, "--albedo"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--dmfp", "0.1", "--color", "0.99", "-o", "@OUT"], 2, "--color"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "nan", "-o", "@OUT"], 2, "--mfp"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--eta", "0", "-o", "@OUT"], 2, "--eta"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--g", "2", "-o", "@OUT"], 2, "--g"),
     // filter
     row("filter", &["cloud.ply", "--cloud", "nan.ply", "-o", "@OUT"], 1, "nan.ply"),
     row("filter", &["cloud.ply", "--cloud", "text.ply", "-o", "@OUT"], 1, "text.ply"),

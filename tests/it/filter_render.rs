@@ -343,6 +343,63 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
 }
 
 #[test]
+fn lazy_physical_ssm_equals_the_stored_one() {
+    let cloud = sphere(20_000);
+    let m =
+        pcsss::stages::medium::Medium::new([0.95, 0.9, 0.8], [0.01, 0.02, 0.03], 1.3, 0.2).unwrap();
+    let sp = ssmulti::Params {
+        medium: Some(m),
+        ..Default::default()
+    };
+    let mut full = cloud.clone();
+    ssmulti::ssmulti(&mut full, &sp, &Progress::hidden()).unwrap();
+    let mut r = Pcg32::new(6, 9);
+    let cap: Vec<[f64; 3]> = (0..2000)
+        .map(|_| {
+            let z = 0.5 + 0.5 * unit(&mut r);
+            let phi = 2.0 * std::f64::consts::PI * unit(&mut r);
+            let s = (1.0 - z * z).sqrt();
+            [s * phi.cos(), s * phi.sin(), z]
+        })
+        .collect();
+    let params = Params {
+        reach: Reach::Radius(0.05),
+        facing: false,
+    };
+    let mut eager = shade_at(&cap);
+    let mut lazy = eager.clone();
+    filter::filter(
+        &full,
+        "cloud",
+        &mut eager,
+        &params,
+        &[Source::Stored("ssM")],
+        &Progress::hidden(),
+    )
+    .unwrap();
+    filter::filter(
+        &cloud,
+        "cloud",
+        &mut lazy,
+        &params,
+        &[Source::Multi(&sp)],
+        &Progress::hidden(),
+    )
+    .unwrap();
+    let a = eager.points().vec3_f32("ssM").unwrap();
+    let b = lazy.points().vec3_f32("ssM").unwrap();
+    assert!(a.iter().flatten().any(|&x| x > 0.0));
+    for (x, y) in a.iter().zip(&b) {
+        for k in 0..3 {
+            assert!(
+                (x[k] - y[k]).abs() <= 1e-6 * x[k].abs().max(1e-6),
+                "{x:?} {y:?}"
+            );
+        }
+    }
+}
+
+#[test]
 fn filter_binary_eager_lazy_mesh_and_errors() {
     let dir = tempdir();
     let cloud = sphere(20_000);

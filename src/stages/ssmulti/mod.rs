@@ -237,12 +237,19 @@ impl Params {
         ]
     }
 
-    /// The farthest a source can be from a point whose `ssM` it changes:
+    /// The farthest a point can be from a point whose `ssM` it changes:
     /// the kernel's truncation at the largest distance `max(Rd * sd)`
-    /// ([`reach`]). A tile's halo must be at least this wide.
+    /// ([`reach`]), twice that with [`Norm::Source`] (a source's light is
+    /// divided by the area within its own reach). A tile's halo must be
+    /// at least this wide.
     pub fn reach(&self) -> f64 {
         let p = self.resolved();
-        reach(p.falloff, Distances::of(&p).ld1)
+        let r = reach(p.falloff, Distances::of(&p).ld1);
+        if p.norm == Norm::Source {
+            2.0 * r
+        } else {
+            r
+        }
     }
 
     /// The parameters the sums run with: for the physical model, the
