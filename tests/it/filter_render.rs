@@ -265,6 +265,20 @@ fn sphere(n: usize) -> Cloud {
     c
 }
 
+/// `n` random points on the unit sphere's cap z > 0.5 (a quarter of its
+/// area).
+fn cap_points(n: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut r = Pcg32::new(seed, 9);
+    (0..n)
+        .map(|_| {
+            let z = 0.5 + 0.5 * unit(&mut r);
+            let phi = 2.0 * std::f64::consts::PI * unit(&mut r);
+            let s = (1.0 - z * z).sqrt();
+            [s * phi.cos(), s * phi.sin(), z]
+        })
+        .collect()
+}
+
 #[test]
 fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
     let cloud = sphere(60_000);
@@ -277,15 +291,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
     let mut full = cloud.clone();
     ssmulti::ssmulti(&mut full, &sp, &Progress::hidden()).unwrap();
     // Shade points on the cap z > 0.5: a quarter of the sphere's area.
-    let mut r = Pcg32::new(5, 9);
-    let cap: Vec<[f64; 3]> = (0..5000)
-        .map(|_| {
-            let z = 0.5 + 0.5 * unit(&mut r);
-            let phi = 2.0 * std::f64::consts::PI * unit(&mut r);
-            let s = (1.0 - z * z).sqrt();
-            [s * phi.cos(), s * phi.sin(), z]
-        })
-        .collect();
+    let cap = cap_points(5000, 5);
     let reach = Reach::Radius(0.05);
     for facing in [false, true] {
         let params = Params { reach, facing };
@@ -353,15 +359,7 @@ fn lazy_physical_ssm_equals_the_stored_one() {
     };
     let mut full = cloud.clone();
     ssmulti::ssmulti(&mut full, &sp, &Progress::hidden()).unwrap();
-    let mut r = Pcg32::new(6, 9);
-    let cap: Vec<[f64; 3]> = (0..2000)
-        .map(|_| {
-            let z = 0.5 + 0.5 * unit(&mut r);
-            let phi = 2.0 * std::f64::consts::PI * unit(&mut r);
-            let s = (1.0 - z * z).sqrt();
-            [s * phi.cos(), s * phi.sin(), z]
-        })
-        .collect();
+    let cap = cap_points(2000, 6);
     let params = Params {
         reach: Reach::Radius(0.05),
         facing: false,
