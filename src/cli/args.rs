@@ -105,7 +105,7 @@ impl MaterialArgs {
             None => {
                 let albedo = parse_rgb("--albedo", &self.albedo)?;
                 let mfp = if diffuse {
-                    Medium::mfp_of_dmfp(albedo, dist, self.eta, self.g)
+                    Medium::mfp_of_dmfp(albedo, dist, self.eta, self.g)?
                 } else {
                     dist
                 };

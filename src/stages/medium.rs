@@ -16,7 +16,7 @@
 
 use std::f64::consts::PI;
 
-use super::sssingle::optics::fresnel;
+use super::sssingle::optics::{fresnel, hg};
 use crate::error::{Error, Result};
 
 /// Which model a stage uses.
@@ -101,16 +101,6 @@ impl Diffusion {
         }
     }
 
-    /// `e^(-s d) / d`'s integral's kernel: `int_z^inf e^(-s x) dx`
-    /// (`|z|` when `s` is 0).
-    fn tail(&self, z: f64) -> f64 {
-        if self.s_tr > 0.0 {
-            (-self.s_tr * z).exp() / self.s_tr
-        } else {
-            f64::INFINITY
-        }
-    }
-
     /// The exitance at distance `r` on the surface from the dipole with
     /// its real source at depth `zr`: `c_phi phi + c_e E.n`.
     fn dipole(&self, zr: f64, r: f64) -> f64 {
@@ -129,7 +119,7 @@ impl Diffusion {
     fn dipole_total(&self, zr: f64) -> f64 {
         let zv = (2.0 * self.ze - zr).abs();
         let phi = if self.s_tr > 0.0 {
-            (self.tail(zr) - self.tail(zv)) / (2.0 * self.d)
+            ((-self.s_tr * zr).exp() - (-self.s_tr * zv).exp()) / (2.0 * self.d * self.s_tr)
         } else {
             (zv - zr) / (2.0 * self.d)
         };
@@ -142,20 +132,24 @@ impl Diffusion {
     /// distance `dr` from the source, Simpson's rule over the span where
     /// the weight is above e^-40).
     fn near_total(&self, zr: f64) -> f64 {
-        let span = 20.0 / self.st_r;
-        let h = span / NEAR_STEPS as f64;
         let f = |x: f64| {
             let dr = zr + x;
             let r = (dr * dr - zr * zr).max(0.0).sqrt();
             // 2 pi r dr = 2 pi d(dr) dr: the area element by distance.
             2.0 * PI * dr * (-2.0 * self.st_r * (dr + zr)).exp() * self.dipole(zr, r)
         };
-        let mut s = f(0.0) + f(span);
-        for k in 1..NEAR_STEPS {
-            s += f(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        s * h / 3.0
+        simpson(f, 0.0, 20.0 / self.st_r, NEAR_STEPS)
     }
+}
+
+/// Composite Simpson's rule for `f` on `[a, b]` in `n` (even) pieces.
+fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for k in 1..n {
+        s += f(a + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
 }
 
 /// The multiple-scattering reflectance of a unit medium: photon beam
@@ -175,11 +169,6 @@ fn ms_reflectance(m: Unit) -> f64 {
     (k.alpha_r * k.alpha_r * sum / BEAM_SAMPLES as f64).max(0.0)
 }
 
-/// Henyey-Greenstein, normalised over the sphere.
-fn hg(g: f64, c: f64) -> f64 {
-    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * c).powf(1.5))
-}
-
 /// The single-scattering reflectance of a unit medium for unit power
 /// refracted in along the normal: scattered once at depth `t` into a
 /// direction of cosine `mu` with the surface, it leaves with
@@ -196,13 +185,7 @@ fn ss_reflectance(m: Unit) -> f64 {
         0.0
     };
     let f = |mu: f64| 2.0 * PI * hg(m.g, -mu) * t_out(mu) * mu / (1.0 + mu);
-    let n = 512;
-    let h = (1.0 - lo) / n as f64;
-    let mut s = f(lo) + f(1.0);
-    for k in 1..n {
-        s += f(lo + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-    }
-    m.alpha * s * h / 3.0
+    m.alpha * simpson(f, lo, 1.0, 512)
 }
 
 /// The transmittance into the medium at normal incidence, the entry every
@@ -318,14 +301,7 @@ impl Medium {
             }
         }
         let mfp = if diffuse {
-            [0, 1, 2].map(|c| {
-                let k = Diffusion::of(Unit {
-                    alpha: albedo[c],
-                    eta,
-                    g,
-                });
-                m_from_dmfp(mfp[c], k.s_tr)
-            })
+            Medium::mfp_of_dmfp(albedo, mfp, eta, g)?
         } else {
             mfp
         };
@@ -333,29 +309,34 @@ impl Medium {
     }
 
     /// The mean free paths of single-scattering `albedo` with diffuse mean
-    /// free paths `dmfp` (infinite where the medium absorbs nothing; the
-    /// parameters are checked by [`Medium::new`]).
-    pub fn mfp_of_dmfp(albedo: [f64; 3], dmfp: [f64; 3], eta: f64, g: f64) -> [f64; 3] {
-        [0, 1, 2].map(|c| {
+    /// free paths `dmfp` (`dmfp sigma_tr`); a channel that absorbs
+    /// nothing has no diffusion length, and is refused naming `albedo`.
+    pub fn mfp_of_dmfp(albedo: [f64; 3], dmfp: [f64; 3], eta: f64, g: f64) -> Result<[f64; 3]> {
+        let mut mfp = [0.0; 3];
+        for c in 0..3 {
             let k = Diffusion::of(Unit {
                 alpha: albedo[c].clamp(0.0, 1.0),
                 eta,
                 g,
             });
-            m_from_dmfp(dmfp[c], k.s_tr)
-        })
+            if k.s_tr <= 0.0 || k.s_tr.is_nan() {
+                return Err(Error::param(
+                    "albedo",
+                    format!(
+                        "channel {c} is {:?}: a medium that absorbs nothing has no diffuse mean free path",
+                        albedo[c]
+                    ),
+                ));
+            }
+            mfp[c] = dmfp[c] * k.s_tr;
+        }
+        Ok(mfp)
     }
 
     /// The whole diffuse reflectance of a flat slab, `rm + rs`.
     pub fn colour(&self) -> [f64; 3] {
         [0, 1, 2].map(|c| self.rm[c] + self.rs[c])
     }
-}
-
-/// The mean free path of a channel with diffuse mean free path `dmfp` and
-/// transport coefficient `s_tr` (per mean free path).
-fn m_from_dmfp(dmfp: f64, s_tr: f64) -> f64 {
-    dmfp * s_tr
 }
 
 fn check_common(eta: f64, g: f64) -> Result<()> {

@@ -227,6 +227,7 @@ const TABLE: &[Row] = &[
     row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--albedo", "1", "-o", "@OUT"], 2, "--albedo"),
     row("ssmulti", &["cloud.ply", "--model", "physical", "--dmfp", "0.1", "--color", "0.99", "-o", "@OUT"], 2, "--color"),
     row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "nan", "-o", "@OUT"], 2, "--mfp"),
+    row("ssmulti", &["cloud.ply", "--model", "physical", "--dmfp", "0.1", "--albedo", "1", "-o", "@OUT"], 2, "--albedo"),
     row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--eta", "0", "-o", "@OUT"], 2, "--eta"),
     row("ssmulti", &["cloud.ply", "--model", "physical", "--mfp", "0.1", "--g", "2", "-o", "@OUT"], 2, "--g"),
     // filter

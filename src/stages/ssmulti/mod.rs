@@ -257,13 +257,13 @@ impl Params {
     /// [`PHYSICAL_KAPPA`]), a distance a channel, and a normalisation by
     /// each channel's own disk (`Channel`, unless `Local` was asked for).
     pub fn resolved(&self) -> Params {
-        let Some(_) = self.medium else { return *self };
-        let kappa = match self.falloff {
-            Falloff::Burley { kappa } => kappa,
-            _ => PHYSICAL_KAPPA,
-        };
+        if self.medium.is_none() {
+            return *self;
+        }
         Params {
-            falloff: Falloff::Burley { kappa },
+            falloff: Falloff::Burley {
+                kappa: physical_kappa(self),
+            },
             rgb: true,
             norm: match self.norm {
                 Norm::Seed => Norm::Source,
@@ -281,7 +281,7 @@ impl Params {
         match &self.medium {
             None => self.rd.map(|r| r * self.sd),
             Some(m) => {
-                let kappa = physical_kappa(&self.resolved());
+                let kappa = physical_kappa(self);
                 m.dmfp.map(|l| kappa * l / 3.0)
             }
         }
@@ -300,8 +300,10 @@ impl Params {
 /// How `ssM` becomes radiance, as the physical model records it.
 pub const RADIANCE: &str = "ssM / pi (Lambertian exit)";
 
-fn physical_kappa(resolved: &Params) -> f64 {
-    match resolved.falloff {
+/// The physical model's Burley `kappa`: `--sigma`'s with `--falloff
+/// burley`, else [`PHYSICAL_KAPPA`] (a resolved `Params` gives its own).
+fn physical_kappa(p: &Params) -> f64 {
+    match p.falloff {
         Falloff::Burley { kappa } => kappa,
         _ => PHYSICAL_KAPPA,
     }
@@ -513,11 +515,8 @@ fn ssmulti_columns(
         for &(i, c, e) in &own {
             out[c as usize][i as usize] = (gains[c as usize] * e as f64) as f32;
         }
-        report.isolated = own
-            .iter()
-            .map(|o| o.0)
-            .collect::<std::collections::BTreeSet<_>>()
-            .len();
+        // (In point order: a point's channels side by side.)
+        report.isolated = own.chunk_by(|a, b| a.0 == b.0).count();
     } else {
         report.computed = n;
     }
