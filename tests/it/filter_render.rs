@@ -279,6 +279,37 @@ fn cap_points(n: usize, seed: u64) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// `ssM` filtered at `shade` from `full` (which has it) and lazily from
+/// `cloud` (which has only `illum`) with `sp`: the two equal to 1e-6, and
+/// not all 0; the lazy run's report.
+fn eager_equals_lazy(
+    cloud: &Cloud,
+    full: &Cloud,
+    shade: &Cloud,
+    params: &Params,
+    sp: &ssmulti::Params,
+) -> filter::Report {
+    let (mut eager, mut lazy) = (shade.clone(), shade.clone());
+    let hidden = Progress::hidden();
+    let stored = [Source::Stored("ssM")];
+    filter::filter(full, "cloud", &mut eager, params, &stored, &hidden).unwrap();
+    let multi = [Source::Multi(sp)];
+    let rep = filter::filter(cloud, "cloud", &mut lazy, params, &multi, &hidden).unwrap();
+    let a = eager.points().vec3_f32("ssM").unwrap();
+    let b = lazy.points().vec3_f32("ssM").unwrap();
+    assert_eq!(a.len(), shade.len());
+    assert!(a.iter().flatten().any(|&x| x > 0.0));
+    for (x, y) in a.iter().zip(&b) {
+        for k in 0..3 {
+            assert!(
+                (x[k] - y[k]).abs() <= 1e-6 * x[k].abs().max(1e-6),
+                "{x:?} {y:?}"
+            );
+        }
+    }
+    rep
+}
+
 #[test]
 fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
     let cloud = sphere(60_000);
@@ -295,43 +326,13 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
     let reach = Reach::Radius(0.05);
     for facing in [false, true] {
         let params = Params { reach, facing };
-        let mut eager = shade_at(&cap);
-        let n = eager.len();
+        let mut shade = shade_at(&cap);
         let nrm: Vec<[f32; 3]> = cap.iter().map(|q| q.map(|x| x as f32)).collect();
-        eager
+        shade
             .points_mut()
             .set_vec3("N", Role::Normal, &nrm)
             .unwrap();
-        let mut lazy = eager.clone();
-        filter::filter(
-            &full,
-            "cloud",
-            &mut eager,
-            &params,
-            &[Source::Stored("ssM")],
-            &Progress::hidden(),
-        )
-        .unwrap();
-        let rep = filter::filter(
-            &cloud,
-            "cloud",
-            &mut lazy,
-            &params,
-            &[Source::Multi(&sp)],
-            &Progress::hidden(),
-        )
-        .unwrap();
-        let a = eager.points().vec3_f32("ssM").unwrap();
-        let b = lazy.points().vec3_f32("ssM").unwrap();
-        assert_eq!(a.len(), n);
-        for (x, y) in a.iter().zip(&b) {
-            for k in 0..3 {
-                assert!(
-                    (x[k] - y[k]).abs() <= 1e-6 * x[k].abs().max(1e-6),
-                    "{x:?} {y:?}"
-                );
-            }
-        }
+        let rep = eager_equals_lazy(&cloud, &full, &shade, &params, &sp);
         let (_, read, computed) = rep.lazy[0].clone();
         // The cap z > 0.45 (reach 0.05) is 27.5% of the sphere: the points
         // read are about that, and the computed leaves not many more.
@@ -359,42 +360,11 @@ fn lazy_physical_ssm_equals_the_stored_one() {
     };
     let mut full = cloud.clone();
     ssmulti::ssmulti(&mut full, &sp, &Progress::hidden()).unwrap();
-    let cap = cap_points(2000, 6);
     let params = Params {
         reach: Reach::Radius(0.05),
         facing: false,
     };
-    let mut eager = shade_at(&cap);
-    let mut lazy = eager.clone();
-    filter::filter(
-        &full,
-        "cloud",
-        &mut eager,
-        &params,
-        &[Source::Stored("ssM")],
-        &Progress::hidden(),
-    )
-    .unwrap();
-    filter::filter(
-        &cloud,
-        "cloud",
-        &mut lazy,
-        &params,
-        &[Source::Multi(&sp)],
-        &Progress::hidden(),
-    )
-    .unwrap();
-    let a = eager.points().vec3_f32("ssM").unwrap();
-    let b = lazy.points().vec3_f32("ssM").unwrap();
-    assert!(a.iter().flatten().any(|&x| x > 0.0));
-    for (x, y) in a.iter().zip(&b) {
-        for k in 0..3 {
-            assert!(
-                (x[k] - y[k]).abs() <= 1e-6 * x[k].abs().max(1e-6),
-                "{x:?} {y:?}"
-            );
-        }
-    }
+    eager_equals_lazy(&cloud, &full, &shade_at(&cap_points(2000, 6)), &params, &sp);
 }
 
 #[test]

@@ -7,14 +7,20 @@ use std::process::{Command, Stdio};
 use crate::util::*;
 use pcsss::{Cloud, Role};
 
-/// A small lit cloud with ssM, and the bunny-free files a test needs.
-fn files(dir: &std::path::Path) -> (String, String) {
+/// Three points with `P` and `N` (up).
+fn three_points() -> Cloud {
     let mut c = Cloud::with_points(3);
     let p = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
     c.points_mut()
         .set_vec3("N", Role::Normal, &[[0.0f32, 0.0, 1.0]; 3])
         .unwrap();
+    c
+}
+
+/// A small lit cloud with ssM, and the bunny-free files a test needs.
+fn files(dir: &std::path::Path) -> (String, String) {
+    let mut c = three_points();
     c.points_mut()
         .set_vec3("ssM", Role::Color, &[[0.5f32, 0.25, 0.125]; 3])
         .unwrap();
@@ -27,12 +33,7 @@ fn files(dir: &std::path::Path) -> (String, String) {
 
 /// A lit cloud ssmulti can bake: `lit.ply` in `dir`.
 fn lit_cloud(dir: &std::path::Path) -> String {
-    let mut c = Cloud::with_points(3);
-    let p = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    c.points_mut()
-        .set_vec3("N", Role::Normal, &[[0.0f32, 0.0, 1.0]; 3])
-        .unwrap();
+    let mut c = three_points();
     c.points_mut()
         .set_vec3("illum", Role::Color, &[[1.0f32, 1.0, 1.0]; 3])
         .unwrap();

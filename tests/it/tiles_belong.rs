@@ -5,7 +5,7 @@
 //! that disagree) or that never ends. Each refusal is one line naming what
 //! is wrong; the output is never written.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use pcsss::tiles::Manifest;
 use pcsss::{Cloud, DetailValue};
@@ -56,26 +56,23 @@ fn cloud(shift: f32) -> Cloud {
     c
 }
 
+/// `cloud(0.0)` written to `dir/in.ply` and split into `tiles` tiles with
+/// halo `halo` in `dir/T`: the input's path and the split's.
+fn split_fresh(dir: &Path, tiles: usize, halo: f64) -> (PathBuf, PathBuf) {
+    let input = dir.join("in.ply");
+    std::fs::write(&input, to_bytes(&cloud(0.0), LE)).unwrap();
+    let t = dir.join("T");
+    let (n, h) = (tiles.to_string(), halo.to_string());
+    let args = ["split", s(&input), "--tiles", &n, "--halo", &h, "-o", s(&t)];
+    assert_eq!(pctile(&args).0, Some(0));
+    (input, t)
+}
+
 #[test]
 fn a_tile_of_another_split_of_other_data_is_refused() {
     let d = tempdir();
-    let input = d.path().join("in.ply");
-    let (t, o) = (d.path().join("T"), d.path().join("O"));
-    std::fs::write(&input, to_bytes(&cloud(0.0), LE)).unwrap();
-    assert_eq!(
-        pctile(&[
-            "split",
-            s(&input),
-            "--tiles",
-            "3",
-            "--halo",
-            "0.3",
-            "-o",
-            s(&t)
-        ])
-        .0,
-        Some(0)
-    );
+    let (input, t) = split_fresh(d.path(), 3, 0.3);
+    let o = d.path().join("O");
     bake(&t, &o, &["--sd", "0.3"]);
     // The same name, the same points, other light; split again in place.
     std::fs::write(&input, to_bytes(&cloud(0.25), LE)).unwrap();
@@ -106,23 +103,7 @@ fn a_tile_of_another_split_of_other_data_is_refused() {
 #[test]
 fn tiles_baked_with_other_parameters_are_refused_naming_both() {
     let d = tempdir();
-    let input = d.path().join("in.ply");
-    std::fs::write(&input, to_bytes(&cloud(0.0), LE)).unwrap();
-    let t = d.path().join("T");
-    assert_eq!(
-        pctile(&[
-            "split",
-            s(&input),
-            "--tiles",
-            "2",
-            "--halo",
-            "0.5",
-            "-o",
-            s(&t)
-        ])
-        .0,
-        Some(0)
-    );
+    let (_, t) = split_fresh(d.path(), 2, 0.5);
     for (i, (a, b, what)) in [
         (
             &["--sd", "0.3"][..],
@@ -201,23 +182,7 @@ fn forge(dir: &Path, m: &mut Manifest) {
 #[test]
 fn a_forged_manifest_is_refused_and_one_that_never_ends_is_not_read_whole() {
     let d = tempdir();
-    let input = d.path().join("in.ply");
-    std::fs::write(&input, to_bytes(&cloud(0.0), LE)).unwrap();
-    let t = d.path().join("T");
-    assert_eq!(
-        pctile(&[
-            "split",
-            s(&input),
-            "--tiles",
-            "2",
-            "--halo",
-            "0.5",
-            "-o",
-            s(&t)
-        ])
-        .0,
-        Some(0)
-    );
+    let (_, t) = split_fresh(d.path(), 2, 0.5);
     let good = Manifest::read(&t).unwrap();
     std::fs::write(d.path().join("outside.ply"), b"ply\n").unwrap();
     type Edit = Box<dyn Fn(&mut Manifest)>;
