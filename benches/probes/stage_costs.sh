@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# What two of issue 43's choices cost, whole processes on the bake
+# benchmark's 1M-point clouds (`cargo bench --bench bake` leaves them in
+# target/bench/bake_{bunny,dragon}_1000000), interleaved, REPS runs each,
+# the fastest kept (benches/results/HISTORY.md quotes them):
+#   shadows  sssingle with shadow rays against --no-shadows, both models,
+#            on the bunny and the dragon;
+#   physical ssmulti's physical model against the seed model on the bunny,
+#            and the seed model with the Burley falloff, channel and source
+#            normalisations (what the physical model's time is made of).
+#
+#     benches/probes/stage_costs.sh [shadows|physical|all]   (REPS=3)
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
+BIN=$ROOT/target/release
+REPS=${REPS:-3}
+what=${1:-all}
+
+# fastest NAME CMD...: the fastest of REPS runs of CMD, in seconds.
+fastest() {
+  local best=
+  for _ in $(seq "$REPS"); do
+    local s e t
+    s=$(date +%s.%N); "$@" >/dev/null 2>&1; e=$(date +%s.%N)
+    t=$(echo "$e - $s" | bc)
+    if [ -z "$best" ] || [ "$(echo "$t < $best" | bc)" = 1 ]; then best=$t; fi
+  done
+  echo "$best"
+}
+
+if [ "$what" = shadows ] || [ "$what" = all ]; then
+  for name in bunny dragon; do
+    d=$ROOT/target/bench/bake_${name}_1000000
+    if [ "$name" = bunny ]; then sd=0.6; mfp=0.1; else sd=0.006; mfp=0.001; fi
+    for model in seed physical; do
+      run() {
+        "$BIN/sssingle" -q "$d/ss.ply" --mesh "$d/mesh.ply" --lights "$ROOT/fixtures/lights/$name.json" \
+          --camera "$ROOT/fixtures/cameras/$name.json" --model "$model" --rd 0.9,0.5,0.3 --sd "$sd" --rgb \
+          --albedo 0.8 --mfp "$mfp" --g 0.4 --eta 1.3 "$@" -o /tmp/stage_costs.ply
+      }
+      with=$(fastest run)
+      without=$(fastest run --no-shadows)
+      echo "sssingle $name $model: shadows $with s, --no-shadows $without s, ratio $(echo "scale=2; $with / $without" | bc)"
+    done
+  done
+fi
+
+if [ "$what" = physical ] || [ "$what" = all ]; then
+  d=$ROOT/target/bench/bake_bunny_1000000
+  ss() { "$BIN/ssmulti" -q "$d/illum.ply" "$@" -o /tmp/stage_costs.ply; }
+  seed=$(fastest ss --rd 0.9,0.5,0.3 --sd 0.6 --rgb)
+  phys=$(fastest ss --model physical --color 0.85,0.5,0.3 --dmfp 0.15,0.08,0.05 --g 0.4)
+  bch=$(fastest ss --rd 0.9,0.5,0.3 --sd 0.6 --rgb --falloff burley --norm channel)
+  bso=$(fastest ss --rd 0.9,0.5,0.3 --sd 0.6 --rgb --falloff burley --norm source)
+  echo "ssmulti bunny: seed $seed s; physical $phys s (ratio $(echo "scale=1; $phys / $seed" | bc)); burley channel $bch s; burley source $bso s"
+fi
+rm -f /tmp/stage_costs.ply
