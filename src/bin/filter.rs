@@ -32,9 +32,11 @@ struct Args {
     #[arg(long, value_name = "N", conflicts_with = "radius")]
     nfp: Option<usize>,
     /// Use the cloud points within this fraction of the scattering
-    /// distance D = sd * max(Rd).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.25)]
-    radius: f64,
+    /// distance D = sd * max(Rd) (the physical model's largest distance)
+    /// [default: 0.25, but never under twice the cloud's spacing
+    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea)].
+    #[arg(long, value_name = "FRACTION")]
+    radius: Option<f64>,
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     facing: bool,
@@ -119,6 +121,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         args.facing,
     )
     .map_err(cli::at(&cloud_name))?;
+    if let Some(note) = &setup.note {
+        msg.info(note);
+    }
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());

@@ -47,9 +47,12 @@ struct Args {
     /// Use the N nearest cloud points.
     #[arg(long, value_name = "N", conflicts_with = "radius")]
     nfp: Option<usize>,
-    /// Use the cloud points within this fraction of D = sd * max(Rd).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.25)]
-    radius: f64,
+    /// Use the cloud points within this fraction of the scattering
+    /// distance D = sd * max(Rd) (the physical model's largest distance)
+    /// [default: 0.25, but never under twice the cloud's spacing
+    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea)].
+    #[arg(long, value_name = "FRACTION")]
+    radius: Option<f64>,
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     facing: bool,
@@ -70,6 +73,14 @@ struct Args {
     /// and ssS, those the cloud has or can compute].
     #[arg(long = "attr", value_name = "NAME,..", value_delimiter = ',')]
     attrs: Vec<String>,
+    /// Camera rays a pixel (1: through its centre; more: jittered in
+    /// strata), seeded by --seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    spp: u32,
+    /// How a ray's value is spread over the pixels: its own (box), or
+    /// Mitsuba's default Gaussian (0.5 pixel, cut at 2).
+    #[arg(long, value_name = "F", default_value = "box")]
+    pixel_filter: render::PixelFilter,
     #[command(flatten)]
     ss: SsArgs,
     /// Lazy ssS: the lights (JSON) single scattering is computed with, for
@@ -116,6 +127,12 @@ fn run(args: Args) -> anyhow::Result<()> {
             return Err(Error::param("png", why).into());
         }
     }
+    render::Pixels {
+        spp: args.spp,
+        filter: args.pixel_filter,
+        seed: 0,
+    }
+    .validate()?;
     let cam = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params(&args.material)?;
     // The direct term's parameters and lights, checked before any work.
@@ -168,6 +185,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         args.facing,
     )
     .map_err(cli::at(&cloud_name))?;
+    if let Some(note) = &setup.note {
+        msg.info(note);
+    }
     let scene = render::Scene {
         mesh: &mesh,
         mesh_name: &mesh_name,
@@ -177,6 +197,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         filter: setup.params.clone(),
         sources: &setup.sources,
         direct: lights_used.as_deref().map(|l| (l, kd)),
+        pixels: render::Pixels {
+            spp: args.spp,
+            filter: args.pixel_filter,
+            seed: args.single.seed,
+        },
     };
     let progress = msg.progress();
     let (shade, rep, frep) = render::render_scene(&scene, &progress)?;
@@ -199,7 +224,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let png = match &args.png {
         Some(path) => Some(files::Staged::write(path, |w| {
-            render::write_png(w, &shade, "beauty", args.exposure, [0.03; 3])
+            render::write_png(w, &shade, "beauty", args.exposure)
         })?),
         None => None,
     };

@@ -30,8 +30,8 @@ struct Multi {
 struct Filter {
     #[arg(long)]
     nfp: Option<usize>,
-    #[arg(long, default_value_t = 0.25)]
-    radius: f64,
+    #[arg(long)]
+    radius: Option<f64>,
     #[command(flatten)]
     ss: SsArgs,
     #[command(flatten)]

@@ -360,25 +360,75 @@ fn max3(v: &[f64]) -> f64 {
     v.iter().copied().fold(0.0, f64::max)
 }
 
+/// The filter radius a stage takes when given none: this fraction of D.
+pub const DEFAULT_RADIUS: f64 = 0.25;
+/// ... and never less than this many of the cloud's spacings
+/// ([`spacing`]): about a dozen points read on an even cloud, so that a
+/// short scattering distance does not leave shade points with none.
+pub const SPACINGS: f64 = 2.0;
+
+/// The cloud's point spacing, the side of a point's mean share of the
+/// surface: `sqrt(Tarea / scatter_count)` from the details scatter and
+/// promote recorded (a tile carries them too), else `sqrt(mean ptarea)`
+/// of the points, except on a tile (its own points are not the cloud's
+/// and pctile's halo is set from the details alone), else none.
+pub fn spacing(cloud: &Cloud) -> Option<f64> {
+    let ok = |x: f64| (x.is_finite() && x > 0.0).then_some(x);
+    let recorded = cloud
+        .detail_f64("Tarea")
+        .ok()
+        .zip(cloud.detail_f64("scatter_count").ok())
+        .and_then(|(a, n)| ok((a / n).sqrt()));
+    if recorded.is_some() {
+        return recorded;
+    }
+    if cloud.detail(crate::names::D_TILE).is_some() {
+        return None;
+    }
+    let a = cloud.points().scalar_f64("ptarea").ok()?;
+    let (sum, n) = a
+        .iter()
+        .filter(|x| x.is_finite() && **x > 0.0)
+        .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    ok((sum / n as f64).sqrt())
+}
+
 /// The cloud points a shade point reads: the `nfp` nearest, else all
-/// within `radius`, a fraction of D ([`distance`]), finite and > 0.
+/// within `radius`, a fraction of D ([`distance`]), finite and > 0;
+/// without one, [`DEFAULT_RADIUS`] of D but at least [`SPACINGS`]
+/// spacings. Also says when the spacing raised the radius.
 pub fn reach(
     cloud: &Cloud,
     nfp: Option<usize>,
-    radius: f64,
+    radius: Option<f64>,
     multi: Option<&ssmulti::Params>,
     single: Option<&sssingle::Params>,
-) -> Result<Reach> {
+) -> Result<(Reach, Option<String>)> {
     if let Some(n) = nfp {
-        return Ok(Reach::Nearest(n));
+        return Ok((Reach::Nearest(n), None));
     }
-    if !(radius.is_finite() && radius > 0.0) {
-        return Err(Error::param(
-            "radius",
-            format!("{radius}: must be a finite fraction > 0"),
+    if let Some(radius) = radius {
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(Error::param(
+                "radius",
+                format!("{radius}: must be a finite fraction > 0"),
+            ));
+        }
+        return Ok((
+            Reach::Radius(radius * distance(cloud, multi, single)?),
+            None,
         ));
     }
-    Ok(Reach::Radius(radius * distance(cloud, multi, single)?))
+    let r = DEFAULT_RADIUS * distance(cloud, multi, single)?;
+    match spacing(cloud).map(|h| SPACINGS * h) {
+        Some(floor) if floor > r => Ok((
+            Reach::Radius(floor),
+            Some(format!(
+                "filter radius {floor:.4e}: {SPACINGS} times the cloud's spacing, above {DEFAULT_RADIUS} of D ({r:.4e})"
+            )),
+        )),
+        _ => Ok((Reach::Radius(r), None)),
+    }
 }
 
 /// The farthest a cloud point can be from a shade point whose values
@@ -403,27 +453,31 @@ pub fn halo_reach(reach: Reach, sources: &[Source]) -> Option<f64> {
 pub struct Setup<'a> {
     pub params: Params,
     pub sources: Vec<Source<'a>>,
+    /// What set the radius, when the cloud's spacing did.
+    pub note: Option<String>,
 }
 
 impl<'a> Setup<'a> {
     /// The sources of `attrs` on `cloud` ([`sources`]: with ssmulti's and
     /// sssingle's parameters when `ssM` or `ssS` is computed lazily), the
-    /// reach ([`reach`]: the `nfp` nearest, or within `radius` of D), and
-    /// whether only `facing` points are read.
+    /// reach ([`reach`]: the `nfp` nearest, or within `radius` of D, by
+    /// default a quarter of it but at least two spacings), and whether
+    /// only `facing` points are read.
     pub fn new(
         cloud: &Cloud,
         attrs: &'a [String],
         multi: Option<&'a ssmulti::Params>,
         single: Option<&'a SingleSetup<'a>>,
         nfp: Option<usize>,
-        radius: f64,
+        radius: Option<f64>,
         facing: bool,
     ) -> Result<Setup<'a>> {
         let sources = sources(cloud, attrs, multi, single)?;
-        let reach = reach(cloud, nfp, radius, multi, single.map(|s| s.params))?;
+        let (reach, note) = reach(cloud, nfp, radius, multi, single.map(|s| s.params))?;
         Ok(Setup {
             params: Params { reach, facing },
             sources,
+            note,
         })
     }
 }

@@ -26,7 +26,7 @@ pub enum StageParams {
     /// computed lazily on a cloud without it).
     Filter {
         nfp: Option<usize>,
-        radius: f64,
+        radius: Option<f64>,
         multi: Option<ssmulti::Params>,
     },
     /// `sssingle` and `illum`: a point's value needs only the lights and
@@ -45,7 +45,7 @@ pub fn reach_for(stage: &StageParams, detail: &[Detail], has_ssm: bool) -> Resul
                 detail: detail.to_vec(),
                 ..Cloud::default()
             };
-            let read = filter::reach(&cloud, *nfp, *radius, multi.as_ref(), None)?;
+            let (read, _) = filter::reach(&cloud, *nfp, *radius, multi.as_ref(), None)?;
             let lazy: Vec<Source> = match multi {
                 Some(p) if !has_ssm => vec![Source::Multi(p)],
                 _ => Vec::new(),

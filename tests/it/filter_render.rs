@@ -678,7 +678,7 @@ fn the_direct_term_adds_kd_times_the_light() {
     let kd = [0.1, 0.2, 0.4];
     render::beauty(
         &mut shade,
-        &["ssM"],
+        &[("ssM", 1.0)],
         Some((&lights, &occ, kd)),
         &Progress::hidden(),
     )
@@ -690,7 +690,7 @@ fn the_direct_term_adds_kd_times_the_light() {
         }
     }
     // Without lights the beauty is ssM.
-    render::beauty(&mut shade, &["ssM"], None, &Progress::hidden()).unwrap();
+    render::beauty(&mut shade, &[("ssM", 1.0)], None, &Progress::hidden()).unwrap();
     let b = shade.points().vec3_f64("beauty").unwrap();
     assert!((b[0][0] - 0.5).abs() < 1e-6);
 }

@@ -24,6 +24,7 @@ mod ply_roundtrip;
 mod promote;
 mod props;
 mod python_interop;
+mod render_pixels;
 mod scatter;
 mod ssmulti;
 mod sssingle;

@@ -1,0 +1,315 @@
+//! `render --spp` and `--pixel-filter`: coverage against the exact
+//! fraction of a pixel a square covers, the premultiplied colour, the
+//! physical model's beauty as a radiance, and the default filter radius
+//! against the cloud's spacing.
+
+use crate::util::*;
+use pcsss::progress::Progress;
+use pcsss::stages::filter::{self, Params, Reach, Source};
+use pcsss::stages::render::{self, Camera, PixelFilter, Pixels, Scene};
+use pcsss::{Cloud, DetailValue, Role};
+
+/// The square [-1, 1]^2 at z = 0, seen from (0, 0, 4) by a 32 x 32 camera
+/// whose field of view puts its edges through the middle of pixels 3
+/// and 28 (x = 1 at 28.5 pixels: tan(fov / 2) = 1.28 / 4).
+fn square_scene() -> (Cloud, Camera) {
+    let mesh = mesh_from(
+        &[
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
+        &[vec![0, 1, 2, 3]],
+    );
+    let fov = 2.0 * (0.32f64).atan().to_degrees();
+    let cam = Camera::parse(
+        &format!(
+            r#"{{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": {fov}, "width": 32, "height": 32}}"#
+        ),
+        "cam",
+    )
+    .unwrap();
+    (mesh, cam)
+}
+
+/// A constant ssM on a grid over the square (and beyond it).
+fn constant_cloud(v: [f32; 3]) -> Cloud {
+    let mut p = Vec::new();
+    for i in 0..41 {
+        for j in 0..41 {
+            p.push([-1.2 + 0.06 * i as f64, -1.2 + 0.06 * j as f64, 0.0]);
+        }
+    }
+    let mut c = Cloud::with_points(p.len());
+    let pts = c.points_mut();
+    pts.set_vec3("P", Role::Point, &p).unwrap();
+    pts.set_vec3("N", Role::Normal, &vec![[0f32, 0., 1.]; p.len()])
+        .unwrap();
+    pts.set_vec3("ssM", Role::Color, &vec![v; p.len()]).unwrap();
+    c
+}
+
+fn picture(mesh: &Cloud, cam: &Camera, cloud: &Cloud, pixels: Pixels) -> Cloud {
+    let sources = [Source::Stored("ssM")];
+    let scene = Scene {
+        mesh,
+        mesh_name: "square",
+        camera: cam,
+        cloud,
+        cloud_name: "cloud",
+        filter: Params {
+            reach: Reach::Nearest(4),
+            facing: false,
+        },
+        sources: &sources,
+        direct: None,
+        pixels,
+    };
+    render::render_scene(&scene, &Progress::hidden()).unwrap().0
+}
+
+/// (x, y) -> (A, beauty) of an image cloud.
+fn pixels_of(img: &Cloud) -> std::collections::HashMap<(i64, i64), (f64, [f64; 3])> {
+    let pts = img.points();
+    let x = pts.scalar_f64("pixel_x").unwrap();
+    let y = pts.scalar_f64("pixel_y").unwrap();
+    let a = pts.scalar_f64("A").unwrap();
+    let b = pts.vec3_f64("beauty").unwrap();
+    (0..img.len())
+        .map(|i| ((x[i] as i64, y[i] as i64), (a[i], b[i])))
+        .collect()
+}
+
+#[test]
+fn stratified_samples_cover_an_edge_pixel_by_exactly_its_fraction() {
+    let (mesh, cam) = square_scene();
+    let ssm = [0.5f32, 0.25, 0.125];
+    let cloud = constant_cloud(ssm);
+    let img = picture(
+        &mesh,
+        &cam,
+        &cloud,
+        Pixels {
+            spp: 16,
+            filter: PixelFilter::Box,
+            seed: 3,
+        },
+    );
+    let px = pixels_of(&img);
+    // Inside 4..=27 on both axes: covered whole; on 3 and 28 half (4 x 4
+    // strata split by the edge through the middle), the corners a quarter.
+    assert_eq!(px.len(), 26 * 26);
+    for (&(x, y), &(a, b)) in &px {
+        let edge = |v: i64| v == 3 || v == 28;
+        let want = match (edge(x), edge(y)) {
+            (false, false) => 1.0,
+            (true, true) => 0.25,
+            _ => 0.5,
+        };
+        assert_eq!(a, want, "pixel ({x}, {y})");
+        for c in 0..3 {
+            // Premultiplied: the colour times the coverage.
+            assert!(
+                (b[c] - want * ssm[c] as f64).abs() < 1e-6,
+                "({x}, {y}): {b:?}"
+            );
+        }
+    }
+    assert_eq!(
+        img.detail("render_spp").map(|d| d.components()),
+        Some(vec![16.0])
+    );
+}
+
+#[test]
+fn a_gaussian_pixel_filter_keeps_a_constant_and_halves_at_the_edge() {
+    let (mesh, cam) = square_scene();
+    let cloud = constant_cloud([1.0, 1.0, 1.0]);
+    let img = picture(
+        &mesh,
+        &cam,
+        &cloud,
+        Pixels {
+            spp: 64,
+            filter: PixelFilter::Gaussian,
+            seed: 5,
+        },
+    );
+    let px = pixels_of(&img);
+    for (&(x, y), &(a, b)) in &px {
+        let inside = |v: i64| (6..=25).contains(&v);
+        if inside(x) && inside(y) {
+            assert!(
+                (a - 1.0).abs() < 1e-12 && (b[0] - 1.0).abs() < 1e-6,
+                "({x}, {y}): {a} {b:?}"
+            );
+        }
+        // Along an edge, away from the corners: half, to the jitter.
+        if (x == 3 || x == 28) && inside(y) {
+            assert!((a - 0.5).abs() < 0.03, "({x}, {y}): {a}");
+        }
+    }
+    // The filter reaches beyond the square: some coverage at 2 and 29.
+    assert!(px.keys().any(|&(x, _)| x == 2) && px.keys().any(|&(x, _)| x == 29));
+}
+
+#[test]
+fn one_sample_a_pixel_is_the_plain_render_with_full_coverage() {
+    let (mesh, cam) = square_scene();
+    let cloud = constant_cloud([0.5, 0.25, 0.125]);
+    let img = picture(&mesh, &cam, &cloud, Pixels::default());
+    let (plain, _) = render::render(&mesh, &cam).unwrap();
+    assert_eq!(img.len(), plain.len());
+    assert!(!img.points().has("A"));
+    assert_eq!(
+        img.points().vec3_f64("P").unwrap(),
+        plain.points().vec3_f64("P").unwrap()
+    );
+}
+
+#[test]
+fn the_physical_models_beauty_is_its_exitance_over_pi() {
+    let (mesh, cam) = square_scene();
+    let mut cloud = constant_cloud([0.5, 0.25, 0.125]);
+    cloud.set_detail(
+        "ssmulti_radiance",
+        DetailValue::Str(pcsss::stages::ssmulti::RADIANCE.into()),
+    );
+    let img = picture(&mesh, &cam, &cloud, Pixels::default());
+    let b = img.points().vec3_f64("beauty").unwrap();
+    let m = img.points().vec3_f64("ssM").unwrap();
+    for (b, m) in b.iter().zip(&m) {
+        for c in 0..3 {
+            assert!((b[c] - m[c] / std::f64::consts::PI).abs() < 1e-7);
+        }
+    }
+    assert_eq!(
+        img.detail("render_beauty"),
+        Some(&DetailValue::Str("ssM / pi".into()))
+    );
+}
+
+#[test]
+fn render_writes_coverage_as_alpha_in_the_exr_and_the_png() {
+    let d = tempdir();
+    let (mesh, cam) = square_scene();
+    let cloud = constant_cloud([0.5, 0.25, 0.125]);
+    let (m, c, k) = (
+        d.path().join("sq.ply"),
+        d.path().join("c.ply"),
+        d.path().join("cam.json"),
+    );
+    std::fs::write(&m, to_bytes(&mesh, pcsss::formats::Format::DEFAULT)).unwrap();
+    std::fs::write(&c, to_bytes(&cloud, pcsss::formats::Format::DEFAULT)).unwrap();
+    let fov = 2.0 * (0.32f64).atan().to_degrees();
+    std::fs::write(
+        &k,
+        format!(r#"{{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": {fov}, "width": 32, "height": 32}}"#),
+    )
+    .unwrap();
+    let (exr, png) = (d.path().join("o.exr"), d.path().join("o.png"));
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let o = run(
+        "render",
+        &[
+            "--mesh",
+            &s(&m),
+            "--camera",
+            &s(&k),
+            "--cloud",
+            &s(&c),
+            "--nfp",
+            "4",
+            "--spp",
+            "16",
+            "-o",
+            &s(&exr),
+            "--png",
+            &s(&png),
+        ],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let _ = cam;
+    let img = pcsss::formats::read_cloud_file(&exr, &pcsss::formats::Select::All).unwrap();
+    assert_eq!(img.len(), 26 * 26);
+    let a = img.points().scalar_f64("A").unwrap();
+    assert_eq!(a.iter().filter(|&&x| x == 0.5).count(), 4 * 24);
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    let alpha = |x: usize, y: usize| buf[4 * (y * 32 + x) + 3];
+    assert_eq!(
+        (alpha(10, 10), alpha(28, 10), alpha(28, 3), alpha(0, 0)),
+        (255, 128, 64, 0)
+    );
+    // Bad sample counts are refused naming the option.
+    for bad in ["0", "5000"] {
+        let o = run(
+            "render",
+            &[
+                "--mesh",
+                &s(&m),
+                "--camera",
+                &s(&k),
+                "--cloud",
+                &s(&c),
+                "--spp",
+                bad,
+                "-o",
+                &s(&exr),
+            ],
+            b"",
+        );
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--spp"), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn the_default_filter_radius_never_falls_below_the_clouds_spacing() {
+    // Points 0.06 apart (ptarea 0.0036) with a scattering distance of
+    // 0.02: a quarter of it reads no point at most shade points.
+    let mut cloud = constant_cloud([1.0, 1.0, 1.0]);
+    let n = cloud.len();
+    cloud
+        .points_mut()
+        .set_scalar("ptarea", vec![0.0036f32; n])
+        .unwrap();
+    cloud.set_detail("ssmulti_sd", DetailValue::F64(0.02));
+    let sources = [Source::Stored("ssM")];
+    let shade = {
+        let (mesh, cam) = square_scene();
+        render::render(&mesh, &cam).unwrap().0
+    };
+    let run_with = |radius: Option<f64>| {
+        let setup = filter::Setup::new(&cloud, &[], None, None, None, radius, false).unwrap();
+        let mut s = shade.clone();
+        let rep = filter::filter(
+            &cloud,
+            "c",
+            &mut s,
+            &setup.params,
+            &sources,
+            &Progress::hidden(),
+        )
+        .unwrap();
+        (setup.params.reach, setup.note, rep.empty)
+    };
+    let (reach, note, empty) = run_with(None);
+    assert_eq!(reach, Reach::Radius(2.0 * (0.0036f32 as f64).sqrt()));
+    assert!(note.unwrap().contains("spacing"));
+    assert_eq!(empty, 0);
+    // Given explicitly, the fraction is honoured, and leaves holes.
+    let (reach, note, empty) = run_with(Some(0.25));
+    assert_eq!(reach, Reach::Radius(0.25 * 0.02));
+    assert!(note.is_none() && empty > 0);
+    // The details scatter and promote record win over the points' own.
+    let mut c2 = cloud.clone();
+    c2.set_detail("Tarea", DetailValue::F64(4.0));
+    c2.set_detail("scatter_count", DetailValue::F64(100.0));
+    assert_eq!(filter::spacing(&c2), Some(0.2));
+}
