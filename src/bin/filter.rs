@@ -122,7 +122,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     )
     .map_err(cli::at(&cloud_name))?;
     if let Some(note) = &setup.note {
-        msg.info(note);
+        msg.debug(note);
     }
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).

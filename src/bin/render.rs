@@ -186,7 +186,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     )
     .map_err(cli::at(&cloud_name))?;
     if let Some(note) = &setup.note {
-        msg.info(note);
+        msg.debug(note);
     }
     let scene = render::Scene {
         mesh: &mesh,

@@ -53,7 +53,7 @@ pub struct SsArgs {
 pub struct MaterialArgs {
     /// seed: Marengo's (ssmulti --rd, --sd and the falloffs; sssingle
     /// likewise); physical: a medium (--albedo or --color, --mfp or
-    /// --dmfp, --eta, --g): photon beam diffusion's reflectance for ssM,
+    /// --dmfp, --eta, --g): a random walk's reflectance for ssM,
     /// Jensen et al. 2001 for ssS.
     #[arg(long, value_enum, default_value = "seed")]
     pub model: Model,
@@ -72,11 +72,13 @@ pub struct MaterialArgs {
     /// distance the diffusion decays over), in place of --mfp.
     #[arg(long, value_name = "R,G,B")]
     pub dmfp: Option<String>,
-    /// Henyey-Greenstein asymmetry in [-1, 1] (sssingle uses it within
-    /// +-0.998).
+    /// Henyey-Greenstein asymmetry: in [-0.6, 0.9] for the physical model
+    /// (its reflectance table), [-1, 1] for the seed model's sssingle
+    /// (used within +-0.998).
     #[arg(long, default_value_t = 0.0)]
     pub g: f64,
-    /// Relative index of refraction, inside over outside.
+    /// Relative index of refraction, inside over outside (in [1, 3] for
+    /// the physical model: its reflectance table).
     #[arg(long, default_value_t = 1.3)]
     pub eta: f64,
 }

@@ -5,19 +5,22 @@
 //! artists set it, by the surface colour a flat slab of it shows and its
 //! diffuse mean free path.
 //!
-//! The multiple-scattering reflectance is photon beam diffusion's (Habel,
-//! Christensen and Jarosz 2013): the light refracted in along the normal
-//! is a beam of dipoles (Grosjean's diffusion coefficient, the
-//! extrapolated boundary of d'Eon and Irving's Fresnel moments), each
-//! dipole's exitance integrated over the surface in closed form but for
-//! the beam's near-field correction, which is integrated numerically.
-//! The single-scattering reflectance is the exact one-dimensional integral
-//! over exit directions.
+//! The reflectances are those of a semi-infinite slab lit along its
+//! normal: the multiple-scattering one from a table of random walks
+//! ([`walk`], written by `examples/medium_table.rs`) over the phase
+//! function's asymmetry and the relative index, which gives every albedo
+//! at once; the single-scattering one the exact one-dimensional integral
+//! over exit directions. The diffuse mean free path is diffusion's
+//! (Grosjean's coefficient).
 
 use std::f64::consts::PI;
 
 use super::sssingle::optics::{fresnel, hg};
 use crate::error::{Error, Result};
+use walk::Histogram;
+
+pub mod table;
+pub mod walk;
 
 /// Which model a stage uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -30,12 +33,6 @@ pub enum Model {
     Physical,
 }
 
-/// Depth samples of the beam (midpoints of the reduced extinction's
-/// distribution).
-const BEAM_SAMPLES: usize = 128;
-/// Steps of the near-field correction's integral over a dipole's distance.
-const NEAR_STEPS: usize = 64;
-
 /// A channel's medium in units of its mean free path (`sigma_t = 1`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Unit {
@@ -45,101 +42,15 @@ struct Unit {
     g: f64,
 }
 
-/// d'Eon and Irving's (2011) fits of the first two moments of the Fresnel
-/// reflectance seen from inside a medium of relative index `eta`.
-fn fresnel_moments(eta: f64) -> (f64, f64) {
-    let (e2, e3, e4, e5) = (eta * eta, eta.powi(3), eta.powi(4), eta.powi(5));
-    if eta < 1.0 {
-        (
-            0.45966 - 1.73965 * eta + 3.37668 * e2 - 3.904945 * e3 + 2.49277 * e4 - 0.68441 * e5,
-            0.27614 - 0.87350 * eta + 1.12077 * e2 - 0.65095 * e3 + 0.07883 * e4 + 0.04860 * e5,
-        )
-    } else {
-        let r = 1.0 / eta;
-        (
-            -4.61686 + 11.1136 * eta - 10.4646 * e2 + 5.11455 * e3 - 1.27198 * e4 + 0.12746 * e5,
-            -547.033 + 45.3087 * r * r * r - 218.725 * r * r + 458.843 * r + 404.557 * eta
-                - 189.519 * e2
-                + 54.9327 * e3
-                - 9.00603 * e4
-                + 0.63942 * e5,
-        )
-    }
-}
-
-/// The diffusion constants of a unit medium.
-struct Diffusion {
-    /// Reduced extinction and albedo.
-    st_r: f64,
-    alpha_r: f64,
-    /// Grosjean's diffusion coefficient and the effective transport
-    /// coefficient.
-    d: f64,
-    s_tr: f64,
-    /// The extrapolated boundary's depth (negative: above the surface).
-    ze: f64,
-    /// Exitance weights of the fluence and the flux.
-    c_phi: f64,
-    c_e: f64,
-}
-
-impl Diffusion {
-    fn of(m: Unit) -> Diffusion {
-        let sa = 1.0 - m.alpha;
-        let ss_r = m.alpha * (1.0 - m.g);
-        let st_r = sa + ss_r;
-        let d = (2.0 * sa + ss_r) / (3.0 * st_r * st_r);
-        let (fm1, fm2) = fresnel_moments(m.eta);
-        Diffusion {
-            st_r,
-            alpha_r: ss_r / st_r,
-            d,
-            s_tr: (sa / d).sqrt(),
-            ze: -2.0 * d * (1.0 + 3.0 * fm2) / (1.0 - 2.0 * fm1),
-            c_phi: 0.25 * (1.0 - 2.0 * fm1),
-            c_e: 0.5 * (1.0 - 3.0 * fm2),
-        }
-    }
-
-    /// The exitance at distance `r` on the surface from the dipole with
-    /// its real source at depth `zr`: `c_phi phi + c_e E.n`.
-    fn dipole(&self, zr: f64, r: f64) -> f64 {
-        let zv = -zr + 2.0 * self.ze;
-        let (dr, dv) = ((r * r + zr * zr).sqrt(), (r * r + zv * zv).sqrt());
-        let (er, ev) = ((-self.s_tr * dr).exp(), (-self.s_tr * dv).exp());
-        let phi = (er / dr - ev / dv) / (4.0 * PI * self.d);
-        let e = (zr * (1.0 + self.s_tr * dr) * er / (dr * dr * dr)
-            - zv * (1.0 + self.s_tr * dv) * ev / (dv * dv * dv))
-            / (4.0 * PI);
-        self.c_phi * phi + self.c_e * e
-    }
-
-    /// The dipole at depth `zr`, integrated over the surface: in closed
-    /// form, `int 2 pi r (c_phi phi + c_e E.n) dr`.
-    fn dipole_total(&self, zr: f64) -> f64 {
-        let zv = (2.0 * self.ze - zr).abs();
-        let phi = if self.s_tr > 0.0 {
-            ((-self.s_tr * zr).exp() - (-self.s_tr * zv).exp()) / (2.0 * self.d * self.s_tr)
-        } else {
-            (zv - zr) / (2.0 * self.d)
-        };
-        let e = 0.5 * ((-self.s_tr * zr).exp() + (-self.s_tr * zv).exp());
-        self.c_phi * phi + self.c_e * e
-    }
-
-    /// The beam's near-field correction at depth `zr`: the dipole weighted
-    /// by `e^(-2 st_r (dr + zr))`, integrated over the surface (by the
-    /// distance `dr` from the source, Simpson's rule over the span where
-    /// the weight is above e^-40).
-    fn near_total(&self, zr: f64) -> f64 {
-        let f = |x: f64| {
-            let dr = zr + x;
-            let r = (dr * dr - zr * zr).max(0.0).sqrt();
-            // 2 pi r dr = 2 pi d(dr) dr: the area element by distance.
-            2.0 * PI * dr * (-2.0 * self.st_r * (dr + zr)).exp() * self.dipole(zr, r)
-        };
-        simpson(f, 0.0, 20.0 / self.st_r, NEAR_STEPS)
-    }
+/// The effective transport coefficient `sigma_tr = sqrt(sigma_a / D)` of
+/// a unit medium, Grosjean's diffusion coefficient `D = (2 sigma_a +
+/// sigma_s') / (3 sigma_t'^2)` (the diffuse mean free path's inverse).
+fn sigma_tr(m: Unit) -> f64 {
+    let sa = 1.0 - m.alpha;
+    let ss_r = m.alpha * (1.0 - m.g);
+    let st_r = sa + ss_r;
+    let d = (2.0 * sa + ss_r) / (3.0 * st_r * st_r);
+    (sa / d).sqrt()
 }
 
 /// Composite Simpson's rule for `f` on `[a, b]` in `n` (even) pieces.
@@ -152,21 +63,39 @@ fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
     s * h / 3.0
 }
 
-/// The multiple-scattering reflectance of a unit medium: photon beam
-/// diffusion's exitance over the whole surface for unit power refracted
-/// in along the normal.
-fn ms_reflectance(m: Unit) -> f64 {
-    if m.alpha <= 0.0 {
-        return 0.0;
+/// The walk's histogram at `(eta, g)`: the table's nodes around it
+/// blended bilinearly (the shares are linear in a mixture of paths), its
+/// single-scattering share the exact one.
+fn histogram(eta: f64, g: f64) -> Histogram {
+    let at = |nodes: &[f64], x: f64| -> (usize, f64) {
+        let i = nodes.partition_point(|&v| v <= x).clamp(1, nodes.len() - 1) - 1;
+        let t = ((x - nodes[i]) / (nodes[i + 1] - nodes[i])).clamp(0.0, 1.0);
+        (i, t)
+    };
+    let (i, tg) = at(&table::G, g);
+    let (j, te) = at(&table::ETA, eta);
+    let ne = table::ETA.len();
+    let mut v = vec![0.0f64; table::SHARES[0].len()];
+    for (di, wg) in [(0, 1.0 - tg), (1, tg)] {
+        for (dj, we) in [(0, 1.0 - te), (1, te)] {
+            let w = wg * we;
+            if w > 0.0 {
+                let row = &table::SHARES[(i + di) * ne + j + dj];
+                v.iter_mut().zip(row).for_each(|(a, &b)| *a += w * b as f64);
+            }
+        }
     }
-    let k = Diffusion::of(m);
-    let mut sum = 0.0;
-    for i in 0..BEAM_SAMPLES {
-        let u = (i as f64 + 0.5) / BEAM_SAMPLES as f64;
-        let zr = -(-u).ln_1p() / k.st_r;
-        sum += k.dipole_total(zr) - k.near_total(zr);
-    }
-    (k.alpha_r * k.alpha_r * sum / BEAM_SAMPLES as f64).max(0.0)
+    // The single-scattering share is known exactly: it replaces the
+    // blend's, and the rest is scaled to the remainder, so that the walk's
+    // noise and the blend's error in it do not reach the total (a white
+    // medium returns all the light that enters).
+    let p1 = ss_reflectance(Unit { alpha: 1.0, eta, g });
+    let rest: f64 = v[1..].iter().sum();
+    let k = if rest > 0.0 { (1.0 - p1) / rest } else { 0.0 };
+    v[0] = p1;
+    v[1..].iter_mut().for_each(|x| *x *= k);
+    let survivors = v.pop().unwrap_or(0.0);
+    Histogram { bins: v, survivors }
 }
 
 /// The single-scattering reflectance of a unit medium for unit power
@@ -246,17 +175,18 @@ impl Medium {
             g,
         };
         let ti = t_in(eta);
+        let h = histogram(eta, g);
         Ok(Medium {
             albedo,
             mfp,
             eta,
             g,
-            rm: [0, 1, 2].map(|c| ti * ms_reflectance(unit(c))),
+            rm: [0, 1, 2].map(|c| ti * h.reflectance(albedo[c], 2)),
             rs: [0, 1, 2].map(|c| ti * ss_reflectance(unit(c))),
             dmfp: [0, 1, 2].map(|c| {
-                let k = Diffusion::of(unit(c));
-                if k.s_tr > 0.0 {
-                    mfp[c] / k.s_tr
+                let s = sigma_tr(unit(c));
+                if s > 0.0 {
+                    mfp[c] / s
                 } else {
                     f64::INFINITY
                 }
@@ -277,7 +207,8 @@ impl Medium {
         g: f64,
     ) -> Result<Medium> {
         check_common(eta, g)?;
-        let top = surface_colour(ALPHA_MAX, eta, g);
+        let h = histogram(eta, g);
+        let top = colour_of(&h, ALPHA_MAX, eta, g);
         let mut albedo = [0.0; 3];
         for c in 0..3 {
             let want = colour[c];
@@ -289,7 +220,7 @@ impl Medium {
                     ),
                 ));
             }
-            albedo[c] = invert_colour(want, eta, g);
+            albedo[c] = invert_colour(&h, want, eta, g);
         }
         let name = if diffuse { "dmfp" } else { "mfp" };
         for (c, &m) in mfp.iter().enumerate() {
@@ -314,12 +245,12 @@ impl Medium {
     pub fn mfp_of_dmfp(albedo: [f64; 3], dmfp: [f64; 3], eta: f64, g: f64) -> Result<[f64; 3]> {
         let mut mfp = [0.0; 3];
         for c in 0..3 {
-            let k = Diffusion::of(Unit {
+            let s = sigma_tr(Unit {
                 alpha: albedo[c].clamp(0.0, 1.0),
                 eta,
                 g,
             });
-            if k.s_tr <= 0.0 || k.s_tr.is_nan() {
+            if s <= 0.0 || s.is_nan() {
                 return Err(Error::param(
                     "albedo",
                     format!(
@@ -328,7 +259,7 @@ impl Medium {
                     ),
                 ));
             }
-            mfp[c] = dmfp[c] * k.s_tr;
+            mfp[c] = dmfp[c] * s;
         }
         Ok(mfp)
     }
@@ -339,12 +270,24 @@ impl Medium {
     }
 }
 
+/// The relative indices and asymmetries the reflectance table covers.
+pub const ETA_RANGE: (f64, f64) = (table::ETA[0], table::ETA[table::ETA.len() - 1]);
+pub const G_RANGE: (f64, f64) = (table::G[0], table::G[table::G.len() - 1]);
+
 fn check_common(eta: f64, g: f64) -> Result<()> {
-    if !(eta.is_finite() && eta > 0.0 && eta <= 1e3) {
-        return Err(Error::param("eta", format!("{eta:?} is not in (0, 1e3]")));
+    let (e0, e1) = ETA_RANGE;
+    if !(eta.is_finite() && (e0..=e1).contains(&eta)) {
+        return Err(Error::param(
+            "eta",
+            format!("{eta:?} is not in [{e0}, {e1}] (the physical model's reflectance table)"),
+        ));
     }
-    if !(g.is_finite() && (-1.0..=1.0).contains(&g)) {
-        return Err(Error::param("g", format!("{g:?} is not in [-1, 1]")));
+    let (g0, g1) = G_RANGE;
+    if !(g.is_finite() && (g0..=g1).contains(&g)) {
+        return Err(Error::param(
+            "g",
+            format!("{g:?} is not in [{g0}, {g1}] (the physical model's reflectance table)"),
+        ));
     }
     Ok(())
 }
@@ -353,19 +296,23 @@ fn check_common(eta: f64, g: f64) -> Result<()> {
 /// diffuse reflectance of a flat slab (multiple and single scattering,
 /// entry at normal incidence).
 pub fn surface_colour(alpha: f64, eta: f64, g: f64) -> f64 {
+    colour_of(&histogram(eta, g), alpha, eta, g)
+}
+
+/// [`surface_colour`] with the walk's histogram at `(eta, g)` given.
+fn colour_of(h: &Histogram, alpha: f64, eta: f64, g: f64) -> f64 {
     let m = Unit { alpha, eta, g };
-    t_in(eta) * (ms_reflectance(m) + ss_reflectance(m))
+    t_in(eta) * (h.reflectance(alpha, 2) + ss_reflectance(m))
 }
 
 /// The single-scattering albedo whose surface colour is `want`: bisection
-/// on `1 - alpha` in a logarithmic scale (the colour changes fastest as
-/// alpha nears 1), then on alpha itself, to 1e-12.
-fn invert_colour(want: f64, eta: f64, g: f64) -> f64 {
+/// on alpha (the colour rises with it: every term of the walk's sum
+/// does), the midpoint taken in `log(1 - alpha)` while the bracket spans
+/// decades (the colour changes fastest as alpha nears 1), to 1e-13.
+fn invert_colour(h: &Histogram, want: f64, eta: f64, g: f64) -> f64 {
     if want <= 0.0 {
         return 0.0;
     }
-    // The colour rises with alpha: bisect on alpha, with the midpoint
-    // taken in log(1 - alpha) while the bracket spans decades.
     let (mut lo, mut hi) = (0.0f64, ALPHA_MAX);
     for _ in 0..200 {
         if hi - lo <= 1e-13 {
@@ -377,7 +324,7 @@ fn invert_colour(want: f64, eta: f64, g: f64) -> f64 {
         } else {
             0.5 * (lo + hi)
         };
-        if surface_colour(mid, eta, g) < want {
+        if colour_of(h, mid, eta, g) < want {
             lo = mid;
         } else {
             hi = mid;
@@ -390,39 +337,6 @@ fn invert_colour(want: f64, eta: f64, g: f64) -> f64 {
 mod tests {
     use super::*;
 
-    /// The dipole's exitance integrated over the surface numerically
-    /// equals the closed form.
-    #[test]
-    fn the_dipole_total_is_its_integral() {
-        for alpha in [0.3, 0.9, 0.99] {
-            let k = Diffusion::of(Unit {
-                alpha,
-                eta: 1.33,
-                g: 0.0,
-            });
-            for zr in [0.05, 0.5, 3.0] {
-                // By r = zr sinh(u): smooth and decaying.
-                let n = 20_000;
-                let umax = 30.0;
-                let h = umax / n as f64;
-                let f = |u: f64| {
-                    let r = zr * f64::sinh(u);
-                    2.0 * PI * r * k.dipole(zr, r) * zr * f64::cosh(u)
-                };
-                let mut s = f(0.0) + f(umax);
-                for i in 1..n {
-                    s += f(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
-                }
-                let num = s * h / 3.0;
-                let closed = k.dipole_total(zr);
-                assert!(
-                    (num - closed).abs() <= 1e-6 * closed.abs().max(1e-3),
-                    "alpha {alpha}, zr {zr}: {num} against {closed}"
-                );
-            }
-        }
-    }
-
     #[test]
     fn the_surface_colour_inverts_to_its_albedo() {
         for eta in [1.0, 1.33, 1.5] {
@@ -433,7 +347,7 @@ mod tests {
                     if want > top {
                         continue;
                     }
-                    let alpha = invert_colour(want, eta, g);
+                    let alpha = invert_colour(&histogram(eta, g), want, eta, g);
                     let back = surface_colour(alpha, eta, g);
                     assert!(
                         (back - want).abs() <= 1e-4 * want,
@@ -445,15 +359,63 @@ mod tests {
     }
 
     #[test]
-    fn reflectances_rise_with_albedo_and_stay_near_one() {
-        // (Diffusion overshoots a white medium's 1 by under 1% at eta 1.)
-        for eta in [1.0, 1.33] {
-            let mut last = -1.0;
-            for k in 0..=100 {
-                let alpha = 1.0 - (1.0 - k as f64 / 100.0).powi(3);
-                let c = surface_colour(alpha.min(ALPHA_MAX), eta, 0.0);
-                assert!(c >= last && c < 1.01, "eta {eta} alpha {alpha}: {c}");
-                last = c;
+    fn reflectances_rise_with_albedo_to_all_that_enters() {
+        for eta in [1.0, 1.33, 2.2] {
+            for g in [-0.5, 0.0, 0.9] {
+                let mut last = -1.0;
+                // (Up to ALPHA_MAX = 1 - 0.01^3.)
+                for k in 0..100 {
+                    let alpha = 1.0 - (1.0 - k as f64 / 99.0 * 0.99).powi(3);
+                    let c = surface_colour(alpha, eta, g);
+                    assert!(c > last, "eta {eta} g {g} alpha {alpha}: {c} after {last}");
+                    last = c;
+                }
+                // A white medium returns all the light that enters (the
+                // walk's survivors too, by their tail).
+                let white = t_in(eta) * (histogram(eta, g).reflectance(1.0, 2))
+                    + t_in(eta) * ss_reflectance(Unit { alpha: 1.0, eta, g });
+                assert!((white - t_in(eta)).abs() < 1e-9, "eta {eta} g {g}: {white}");
+            }
+        }
+    }
+
+    /// The table was written by the walk: its rows have the walk's bins,
+    /// and each row is a whole (every path leaves or survives).
+    #[test]
+    fn the_table_is_the_walks() {
+        let nb = walk::edges().len() - 1;
+        assert_eq!(table::SHARES.len(), table::G.len() * table::ETA.len());
+        for row in &table::SHARES {
+            assert_eq!(row.len(), nb + 1);
+            let sum: f64 = row.iter().map(|&x| x as f64).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "{sum}");
+        }
+    }
+
+    /// The walk's single-scattering share is the exact integral (light
+    /// reflected back in at the surface cannot leave unscattered again),
+    /// and between the table's nodes a fresh walk agrees with the blend.
+    #[test]
+    fn the_walk_agrees_with_the_closed_form_and_the_blend() {
+        let paths = 100_000;
+        for (eta, g) in [(1.33, 0.3), (1.45, 0.75), (1.0, 0.1)] {
+            let fresh = walk::walk(g, eta, paths, 99);
+            let exact = ss_reflectance(Unit { alpha: 1.0, eta, g });
+            let p1 = fresh.bins[0];
+            let sigma = (p1 / paths as f64).sqrt();
+            assert!(
+                (p1 - exact).abs() < 4.0 * sigma,
+                "eta {eta} g {g}: {p1} against {exact}"
+            );
+            let blend = histogram(eta, g);
+            for alpha in [0.3, 0.8, 0.95, 0.999] {
+                let (a, b) = (fresh.reflectance(alpha, 2), blend.reflectance(alpha, 2));
+                // Both walks' noise, and the blend's own error.
+                let sigma = (a / paths as f64).sqrt() + (a / table::PATHS as f64).sqrt();
+                assert!(
+                    (a - b).abs() < 4.0 * sigma + 0.005 * a,
+                    "eta {eta} g {g} alpha {alpha}: walk {a}, table {b}"
+                );
             }
         }
     }
