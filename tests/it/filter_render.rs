@@ -629,15 +629,7 @@ fn the_bunny_bake_matches_its_small_golden_render() {
 fn the_direct_term_adds_kd_times_the_light() {
     // A square at z = 0 seen from above, under a distant light straight
     // down (intensity 2), a cloud of constant ssM on it.
-    let mesh = mesh_from(
-        &[
-            [-1.0, -1.0, 0.0],
-            [1.0, -1.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [-1.0, 1.0, 0.0],
-        ],
-        &[vec![0, 1, 2, 3]],
-    );
+    let mesh = unit_square();
     let cam = Camera::parse(
         r#"{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 20, "width": 32, "height": 32}"#,
         "cam",

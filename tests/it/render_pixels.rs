@@ -13,24 +13,14 @@ use pcsss::{Cloud, DetailValue, Role};
 /// whose field of view puts its edges through the middle of pixels 3
 /// and 28 (x = 1 at 28.5 pixels: tan(fov / 2) = 1.28 / 4).
 fn square_scene() -> (Cloud, Camera) {
-    let mesh = mesh_from(
-        &[
-            [-1.0, -1.0, 0.0],
-            [1.0, -1.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [-1.0, 1.0, 0.0],
-        ],
-        &[vec![0, 1, 2, 3]],
-    );
+    (unit_square(), Camera::parse(&camera_text(), "cam").unwrap())
+}
+
+fn camera_text() -> String {
     let fov = 2.0 * (0.32f64).atan().to_degrees();
-    let cam = Camera::parse(
-        &format!(
-            r#"{{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": {fov}, "width": 32, "height": 32}}"#
-        ),
-        "cam",
+    format!(
+        r#"{{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": {fov}, "width": 32, "height": 32}}"#
     )
-    .unwrap();
-    (mesh, cam)
 }
 
 /// A constant ssM on a grid over the square (and beyond it).
@@ -193,7 +183,7 @@ fn the_physical_models_beauty_is_its_exitance_over_pi() {
 #[test]
 fn render_writes_coverage_as_alpha_in_the_exr_and_the_png() {
     let d = tempdir();
-    let (mesh, cam) = square_scene();
+    let mesh = unit_square();
     let cloud = constant_cloud([0.5, 0.25, 0.125]);
     let (m, c, k) = (
         d.path().join("sq.ply"),
@@ -202,36 +192,17 @@ fn render_writes_coverage_as_alpha_in_the_exr_and_the_png() {
     );
     std::fs::write(&m, to_bytes(&mesh, pcsss::formats::Format::DEFAULT)).unwrap();
     std::fs::write(&c, to_bytes(&cloud, pcsss::formats::Format::DEFAULT)).unwrap();
-    let fov = 2.0 * (0.32f64).atan().to_degrees();
-    std::fs::write(
-        &k,
-        format!(r#"{{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": {fov}, "width": 32, "height": 32}}"#),
-    )
-    .unwrap();
+    std::fs::write(&k, camera_text()).unwrap();
     let (exr, png) = (d.path().join("o.exr"), d.path().join("o.png"));
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let o = run(
-        "render",
-        &[
-            "--mesh",
-            &s(&m),
-            "--camera",
-            &s(&k),
-            "--cloud",
-            &s(&c),
-            "--nfp",
-            "4",
-            "--spp",
-            "16",
-            "-o",
-            &s(&exr),
-            "--png",
-            &s(&png),
-        ],
-        b"",
-    );
+    let (m, k, c, exr_s) = (s(&m), s(&k), s(&c), s(&exr));
+    let render_with = |more: &[&str]| {
+        let mut a = vec!["--mesh", &m, "--camera", &k, "--cloud", &c, "-o", &exr_s];
+        a.extend_from_slice(more);
+        run("render", &a, b"")
+    };
+    let o = render_with(&["--nfp", "4", "--spp", "16", "--png", &s(&png)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let _ = cam;
     let img = pcsss::formats::read_cloud_file(&exr, &pcsss::formats::Select::All).unwrap();
     assert_eq!(img.len(), 26 * 26);
     let a = img.points().scalar_f64("A").unwrap();
@@ -248,22 +219,7 @@ fn render_writes_coverage_as_alpha_in_the_exr_and_the_png() {
     );
     // Bad sample counts are refused naming the option.
     for bad in ["0", "5000"] {
-        let o = run(
-            "render",
-            &[
-                "--mesh",
-                &s(&m),
-                "--camera",
-                &s(&k),
-                "--cloud",
-                &s(&c),
-                "--spp",
-                bad,
-                "-o",
-                &s(&exr),
-            ],
-            b"",
-        );
+        let o = render_with(&["--spp", bad]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains("--spp"), "{}", stderr(&o));
     }

@@ -285,6 +285,19 @@ pub fn uv_sphere(rings: usize, segs: usize, r: f64, c: [f64; 3]) -> Cloud {
     mesh_from(&p, &faces)
 }
 
+/// The square [-1, 1]^2 at z = 0, one quad.
+pub fn unit_square() -> Cloud {
+    mesh_from(
+        &[
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
+        &[vec![0, 1, 2, 3]],
+    )
+}
+
 /// A mesh cloud from positions (f64) and polygons.
 pub fn mesh_from(p: &[[f64; 3]], faces: &[Vec<i32>]) -> Cloud {
     let mut c = Cloud::with_points(p.len());
