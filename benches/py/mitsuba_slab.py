@@ -1,19 +1,32 @@
 """The path-traced truth for the physical model on a flat slab: Mitsuba 3's
 volpath, a homogeneous medium of single-scattering albedo ALPHA and mean
-free path 1 in a box 400 x 400 x 200 mean free paths, a directional light
-of irradiance 1 straight down, and an invisible irradiance meter (a
-300 x 300 square just above the surface, facing it) that measures the
-exitance: the slab's total diffuse reflectance at normal incidence.
+free path 1 filling a box 2000 x 2000 x 1000 mean free paths (a
+semi-infinite slab to the light that comes back), under a smooth
+dielectric of relative index ETA (a null boundary at 1).
 
-Beside it, the physical model's own value of that reflectance, `R_m +
-R_s`, as `ssmulti --model physical` records it (`ssmulti_colour`) on a
-one-point cloud (the release binaries, `cargo build --release`).
+The model's figure is the slab's total diffuse reflectance for light
+arriving along the normal. By reciprocity that is the radiance leaving
+along the normal under a uniform sky of radiance 1, which is what is
+measured here: a radiance meter looking straight down, the sky a constant
+emitter (reached through the dielectric by the path's own refraction, as
+no light sampling can). The mirror reflection of the sky at the top
+surface, `F(0)`, is not diffuse and is taken off. Single scattering alone
+is the same with the path cut after one event in the medium
+(`max_depth`: the sensor's ray, the boundary crossings and the event each
+count one), and the multiple-scattering part is the rest.
 
-Only an index-matched boundary (eta 1, a null BSDF) for now: through a
-smooth dielectric a delta light cannot be reached by next-event estimation.
+Beside it, the physical model's own values, `R_m + R_s` and `R_m`, as
+`ssmulti --model physical` records them (`ssmulti_colour`,
+`ssmulti_reflectance`) on a one-point cloud (the release binaries, `cargo
+build --release`).
 
-    python mitsuba_slab.py ETA G SPP ALPHA[,ALPHA...]
+    python mitsuba_slab.py SPP [ETA,..] [G,..] [ALPHA,..]
+
+Mitsuba's figures are kept in benches/results/mitsuba_slab.json (by case
+and sample count) and read from there when present, so that the model's
+side can be measured again without the path tracer's hours.
 """
+import json
 import pathlib
 import subprocess
 import sys
@@ -25,40 +38,59 @@ import mitsuba as mi
 mi.set_variant("scalar_rgb")
 
 
-def reflectance(alpha, eta, g, spp):
-    if eta != 1.0:
-        raise SystemExit("only eta 1 (an index-matched boundary) for now")
+def fresnel0(eta):
+    return ((eta - 1) / (eta + 1)) ** 2
+
+
+def measure(alpha, eta, g, spp, max_depth):
+    bsdf = ({"type": "null"} if eta == 1.0 else
+            {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0})
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": -1, "rr_depth": 100000},
-        "light": {"type": "directional", "direction": [0, 0, -1],
-                  "irradiance": {"type": "rgb", "value": 1.0}},
+        "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": 1_000_000},
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 1.0}},
         "slab": {
             "type": "cube",
-            "to_world": mi.ScalarTransform4f().translate([0, 0, -100]).scale([200, 200, 100]),
-            "bsdf": {"type": "null"},
+            "to_world": mi.ScalarTransform4f().translate([0, 0, -1000]).scale([1000, 1000, 1000]),
+            "bsdf": bsdf,
             "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": alpha},
                          "sigma_t": 1.0, "phase": {"type": "hg", "g": g}},
         },
         "meter": {
-            "type": "rectangle",
-            "to_world": mi.ScalarTransform4f().translate([0, 0, 0.5]).scale(150).rotate([1, 0, 0], 180),
-            "bsdf": {"type": "null"},
-            "sensor": {"type": "irradiancemeter",
-                       "film": {"type": "hdrfilm", "width": 1, "height": 1,
-                                "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-                       "sampler": {"type": "independent", "sample_count": spp}},
+            "type": "radiancemeter",
+            "origin": [0, 0, 1], "direction": [0, 0, -1],
+            "film": {"type": "hdrfilm", "width": 1, "height": 1,
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": spp},
         },
     })
     img = mi.render(scene, spp=spp)
     return float(mi.TensorXf(img).numpy().ravel()[0])
 
 
-BIN = pathlib.Path(__file__).resolve().parents[2] / "target" / "release"
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+BIN = ROOT / "target" / "release"
+CACHE = ROOT / "benches" / "results" / "mitsuba_slab.json"
+
+
+def load():
+    return json.loads(CACHE.read_text()) if CACHE.exists() else {}
+
+
+def cached(key, compute):
+    """Mitsuba's figure for `key`, measured once."""
+    if key in load():
+        return load()[key]
+    t = time.time()
+    entry = {"value": compute(), "seconds": round(time.time() - t, 1)}
+    data = load()  # (another run may have added some meanwhile)
+    data[key] = entry
+    CACHE.write_text(json.dumps(dict(sorted(data.items())), indent=1) + "\n")
+    return entry
 
 
 def model(alpha, eta, g):
-    """The model's slab reflectance, as ssmulti records it."""
+    """The model's (R_m + R_s, R_m), as ssmulti records them."""
     with tempfile.TemporaryDirectory() as d:
         cloud = pathlib.Path(d) / "one.ply"
         cloud.write_text(
@@ -70,15 +102,38 @@ def model(alpha, eta, g):
         subprocess.run([BIN / "ssmulti", "-q", cloud, "--model", "physical", "--albedo", str(alpha),
                         "--mfp", "1", "--eta", str(eta), "--g", str(g), "-o", out], check=True)
         info = subprocess.run([BIN / "pcinfo", out], check=True, capture_output=True, text=True).stdout
-        line = next(x for x in info.splitlines() if "ssmulti_colour" in x)
-        return float(line.split("(")[1].split(",")[0])
+
+        def first(name):
+            line = next(x for x in info.splitlines() if x.split()[:1] == [name])
+            return float(line.split("(")[1].split(",")[0])
+        return first("ssmulti_colour"), first("ssmulti_reflectance")
 
 
 if __name__ == "__main__":
-    eta, g, spp = float(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
-    for a in [float(x) for x in sys.argv[4].split(",")]:
-        t = time.time()
-        r = reflectance(a, eta, g, spp)
-        m = model(a, eta, g)
-        print(f"alpha {a} eta {eta} g {g}: Mitsuba {r:.5f} ({time.time() - t:.1f} s), "
-              f"model {m:.5f}, model / Mitsuba {m / r:.2f}", flush=True)
+    model_too = "--mitsuba-only" not in sys.argv
+    sys.argv = [x for x in sys.argv if x != "--mitsuba-only"]
+    spp = int(sys.argv[1])
+    etas = [float(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "1,1.33").split(",")]
+    gs = [float(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "0,0.8").split(",")]
+    alphas = [float(x) for x in
+              (sys.argv[4] if len(sys.argv) > 4 else "0.3,0.6,0.8,0.9,0.95,0.99").split(",")]
+    print("| eta | g | albedo | Mitsuba total | model total | ratio | Mitsuba multiple | model multiple | ratio | s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for eta in etas:
+        # Depths: the sensor's ray (1), in through the boundary (1 with a
+        # dielectric), the event (1), out (1 with a dielectric).
+        single_depth = 2 if eta == 1.0 else 4
+        f0 = fresnel0(eta) if eta != 1.0 else 0.0
+        for g in gs:
+            for a in alphas:
+                key = f"eta {eta} g {g} albedo {a} spp {spp}"
+                tot = cached(key + " all", lambda: measure(a, eta, g, spp, -1))
+                one = cached(key + " single", lambda: measure(a, eta, g, spp, single_depth))
+                total, single = tot["value"] - f0, one["value"] - f0
+                if model_too:
+                    mt, mm = model(a, eta, g)
+                    ms = total - single
+                    print(f"| {eta} | {g} | {a} | {total:.4f} | {mt:.4f} | {mt / total:.3f} | "
+                          f"{ms:.4f} | {mm:.4f} | {mm / ms:.3f} | {tot['seconds']:.0f} |", flush=True)
+                else:
+                    print(key, total, single, tot["seconds"], flush=True)
