@@ -1,0 +1,145 @@
+"""The physical model's picture of a sphere against Mitsuba 3's, and the
+error of each against time.
+
+A sphere of radius 1 (a 256 x 128 latitude-longitude mesh for the bake,
+Mitsuba's exact sphere for the path tracer), filled with a medium of
+single-scattering albedo ALBEDO, mean free path MFP, g 0, under an
+index-matched boundary (eta 1: a directional light is then reachable by
+Mitsuba's light sampling), lit by a distant light from above and in
+front, seen by a 64 x 64 pinhole camera, Mitsuba's Gaussian pixel filter
+in both. The reference is Mitsuba at REF samples a pixel. For the bake
+(`make -C pipelines MODEL=physical`: scatter, facet, illum, ssmulti,
+sssingle, render with 16 rays a pixel) at each point count, and for
+Mitsuba at each sample count: the wall time and the RMS and mean relative
+error of the beauty over the pixels the sphere covers whole.
+
+    python mitsuba_sphere.py [REF] [COUNTS] [SPPS]
+"""
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import mitsuba as mi
+import numpy as np
+
+mi.set_variant("scalar_rgb")
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+ALBEDO, MFP = 0.95, 0.05
+SIZE = 64
+LIGHT = [0.0, -0.6, -0.8]  # the light's travel direction (unit)
+CAMERA = {"position": [0, 0, 4], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40,
+          "width": SIZE, "height": SIZE}
+
+
+def mitsuba(spp):
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": -1},
+        "light": {"type": "directional", "direction": LIGHT,
+                  "irradiance": {"type": "rgb", "value": 1.0}},
+        "ball": {
+            "type": "sphere", "radius": 1.0, "bsdf": {"type": "null"},
+            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
+                         "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
+        },
+        "camera": {
+            "type": "perspective", "fov": CAMERA["fov"], "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(origin=CAMERA["position"],
+                                                       target=CAMERA["look_at"], up=CAMERA["up"]),
+            "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE, "pixel_format": "rgb",
+                     "rfilter": {"type": "gaussian"}},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+    })
+    t = time.time()
+    img = np.array(mi.render(scene, spp=spp))
+    return img[:, :, :3], time.time() - t
+
+
+def sphere_obj(path, nu=256, nv=128):
+    lines = []
+    for j in range(1, nv):
+        th = np.pi * j / nv
+        for i in range(nu):
+            ph = 2 * np.pi * i / nu
+            lines.append(f"v {np.sin(th) * np.cos(ph)} {np.cos(th)} {np.sin(th) * np.sin(ph)}")
+    lines.append("v 0 1 0")
+    lines.append("v 0 -1 0")
+    top, bot = nu * (nv - 1) + 1, nu * (nv - 1) + 2
+    idx = lambda j, i: (j - 1) * nu + (i % nu) + 1
+    for i in range(nu):
+        lines.append(f"f {top} {idx(1, i + 1)} {idx(1, i)}")
+        lines.append(f"f {bot} {idx(nv - 1, i)} {idx(nv - 1, i + 1)}")
+    for j in range(1, nv - 1):
+        for i in range(nu):
+            lines.append(f"f {idx(j, i)} {idx(j, i + 1)} {idx(j + 1, i + 1)} {idx(j + 1, i)}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def read_image(exr, d):
+    """(beauty premultiplied, coverage) as SIZE x SIZE arrays, from the
+    render's OpenEXR (through pcconvert to ASCII PLY)."""
+    ply = d / "img.ply"
+    subprocess.run([ROOT / "target/release/pcconvert", "-q", exr, "--format", "ply-ascii", "-o", ply],
+                   check=True)
+    text = ply.read_text().split("end_header\n")
+    names = [l.split()[-1] for l in text[0].splitlines() if l.startswith("property")]
+    rows = np.loadtxt(text[1].splitlines(), ndmin=2)
+    col = {n: rows[:, k] for k, n in enumerate(names)}
+    img, a = np.zeros((SIZE, SIZE, 3)), np.zeros((SIZE, SIZE))
+    x, y = col["pixel_x"].astype(int), col["pixel_y"].astype(int)
+    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
+        img[y, x, c] = col[n]
+    a[y, x] = col["A"]
+    return img, a
+
+
+def bake(count, d):
+    mesh, lights, cam = d / "sphere.obj", d / "lights.json", d / "cam.json"
+    if not mesh.exists():
+        sphere_obj(mesh)
+        lights.write_text(json.dumps({"lights": [{"name": "sun", "type": "distant", "intensity": 1.0,
+                                                  "direction": LIGHT}]}))
+        cam.write_text(json.dumps(CAMERA))
+    out = d / f"out{count}"
+    t = time.time()
+    subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={mesh}", f"LIGHTS={lights}",
+                    f"CAMERA={cam}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
+                    f"ALBEDO={ALBEDO}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16", "SAMPLES=16",
+                    "SHADOWS=1"], check=True, stdout=subprocess.DEVNULL)
+    took = time.time() - t
+    img, a = read_image(out / "sphere.exr", d)
+    return img, a, took
+
+
+def errors(img, ref, mask):
+    rel = np.abs(img[mask] - ref[mask]) / np.maximum(ref[mask], 1e-6)
+    return float(np.sqrt(np.mean(rel ** 2))), float(np.mean((img[mask] - ref[mask]) / ref[mask]))
+
+
+if __name__ == "__main__":
+    ref_spp = int(sys.argv[1]) if len(sys.argv) > 1 else 1024
+    counts = [int(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "50000,200000,1000000").split(",")]
+    spps = [int(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "4,16,64").split(",")]
+    ref, ref_t = mitsuba(ref_spp)
+    print(f"reference: Mitsuba {ref_spp} spp, {ref_t:.0f} s, mean {ref.mean(axis=(0, 1))}", flush=True)
+    print("| tool | setting | time (s) | RMS relative error | mean relative error |")
+    print("|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        mask = None
+        for n in counts:
+            img, a, t = bake(n, d)
+            if mask is None:
+                # Pixels the sphere covers whole in the bake, lit in the reference.
+                mask = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
+            e = errors(img, ref, mask)
+            print(f"| bake | {n} points | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
+        for s in spps:
+            img, t = mitsuba(s)
+            e = errors(img, ref, mask)
+            print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
+        print(f"({int(mask.sum())} pixels compared)")
