@@ -10,7 +10,7 @@ use pcsss::stages::ssmulti;
 pcsss::global_allocator!();
 
 /// Multiple scattering at every point (Marengo's ssIntegMulti, or with
-/// --model physical a medium's photon beam diffusion): reads P, N,
+/// --model physical a medium, its reflectance from random walks): reads P, N,
 /// ptarea, illum; adds ssM.
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
