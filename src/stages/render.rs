@@ -580,15 +580,11 @@ fn resolve(
     let win = Window::of_size(cam.width, cam.height);
     image::set_windows(&mut img, win, win);
     img.set_detail("render_spp", DetailValue::I32(px.spp as i32));
+    // The filter's name as the command line spells it.
+    let filter = clap::ValueEnum::to_possible_value(&px.filter).map(|v| v.get_name().to_string());
     img.set_detail(
         "render_pixel_filter",
-        DetailValue::Str(
-            match px.filter {
-                PixelFilter::Box => "box",
-                PixelFilter::Gaussian => "gaussian",
-            }
-            .into(),
-        ),
+        DetailValue::Str(filter.unwrap_or_default()),
     );
     rep.covered = covered.len();
     Ok((img, rep))

@@ -140,22 +140,55 @@ fn a_gaussian_pixel_filter_keeps_a_constant_and_halves_at_the_edge() {
             assert!((a - 0.5).abs() < 0.03, "({x}, {y}): {a}");
         }
     }
+    assert_eq!(
+        img.detail("render_pixel_filter"),
+        Some(&DetailValue::Str("gaussian".into()))
+    );
     // The filter reaches beyond the square: some coverage at 2 and 29.
     assert!(px.keys().any(|&(x, _)| x == 2) && px.keys().any(|&(x, _)| x == 29));
 }
 
 #[test]
-fn one_sample_a_pixel_is_the_plain_render_with_full_coverage() {
+fn one_sample_a_pixel_hits_where_the_pixel_centres_ray_meets_the_square() {
+    // The camera at z = 4 looking down -z with up +y: pixel (x, y)'s
+    // centre ray meets z = 0 at (4 u, 4 v), u = (2 (x + 0.5) / 32 - 1)
+    // tan(fov / 2), v = (1 - 2 (y + 0.5) / 32) tan(fov / 2), tan = 0.32.
     let (mesh, cam) = square_scene();
     let cloud = constant_cloud([0.5, 0.25, 0.125]);
     let img = picture(&mesh, &cam, &cloud, Pixels::default());
-    let (plain, _) = render::render(&mesh, &cam).unwrap();
-    assert_eq!(img.len(), plain.len());
     assert!(!img.points().has("A"));
-    assert_eq!(
-        img.points().vec3_f64("P").unwrap(),
-        plain.points().vec3_f64("P").unwrap()
+    let pts = img.points();
+    let (x, y) = (
+        pts.scalar_f64("pixel_x").unwrap(),
+        pts.scalar_f64("pixel_y").unwrap(),
     );
+    let p = pts.vec3_f64("P").unwrap();
+    let mut inside = 0;
+    for px in 0..32 {
+        for py in 0..32 {
+            let u = (2.0 * (px as f64 + 0.5) / 32.0 - 1.0) * 0.32;
+            let v = (1.0 - 2.0 * (py as f64 + 0.5) / 32.0) * 0.32;
+            let want = [4.0 * u, 4.0 * v];
+            if want.iter().any(|w| (w.abs() - 1.0).abs() < 1e-9) {
+                // Pixels 3 and 28: their centres' rays graze the edge.
+                continue;
+            }
+            let hit = want[0].abs() < 1.0 && want[1].abs() < 1.0;
+            let at = (0..img.len()).find(|&i| x[i] == px as f64 && y[i] == py as f64);
+            assert_eq!(at.is_some(), hit, "pixel ({px}, {py})");
+            if let Some(i) = at {
+                inside += 1;
+                assert!(
+                    (p[i][0] - want[0]).abs() < 1e-6
+                        && (p[i][1] - want[1]).abs() < 1e-6
+                        && p[i][2].abs() < 1e-6,
+                    "pixel ({px}, {py}): {:?}",
+                    p[i]
+                );
+            }
+        }
+    }
+    assert_eq!(inside, 24 * 24);
 }
 
 #[test]
