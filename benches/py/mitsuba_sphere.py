@@ -6,14 +6,22 @@ Mitsuba's exact sphere for the path tracer), filled with a medium of
 single-scattering albedo ALBEDO, mean free path MFP, g 0, under an
 index-matched boundary (eta 1: a directional light is then reachable by
 Mitsuba's light sampling), lit by a distant light from above and in
-front, seen by a 64 x 64 pinhole camera, Mitsuba's Gaussian pixel filter
-in both. The reference is Mitsuba at REF samples a pixel. For the bake
+front, seen by a 64 x 64 pinhole camera (Mitsuba's Gaussian pixel
+filter; the bake's 16 rays a pixel in a box, the Makefile's default: on
+the pixels the sphere covers whole, a smooth picture, the two differ
+little). The reference is Mitsuba at REF samples a pixel. For the bake
 (`make -C pipelines MODEL=physical`: scatter, facet, illum, ssmulti,
 sssingle, render with 16 rays a pixel) at each point count, and for
 Mitsuba at each sample count: the wall time and the RMS and mean relative
 error of the beauty over the pixels the sphere covers whole.
 
     python mitsuba_sphere.py [REF] [COUNTS] [SPPS]
+    python mitsuba_sphere.py --split [REF] [COUNT]
+
+`--split`: where the bake's error is, at one point count: its `ssS` and
+`ssM` pictures apart against Mitsuba's single scattering (the path cut
+after one event) and the rest, and the bake over Mitsuba by quarters of
+the reference's brightness (from the terminator to the lit pole).
 """
 import json
 import pathlib
@@ -34,10 +42,10 @@ CAMERA = {"position": [0, 0, 4], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 4
           "width": SIZE, "height": SIZE}
 
 
-def mitsuba(spp):
+def mitsuba(spp, max_depth=-1):
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": -1},
+        "integrator": {"type": "volpath", "max_depth": max_depth},
         "light": {"type": "directional", "direction": LIGHT,
                   "irradiance": {"type": "rgb", "value": 1.0}},
         "ball": {
@@ -120,7 +128,37 @@ def errors(img, ref, mask):
     return float(np.sqrt(np.mean(rel ** 2))), float(np.mean((img[mask] - ref[mask]) / ref[mask]))
 
 
+def split(ref_spp, count):
+    ref, _ = mitsuba(ref_spp)
+    single, _ = mitsuba(ref_spp, max_depth=2)
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        img, a, _ = bake(count, d)
+        out = d / f"out{count}"
+        mask = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
+        part = {}
+        for attr in ["ssM", "ssS"]:
+            exr = d / f"{attr}.exr"
+            subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / "sphere_mesh.ply",
+                            "--camera", d / "cam.json", "--cloud", out / "sphere_sss.ply",
+                            "--attr", attr, "--spp", "16", "-o", exr],
+                           check=True)
+            part[attr] = read_image(exr, d)[0]
+    print(f"single scattering: bake {part['ssS'][mask].mean():.4f}, Mitsuba {single[mask].mean():.4f}")
+    print(f"multiple scattering (ssM / pi): bake {part['ssM'][mask].mean():.4f}, "
+          f"Mitsuba {(ref - single)[mask].mean():.4f}")
+    r, b = ref[mask][:, 0], img[mask][:, 0]
+    q = np.quantile(r, [0, 0.25, 0.5, 0.75, 1])
+    for lo, hi in zip(q[:-1], q[1:]):
+        s = (r >= lo) & (r <= hi)
+        print(f"reference in [{lo:.4f}, {hi:.4f}]: bake / Mitsuba {b[s].mean() / r[s].mean():.3f}")
+
+
 if __name__ == "__main__":
+    if "--split" in sys.argv:
+        args = [x for x in sys.argv[1:] if x != "--split"]
+        split(int(args[0]) if args else 1024, int(args[1]) if len(args) > 1 else 200000)
+        sys.exit()
     ref_spp = int(sys.argv[1]) if len(sys.argv) > 1 else 1024
     counts = [int(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "50000,200000,1000000").split(",")]
     spps = [int(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "4,16,64").split(",")]
