@@ -1,5 +1,6 @@
 //! The physical medium's reflectance by Monte Carlo: light refracted into a
-//! semi-infinite homogeneous medium along its normal walks (free paths of
+//! semi-infinite homogeneous medium (along its normal, or from light
+//! arriving at any cosine with it) walks (free paths of
 //! `sigma_t = 1`, Henyey-Greenstein scattering, Fresnel reflection back
 //! in at the smooth boundary) until it leaves through the surface.
 //!
@@ -150,8 +151,34 @@ fn sample_hg(g: f64, u: f64) -> f64 {
 }
 
 /// Walks `paths` paths into a medium of phase asymmetry `g` under a
-/// boundary of relative index `eta`, with random streams `Pcg32(seed, k)`.
+/// boundary of relative index `eta`, entering along the normal, with
+/// random streams `Pcg32(seed, k)`.
 pub fn walk(g: f64, eta: f64, paths: u64, seed: u64) -> Histogram {
+    walk_from(g, eta, 1.0, paths, seed)
+}
+
+/// The cosine with the normal inside a medium of relative index `eta` of
+/// light arriving outside at cosine `mu_i` (Snell's law).
+pub fn refracted(mu_i: f64, eta: f64) -> f64 {
+    let mu_i = mu_i.clamp(0.0, 1.0);
+    (1.0 - (1.0 - mu_i * mu_i) / (eta * eta)).max(0.0).sqrt()
+}
+
+/// [`walk`] for light arriving outside at cosine `mu_i` with the normal:
+/// the paths start along the refracted direction. The same `seed` gives
+/// every `mu_i` the same random streams, so that the histograms of two
+/// cosines differ by the cosine more than by their noise.
+pub fn walk_from(g: f64, eta: f64, mu_i: f64, paths: u64, seed: u64) -> Histogram {
+    walk_in(g, eta, mu_i, f64::INFINITY, paths, seed)
+}
+
+/// [`walk_from`] into a slab `thickness` mean free paths thick (infinite:
+/// the semi-infinite medium), under the same boundary on both faces: a
+/// path leaves through either face. Paths that cross without scattering
+/// are in no bin (the shares then sum to less than 1). The same random
+/// streams as [`walk_from`]'s.
+pub fn walk_in(g: f64, eta: f64, mu_i: f64, thickness: f64, paths: u64, seed: u64) -> Histogram {
+    let mu0 = refracted(mu_i, eta);
     let e = edges();
     let chunks = paths.div_ceil(CHUNK);
     let (bins, survivors) = (0..chunks)
@@ -162,7 +189,8 @@ pub fn walk(g: f64, eta: f64, paths: u64, seed: u64) -> Histogram {
             let mut survivors = 0u64;
             let n_paths = CHUNK.min(paths - k * CHUNK);
             for _ in 0..n_paths {
-                match one(g, eta, &mut r) {
+                match one(g, eta, mu0, thickness, &mut r) {
+                    Some(0) => {}
                     Some(n) => bins[bin_of(&e, n)] += 1,
                     None => survivors += 1,
                 }
@@ -183,26 +211,39 @@ pub fn walk(g: f64, eta: f64, paths: u64, seed: u64) -> Histogram {
     }
 }
 
-/// One path: the scattering events before it leaves, `None` if it is
-/// still inside after [`N_MAX`].
-fn one(g: f64, eta: f64, r: &mut Pcg32) -> Option<u32> {
+/// One path entering at cosine `mu0` with the inward normal a slab
+/// `thickness` thick: the scattering events before it leaves through
+/// either face (0: it crossed unscattered), `None` if it is still inside
+/// after [`N_MAX`].
+fn one(g: f64, eta: f64, mu0: f64, thickness: f64, r: &mut Pcg32) -> Option<u32> {
     // Depth below the surface and the direction's cosine with the inward
     // normal.
-    let (mut z, mut mu) = (0.0f64, 1.0f64);
+    let (mut z, mut mu) = (0.0f64, mu0);
     let mut n = 0u32;
     loop {
         let t = -(1.0 - uniform53(r)).ln();
         z += mu * t;
-        if z < 0.0 {
-            // At the surface, leaving at cosine -mu: out, or reflected
-            // back in, the rest of the free path mirrored: it ends at a
-            // scattering event like any other (a fresh free path from
-            // there would lengthen every reflected one).
-            if uniform53(r) >= fresnel(-mu, 1.0 / eta) {
-                return Some(n);
+        // At a face, leaving at cosine |mu|: out, or reflected back in,
+        // the rest of the free path mirrored: it ends at a scattering
+        // event like any other (a fresh free path from there would
+        // lengthen every reflected one). In a thin slab the mirrored path
+        // may reach the other face too.
+        loop {
+            if z < 0.0 {
+                if uniform53(r) >= fresnel(-mu, 1.0 / eta) {
+                    return Some(n);
+                }
+                z = -z;
+                mu = -mu;
+            } else if z > thickness {
+                if uniform53(r) >= fresnel(mu, 1.0 / eta) {
+                    return Some(n);
+                }
+                z = 2.0 * thickness - z;
+                mu = -mu;
+            } else {
+                break;
             }
-            z = -z;
-            mu = -mu;
         }
         n += 1;
         if n > N_MAX {
@@ -216,13 +257,13 @@ fn one(g: f64, eta: f64, r: &mut Pcg32) -> Option<u32> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// Chandrasekhar's H function of isotropic scattering at albedo
     /// `alpha`, by iterating `1 / H(mu) = sqrt(1 - alpha) + alpha / 2 int_0^1
     /// mu' H(mu') / (mu + mu') dmu'` on a Gauss-Legendre grid.
-    fn chandrasekhar_h(alpha: f64, mu: f64) -> f64 {
+    pub(in super::super) fn chandrasekhar_h(alpha: f64, mu: f64) -> f64 {
         // 64 midpoints in mu' = t^2 (the integrand's root at 0 smoothed).
         let m = 400;
         let pts: Vec<(f64, f64)> = (0..m)
@@ -271,14 +312,91 @@ mod tests {
                 got / want,
                 h.bins[0]
             );
-            // 200k paths: a standard error under 0.15% of R.
+            // Four standard errors: a path's weight alpha^n has a second
+            // moment R(alpha^2).
+            let se = (h.reflectance(alpha * alpha, 1) / 200_000.0).sqrt();
             assert!(
-                (got - want).abs() <= 1.0 * want,
+                (got - want).abs() <= 4.0 * se,
                 "alpha {alpha}: walk {got}, H function {want}"
             );
         }
         // Every path of a white medium leaves.
         assert!((h.reflectance(1.0, 1) - 1.0).abs() < 1e-9);
+    }
+
+    /// Light arriving obliquely, eta 1: the reflectance is `1 - H(mu)
+    /// sqrt(1 - alpha)`, larger than along the normal (it enters
+    /// shallower), and at grazing incidence `1 - sqrt(1 - alpha)`.
+    #[test]
+    fn oblique_light_reflects_what_chandrasekhar_says() {
+        for mu in [0.5, 0.0] {
+            let h = walk_from(0.0, 1.0, mu, 60_000, 11);
+            for alpha in [0.5, 0.9, 0.99] {
+                let want = 1.0 - chandrasekhar_h(alpha, mu) * (1.0 - alpha).sqrt();
+                let got = h.reflectance(alpha, 1);
+                let se = (h.reflectance(alpha * alpha, 1) / 60_000.0).sqrt();
+                assert!(
+                    (got - want).abs() <= 4.0 * se,
+                    "mu {mu} alpha {alpha}: walk {got}, H function {want}"
+                );
+            }
+        }
+    }
+
+    /// A thin slab at eta 1 lit along its normal: `e^-T` of the light
+    /// crosses unscattered and the rest leaves through either face
+    /// (nothing is absorbed), and the share leaving after one event is
+    /// `int_0^T e^-z int_0^1 (e^(-z / mu) + e^(-(T - z) / mu)) dmu / 2 dz`
+    /// (isotropic: half the light goes up, half down).
+    #[test]
+    fn a_thin_slab_passes_what_it_does_not_scatter() {
+        for thick in [0.1, 0.5, 2.0] {
+            let paths = 100_000;
+            let h = walk_in(0.0, 1.0, 1.0, thick, paths, 13);
+            let scattered: f64 = h.bins.iter().sum::<f64>() + h.survivors;
+            let p0 = (-thick).exp();
+            let se = (p0 * (1.0 - p0) / paths as f64).sqrt();
+            assert!(
+                (scattered - (1.0 - p0)).abs() < 4.0 * se,
+                "T {thick}: {scattered} scattered, want {}",
+                1.0 - p0
+            );
+            assert_eq!(h.survivors, 0.0);
+            let m = 400;
+            let mut want = 0.0;
+            for a in 0..m {
+                let z = thick * (a as f64 + 0.5) / m as f64;
+                let mut s = 0.0;
+                for b in 0..m {
+                    let mu = (b as f64 + 0.5) / m as f64;
+                    s += (-z / mu).exp() + (-(thick - z) / mu).exp();
+                }
+                want += (-z).exp() * 0.5 * s / m as f64 * thick / m as f64;
+            }
+            let se = (want / paths as f64).sqrt();
+            assert!(
+                (h.bins[0] - want).abs() < 4.0 * se + 2e-3 * want,
+                "T {thick}: one event {}, quadrature {want}",
+                h.bins[0]
+            );
+        }
+        // An infinite slab is the half-space, draw for draw.
+        assert_eq!(
+            walk_in(0.3, 1.4, 0.8, f64::INFINITY, 5000, 2),
+            walk_from(0.3, 1.4, 0.8, 5000, 2)
+        );
+    }
+
+    #[test]
+    fn snell_gives_the_refracted_cosine() {
+        assert_eq!(refracted(1.0, 1.5), 1.0);
+        assert!((refracted(0.0, 1.0)).abs() < 1e-12);
+        // Grazing light enters at the critical angle.
+        let c = refracted(0.0, 1.33);
+        assert!((c * c - (1.0 - 1.0 / (1.33 * 1.33))).abs() < 1e-12);
+        let (mu, eta) = (0.6f64, 1.4f64);
+        let st = (1.0 - mu * mu).sqrt() / eta;
+        assert!((refracted(mu, eta) - (1.0 - st * st).sqrt()).abs() < 1e-12);
     }
 
     /// The share leaving after exactly two events, isotropic scattering
