@@ -36,6 +36,8 @@ pub const MAKERS: &[(&str, &str)] = &[
     ("sourceuv", "scatter"),
     ("N", "facet"),
     ("illum", "illum"),
+    ("illum_cos", "illum"),
+    ("thickness", "illum --thickness"),
     ("ssM", "ssmulti"),
     ("ssmulti_sd", "ssmulti"),
     ("ssmulti_rd", "ssmulti"),

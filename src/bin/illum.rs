@@ -13,18 +13,32 @@ fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("illum");
     let name = args.io.input_name();
     let used = cli::read_lights(&args.lights, &args.lmask)?;
+    if args.thickness && args.mesh.is_none() {
+        let why = "needs --mesh (the mesh the points lie on)";
+        return Err(pcsss::Error::param("thickness", why).into());
+    }
     // The mesh first: a missing or broken mesh fails before the cloud is read.
-    let occluder = match &args.mesh {
+    let (occluder, mesh) = match &args.mesh {
         Some(path) => {
             let name = path.display().to_string();
-            Some(illum::occluder(&cli::read_mesh(path)?).map_err(cli::at(&name))?)
+            let mesh = cli::read_mesh(path)?;
+            let occ = illum::occluder(&mesh).map_err(cli::at(&name))?;
+            (Some(occ), Some(mesh))
         }
-        None => None,
+        None => (None, None),
     };
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;
     let progress = msg.progress();
     let rep = illum::illum(&mut cloud, &used, occluder.as_ref(), args.seed, &progress)
         .map_err(cli::at(&name))?;
+    if let (true, Some(mesh)) = (args.thickness, &mesh) {
+        let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
+        if open > 0 {
+            msg.warn(format!(
+                "{open} points see no back to the mesh along -N (an open mesh?): their thickness is taken as infinite"
+            ));
+        }
+    }
     let names: Vec<&str> = used.iter().map(|l| l.name.as_str()).collect();
     msg.info(format!(
         "{} points, lights {}: {} shadow rays, {} blocked; {} points unlit",

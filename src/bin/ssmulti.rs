@@ -32,9 +32,14 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
-    let mut cloud = args
-        .io
-        .read(&Select::only(&["P", "N", "ptarea", "illum"]))?;
+    let mut cloud = args.io.read(&Select::only(&[
+        "P",
+        "N",
+        "ptarea",
+        "illum",
+        "illum_cos",
+        "thickness",
+    ]))?;
     let progress = msg.progress();
     let rep = ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?;
     msg.info(format!(
@@ -48,6 +53,11 @@ fn run(args: Args) -> anyhow::Result<()> {
             ""
         }
     ));
+    if params.medium.is_some() && !rep.by_incidence {
+        msg.warn(
+            "the cloud has no illum_cos (illum makes it): the light is taken as arriving along the normal",
+        );
+    }
     if rep.isolated > 0 {
         msg.warn(format!(
             "{} of {} points are farther apart than their kernel reaches (give more points, or longer distances): each returns its own light",

@@ -324,6 +324,11 @@ pub struct IllumArgs {
     /// No shadows: every light reaches every point that faces it.
     #[arg(long)]
     pub no_shadows: bool,
+    /// Also write `thickness`, how far the mesh goes on behind each point
+    /// (along -N): the physical model of ssmulti returns less light from
+    /// thin parts. Needs --mesh.
+    #[arg(long)]
+    pub thickness: bool,
     /// Lights to use: names and glob patterns, separated by commas or
     /// spaces; ^PATTERN excludes ('*': all).
     #[arg(long, value_name = "PATTERNS", default_value = "*")]

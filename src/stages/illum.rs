@@ -1,7 +1,11 @@
 //! `illum` (Houdini's `pcIllum`, an `illuminance()` loop): the light
 //! arriving at every point,
 //! `illum = sum over lights in the mask of Cl * max(0, dot(N, L)) * visibility`,
-//! as the colour attribute `illum` (f32).
+//! as the colour attribute `illum` (f32), and beside it `illum_cos`, the
+//! mean cosine of the light's arrival with `N` weighted by the irradiance
+//! each arrival brings (the sum of its channels; 1 where no light
+//! arrives): the physical model of `ssmulti` reflects oblique light more
+//! than light along the normal (`docs/DESIGN.md#incidence`).
 //!
 //! - Visibility: an any-hit shadow ray against the mesh (`crate::bvh`),
 //!   from the point moved off its surface by a few ulps along `N`, up to
@@ -50,6 +54,10 @@ pub struct Report {
 
 /// Points per unit of parallel work (and of progress).
 const CHUNK: usize = 4096;
+
+/// A chunk's irradiance and mean cosine a point, its rays, blocked rays
+/// and unlit points.
+type Chunk = (Vec<(DVec3, f64)>, u64, u64, usize);
 
 /// Adds `illum` to `cloud` from `lights` (already masked), with shadows
 /// from `occluder` when given.
@@ -109,7 +117,7 @@ pub fn illum(
         })
         .collect();
     progress.start("shading", pos.len() as u64);
-    let chunks: Vec<(Vec<DVec3>, u64, u64, usize)> = pos
+    let chunks: Vec<Chunk> = pos
         .par_chunks(CHUNK)
         .zip(nrm.par_chunks(CHUNK))
         .enumerate()
@@ -122,6 +130,9 @@ pub fn illum(
                 let p = DVec3::from_array(*p);
                 let n = DVec3::from_array(*n).normalize();
                 let mut e = DVec3::ZERO;
+                // The arrivals' irradiance summed over channels, and with
+                // their cosines.
+                let (mut w, mut wc) = (0.0f64, 0.0f64);
                 for (light, cols) in lights.iter().zip(&columns) {
                     if light.cl == DVec3::ZERO {
                         continue;
@@ -152,12 +163,20 @@ pub fn illum(
                             }
                         }
                         e += a.e;
+                        let s = a.e.element_sum();
+                        w += s;
+                        wc += s * n.dot(a.dir).clamp(0.0, 1.0);
                     }
                 }
                 if e == DVec3::ZERO {
                     dark += 1;
                 }
-                out.push(e);
+                let cos = if w > 0.0 {
+                    (wc / w).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                };
+                out.push((e, cos));
             }
             progress.inc(pc.len() as u64);
             (out, rays, blocked, dark)
@@ -169,8 +188,9 @@ pub fn illum(
         ..Report::default()
     };
     let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut cosines: Vec<f32> = Vec::with_capacity(pos.len());
     for (out, rays, blocked, dark) in chunks {
-        for e in out {
+        for (e, cos) in out {
             // Never a value beyond a float attribute: too much light is
             // refused, with the point.
             if !(e.is_finite() && e.abs().max_element() <= f32::MAX as f64) {
@@ -183,12 +203,14 @@ pub fn illum(
                 )));
             }
             illum.push(e.as_vec3().to_array());
+            cosines.push(cos as f32);
         }
         report.rays += rays;
         report.blocked += blocked;
         report.dark += dark;
     }
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
+    cloud.points_mut().set_scalar("illum_cos", cosines)?;
     // What the run was: the lights (their names, and all they are), the
     // mesh that shadowed them, the area lights' seed.
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
@@ -206,4 +228,54 @@ pub fn illum(
         ],
     );
     Ok(report)
+}
+
+/// Adds `thickness` to `cloud`: how far the mesh goes on behind each point
+/// along `-N`, from the surface the point lies on to where the ray leaves
+/// the mesh ([`f32::MAX`] where it never does: an open mesh). The
+/// physical model of `ssmulti` returns less light from thin parts
+/// (`docs/DESIGN.md#thickness`). Returns the points whose ray never left.
+pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Result<usize> {
+    let pts = cloud.points();
+    if !pts.has("N") {
+        return Err(pts.missing("N"));
+    }
+    let pos = pts.vec3_f64("P")?;
+    let nrm = pts.vec3_f64("N")?;
+    crate::memory::check_mesh(mesh.tris.len(), MESH_BYTES)?;
+    let interior = crate::stages::sssingle::interior::Interior::new(mesh, 180.0);
+    progress.start("thickness", pos.len() as u64);
+    let out: Vec<f32> = pos
+        .par_chunks(CHUNK)
+        .zip(nrm.par_chunks(CHUNK))
+        .flat_map_iter(|(pc, nc)| {
+            let v: Vec<f32> = pc
+                .iter()
+                .zip(nc)
+                .map(|(p, n)| {
+                    let n = DVec3::from_array(*n).normalize_or_zero();
+                    let p = DVec3::from_array(*p);
+                    if n == DVec3::ZERO || !p.is_finite() {
+                        return f32::MAX;
+                    }
+                    let (_, d) = interior.view(p, -n);
+                    if d.is_finite() {
+                        (d as f32).min(f32::MAX)
+                    } else {
+                        f32::MAX
+                    }
+                })
+                .collect();
+            progress.inc(pc.len() as u64);
+            v
+        })
+        .collect();
+    progress.finish();
+    let open = out.iter().filter(|&&d| d == f32::MAX).count();
+    cloud.points_mut().set_scalar("thickness", out)?;
+    cloud.record(
+        "illum_thickness",
+        vec![("illum_thickness", DetailValue::Str(mesh.digest()))],
+    );
+    Ok(open)
 }

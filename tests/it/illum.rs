@@ -490,6 +490,27 @@ fn illum_runs_in_a_pipe_and_bad_input_is_a_clear_error() {
         c.detail("illum_lights"),
         Some(&pcsss::cloud::DetailValue::Str("key,rim,fill_area".into()))
     );
+    assert!(c.points().has("illum_cos") && !c.points().has("thickness"));
+    // With the thickness (the sphere's diameter along -N, about 2).
+    let out = run_in(
+        Some(d.path()),
+        "illum",
+        &[
+            "cloud.ply",
+            "--lights",
+            lights,
+            "--mesh",
+            "mesh.ply",
+            "--thickness",
+        ],
+        b"",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let t = from_bytes(&out.stdout)
+        .points()
+        .scalar_f64("thickness")
+        .unwrap();
+    assert!(t.iter().all(|&t| t > 1.9 && t < 2.0), "{:?}", &t[..4]);
     // Bad input.
     let mut zero_n = pts.clone();
     let mut n = zero_n.points().vec3_f32("N").unwrap();
@@ -537,6 +558,16 @@ fn illum_runs_in_a_pipe_and_bad_input_is_a_clear_error() {
             "missing.json",
         ),
         (&["cloud.ply", "--lights", lights], "--mesh"),
+        (
+            &[
+                "cloud.ply",
+                "--lights",
+                lights,
+                "--no-shadows",
+                "--thickness",
+            ],
+            "--thickness: needs --mesh",
+        ),
     ];
     for (args, want) in cases {
         let out = run_in(Some(d.path()), "illum", args, b"");
@@ -571,4 +602,73 @@ fn light_masks_take_brace_alternatives_and_quoted_names() {
         let e = m(bad).unwrap_err();
         assert!(e.contains("parameter lmask"), "{bad}: {e}");
     }
+}
+
+/// `illum_cos` is the mean cosine of the light's arrival, each arrival
+/// weighted by the irradiance it brings (its channels summed); 1 where no
+/// light arrives.
+#[test]
+fn illum_cos_is_the_irradiance_weighted_mean_cosine() {
+    let mesh = plane(8, 4.0, DVec3::ZERO);
+    let pts = points_on(&mesh, 500);
+    let l = parse(
+        r#"{"lights": [
+            {"name": "top", "type": "distant", "direction": [0, 0, -1]},
+            {"name": "low", "type": "distant", "color": [1, 0.5, 0.25], "intensity": 2, "direction": [0, -0.96, -0.28]}]}"#,
+    );
+    let cosine = |lights: &[Light]| {
+        let mut c = pts.clone();
+        let occ = Occluder::new(&TriMesh::from_cloud(&mesh).unwrap());
+        illum::illum(&mut c, lights, Some(&occ), 0, &Progress::hidden()).unwrap();
+        c.points().scalar_f64("illum_cos").unwrap()
+    };
+    // Weights: 3 x 1 from the top, 3.5 x 0.28 from the low light.
+    let (wt, wl) = (3.0, 3.5 * 0.28);
+    let want = (wt * 1.0 + wl * 0.28) / (wt + wl);
+    assert!(cosine(&l).iter().all(|&c| close(c, want, 1e-6)));
+    assert!(cosine(&l[1..]).iter().all(|&c| close(c, 0.28, 1e-6)));
+    let below =
+        parse(r#"{"lights": [{"name": "s", "type": "distant", "direction": [0, 0.2, 1]}]}"#);
+    assert!(cosine(&below).iter().all(|&c| c == 1.0));
+}
+
+/// `illum --thickness`: how far the mesh goes on behind each point along
+/// `-N`, a box's height from its top and bottom faces, its width from its
+/// sides, at any offset; an open mesh's points that see no back get the
+/// float maximum, and are counted.
+#[test]
+fn thickness_is_how_far_the_mesh_goes_on_behind_a_point() {
+    for centre in [DVec3::ZERO, DVec3::new(1e5, -1e5, 3e4)] {
+        let (lo, hi) = (
+            centre + DVec3::new(-2.0, -1.5, 0.0),
+            centre + DVec3::new(2.0, 1.5, 0.3),
+        );
+        let mesh = boxed(lo, hi);
+        let mut c = points_on(&mesh, 3000);
+        let m = TriMesh::from_cloud(&mesh).unwrap();
+        let open = illum::thickness(&mut c, &m, &Progress::hidden()).unwrap();
+        assert_eq!(open, 0);
+        let t = c.points().scalar_f64("thickness").unwrap();
+        let n = c.points().vec3_f64("N").unwrap();
+        for (t, n) in t.iter().zip(&n) {
+            let want = [4.0, 3.0, 0.3][(0..3).find(|&k| n[k].abs() > 0.5).unwrap()];
+            assert!(close(*t, want, 1e-5), "{t} against {want} at N {n:?}");
+        }
+    }
+    // One face alone: nothing behind it.
+    let quad = plane(4, 2.0, DVec3::ZERO);
+    let mut c = points_on(&quad, 100);
+    let open = illum::thickness(
+        &mut c,
+        &TriMesh::from_cloud(&quad).unwrap(),
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert_eq!(open, 100);
+    assert!(c
+        .points()
+        .scalar_f64("thickness")
+        .unwrap()
+        .iter()
+        .all(|&t| t == f32::MAX as f64));
 }

@@ -299,3 +299,54 @@ fn area_scale(atot: f64) -> f64 {
     let e = ((atot.to_bits() >> 52) & 0x7ff) as i32 - 1022;
     2f64.powi((-e).clamp(-100, 100))
 }
+
+/// The physical model's light by where it came from and what lies
+/// behind (`docs/DESIGN.md#incidence`, `#thickness`): each point's
+/// `illum` times, per channel, the medium's multiple-scattering
+/// reflectance at the point's `illum_cos` over the one along the normal
+/// (`illum_cos` clamped to `[0, 1]`), and the light a slab of the point's
+/// `thickness` returns over a thick part's. Without either attribute
+/// that weight is 1 (the light along the normal, a thick part): returns
+/// which were there.
+pub(super) fn weigh_light(
+    cloud: &Cloud,
+    medium: &crate::stages::medium::Medium,
+    inp: &mut Inputs,
+) -> Result<(bool, bool)> {
+    let pts = cloud.points();
+    let column = |name: &str| -> Result<Option<ReadColumn>> {
+        if !pts.has(name) {
+            return Ok(None);
+        }
+        let c = ReadColumn::of(pts.scalar_column(name)?.column());
+        let n = inp.pts.len();
+        if let Some(i) = (0..n).into_par_iter().find_first(|&i| c.get(i).is_nan()) {
+            return Err(Error::invalid(format!("point {i}: {name} is NaN")));
+        }
+        Ok(Some(c))
+    };
+    let (cos, thick) = (column("illum_cos")?, column("thickness")?);
+    if cos.is_none() && thick.is_none() {
+        return Ok((false, false));
+    }
+    let inc = cos.map(|c| (c, medium.incidence()));
+    let thin = thick.map(|c| (c, medium.thinness()));
+    inp.pts.par_iter_mut().enumerate().for_each(|(i, pt)| {
+        let mut f = [1.0f64; 3];
+        if let Some((c, inc)) = &inc {
+            f = inc.factor(c.get(i));
+        }
+        if let Some((c, thin)) = &thin {
+            let k = thin.factor(c.get(i));
+            f = [0, 1, 2].map(|ch| f[ch] * k[ch]);
+        }
+        for c in 0..3 {
+            pt.illum[c] = (pt.illum[c] as f64 * f[c]) as f32;
+        }
+    });
+    inp.grey = inp
+        .pts
+        .par_iter()
+        .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
+    Ok((inc.is_some(), thin.is_some()))
+}

@@ -66,7 +66,7 @@ use crate::stages::medium::Medium;
 
 use self::columns::build;
 use self::gather::Gathered;
-use self::inputs::{inputs, Inputs};
+use self::inputs::{inputs, weigh_light, Inputs};
 use self::lanes::Kernels;
 use self::normalise::Normaliser;
 use self::pairs::{LeafTask, Near, Run, Setup};
@@ -326,6 +326,12 @@ pub struct Report {
     /// Source normalisation: points whose kernel is too narrow to weigh
     /// even their own disk; they return their own light times the gain.
     pub isolated: usize,
+    /// The physical model weighed each point's light by the cosine of its
+    /// arrival (`illum_cos`); `false`: taken along the normal.
+    pub by_incidence: bool,
+    /// The physical model weighed each point's light by the thickness
+    /// behind it (`thickness`); `false`: every part taken as thick.
+    pub by_thickness: bool,
 }
 
 /// The largest tolerance of the approximate method: a cluster half as wide
@@ -458,7 +464,22 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
     }
     let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
-    cloud.record("ssmulti_", p.details());
+    let mut details = p.details();
+    if p.medium.is_some() {
+        let how = if report.by_incidence {
+            "illum_cos"
+        } else {
+            "normal"
+        };
+        details.push(("ssmulti_incidence", DetailValue::Str(how.into())));
+        let how = if report.by_thickness {
+            "thickness"
+        } else {
+            "thick"
+        };
+        details.push(("ssmulti_thickness", DetailValue::Str(how.into())));
+    }
+    cloud.record("ssmulti_", details);
     Ok(report)
 }
 
@@ -489,6 +510,10 @@ fn ssmulti_columns(
     let p = &p.resolved();
     let mut ph = progress.phases("ssmulti");
     let mut inp = inputs(cloud, p.bounce > 0.0)?;
+    let (by_incidence, by_thickness) = match &p.medium {
+        Some(m) => weigh_light(cloud, m, &mut inp)?,
+        None => (false, false),
+    };
     ph.mark("inputs");
     let n = inp.pts.len();
     if let Some(w) = want {
@@ -499,6 +524,8 @@ fn ssmulti_columns(
     let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
     let mut report = Report {
         points: n,
+        by_incidence,
+        by_thickness,
         ..Report::default()
     };
     if n > 0 && Distances::of(p).ld1 > 0.0 {
@@ -561,8 +588,10 @@ impl Distances {
 /// an even plane), summed by the same loop with a white light everywhere;
 /// each source's `illum` is then divided by it, so the second pass, a
 /// `Channel` sum, spreads each source's light over the area it reaches.
-/// (Every point's, even for a lazy run that wants a few: a wanted
-/// point's sources are any within reach.) `scratch` is the output columns,
+/// Only a lit point's area is used, so only the leaves holding a lit
+/// point are summed (the dark side of an object costs nothing here);
+/// for a lazy run that wants a few points too, since a wanted point's
+/// sources are any lit points within reach. `scratch` is the output columns,
 /// reused. Returns the points and channels whose area came out 0 (their
 /// kernel too narrow to weigh even themselves), with their light.
 fn spread_by_source(
@@ -572,6 +601,7 @@ fn spread_by_source(
     scratch: &mut [Vec<f32>; 3],
 ) -> Vec<(u32, u8, f32)> {
     let lit: Vec<[f32; 3]> = inp.pts.iter().map(|q| q.illum).collect();
+    let is_lit: Vec<bool> = lit.iter().map(|e| e.iter().any(|&x| x != 0.0)).collect();
     let grey = inp.grey;
     for q in inp.pts.iter_mut() {
         q.illum = [1.0; 3];
@@ -582,10 +612,22 @@ fn spread_by_source(
         bounce: 0.0,
         ..*p
     };
-    sum_all(inp, &areas, None, progress, &mut Report::default(), scratch);
+    sum_all(
+        inp,
+        &areas,
+        Some(&is_lit),
+        progress,
+        &mut Report::default(),
+        scratch,
+    );
     let gains = p.gains();
     let mut own = Vec::new();
     for (i, q) in inp.pts.iter_mut().enumerate() {
+        if !is_lit[i] {
+            // (Its area may not have been summed: it has no light to spread.)
+            q.illum = [0.0; 3];
+            continue;
+        }
         q.illum = [0, 1, 2].map(|c| {
             // (The pass multiplied by the gain: divided out.)
             let a = scratch[c][i] as f64 / gains[c];

@@ -7,6 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::*;
+use pcsss::cloud::DetailValue;
 use pcsss::stages::medium::Medium;
 
 fn physical(medium: Medium) -> Params {
@@ -89,6 +90,114 @@ fn a_flat_evenly_lit_plane_gives_its_irradiance_times_the_reflectance() {
     }
 }
 
+/// Light arriving obliquely (`illum_cos` from illum): the plane returns
+/// its irradiance times the reflectance at that cosine, which is more than
+/// along the normal at eta 1 and less near grazing under a dielectric.
+#[test]
+fn oblique_light_is_returned_by_the_reflectance_at_its_cosine() {
+    let e = [2.0, 1.0, 0.5];
+    let (k, h) = (201usize, 0.006);
+    for (eta, cos) in [(1.0, 0.5), (1.33, 0.5), (1.33, 0.05)] {
+        let m = Medium::from_colour([0.8, 0.5, 0.2], [0.05, 0.035, 0.025], true, eta, 0.0).unwrap();
+        let p = physical(m);
+        let ld1 = p.distances().iter().copied().fold(0.0, f64::max);
+        let mut c = grid(k, h, e, 0.0, 5);
+        c.points_mut()
+            .set_scalar("illum_cos", vec![cos as f32; k * k])
+            .unwrap();
+        let mut out = c.clone();
+        let rep = ssmulti::ssmulti(&mut out, &p, &Progress::hidden()).unwrap();
+        assert!(rep.by_incidence);
+        assert_eq!(
+            *out.detail("ssmulti_incidence").unwrap(),
+            DetailValue::Str("illum_cos".into())
+        );
+        let want = m.rm_at(cos as f32 as f64);
+        let (normal, oblique) = (m.rm[1], want[1]);
+        assert!(
+            if eta == 1.0 {
+                oblique > 1.05 * normal
+            } else {
+                oblique != normal
+            },
+            "eta {eta} cos {cos}: {oblique} against {normal} along the normal"
+        );
+        let got = out.points().vec3_f64("ssM").unwrap();
+        let pos = c.points().vec3_f64("P").unwrap();
+        let span = (k - 1) as f64 * h;
+        let far = 2.0 * ld1;
+        let mut inner = 0;
+        for (q, v) in pos.iter().zip(&got) {
+            if q[0] > far && q[0] < span - far && q[1] > far && q[1] < span - far {
+                inner += 1;
+                for ch in 0..3 {
+                    let w = want[ch] * e[ch];
+                    // The incidence table's linear blend between cosines.
+                    assert!(
+                        rel_err(v[ch], w) < 2e-3,
+                        "eta {eta} cos {cos}: {} against {w}",
+                        v[ch]
+                    );
+                }
+            }
+        }
+        assert!(inner > 1000, "{inner}");
+        // Without illum_cos: along the normal, and said so.
+        let mut plain = grid(k, h, e, 0.0, 5);
+        let rep = ssmulti::ssmulti(&mut plain, &p, &Progress::hidden()).unwrap();
+        assert!(!rep.by_incidence);
+        assert_eq!(
+            *plain.detail("ssmulti_incidence").unwrap(),
+            DetailValue::Str("normal".into())
+        );
+    }
+}
+
+/// Light entering a thin part (`thickness` from `illum --thickness`): the
+/// plane returns its irradiance times the multiple-scattering light a slab
+/// that thick sends out of both faces.
+#[test]
+fn a_thin_part_returns_what_a_slab_that_thick_does() {
+    let e = [2.0, 1.0, 0.5];
+    let (k, h) = (201usize, 0.006);
+    let m = Medium::new([0.95, 0.8, 0.5], [0.02, 0.03, 0.05], 1.3, 0.2).unwrap();
+    let p = physical(m);
+    let ld1 = p.distances().iter().copied().fold(0.0, f64::max);
+    for t in [0.005, 0.04, 1e9] {
+        let mut c = grid(k, h, e, 0.0, 5);
+        c.points_mut()
+            .set_scalar("thickness", vec![t as f32; k * k])
+            .unwrap();
+        let rep = ssmulti::ssmulti(&mut c, &p, &Progress::hidden()).unwrap();
+        assert!(rep.by_thickness && !rep.by_incidence);
+        assert_eq!(
+            *c.detail("ssmulti_thickness").unwrap(),
+            DetailValue::Str("thickness".into())
+        );
+        let want = m.rm_slab(t as f32 as f64);
+        // (A fraction of a mean free path scatters little; one to a few
+        // return more than a thick part, which absorbs what diffuses deep.)
+        if t < 0.01 {
+            assert!(
+                want.iter().zip(&m.rm).all(|(a, b)| a < &(0.5 * b)),
+                "{want:?}"
+            );
+        }
+        let got = c.points().vec3_f64("ssM").unwrap();
+        let pos = c.points().vec3_f64("P").unwrap();
+        let (span, far) = ((k - 1) as f64 * h, 2.0 * ld1);
+        for (q, v) in pos.iter().zip(&got) {
+            if q[0] > far && q[0] < span - far && q[1] > far && q[1] < span - far {
+                for ch in 0..3 {
+                    let w = want[ch] * e[ch];
+                    // The thickness table's blend in ln T.
+                    assert!(rel_err(v[ch], w) < 0.01, "T {t}: {} against {w}", v[ch]);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn the_sums_equal_the_double_loop_with_the_medium_kernel() {
     let m = Medium::new([0.99, 0.9, 0.6], [0.05, 0.04, 0.1], 1.4, 0.3).unwrap();
@@ -115,6 +224,35 @@ fn the_sums_equal_the_double_loop_with_the_medium_kernel() {
         }
     }
     assert!(worst < 1e-5, "worst {worst:e}");
+    // Half of it in the dark, whole leaves of it: the source
+    // normalisation's area pass skips them (no light to spread), and the
+    // sums are still the double loop's.
+    let mut half = c.clone();
+    let pos = c.points().vec3_f64("P").unwrap();
+    let mut e: Vec<[f32; 3]> = c
+        .points()
+        .vec3_f64("illum")
+        .unwrap()
+        .iter()
+        .map(|v| v.map(|x| x as f32))
+        .collect();
+    for (v, q) in e.iter_mut().zip(&pos) {
+        if q[1] > -1.0 {
+            *v = [0.0; 3];
+        }
+    }
+    half.points_mut()
+        .set_vec3("illum", Role::Color, &e)
+        .unwrap();
+    let got = run(&half, &p);
+    let want = brute(&half, &as_seed);
+    let mut worst: f64 = 0.0;
+    for (g, w) in got.iter().zip(&want) {
+        for ch in 0..3 {
+            worst = worst.max(rel_err(g[ch], w[ch] * m.rm[ch] / ld[ch]));
+        }
+    }
+    assert!(worst < 1e-5, "half dark: worst {worst:e}");
 }
 
 /// A unit sphere of 10,000 points (and with `shell`, a second one of
