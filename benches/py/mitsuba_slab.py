@@ -20,7 +20,14 @@ Beside it, the physical model's own values, `R_m + R_s` and `R_m`, as
 `ssmulti_reflectance`) on a one-point cloud (the release binaries, `cargo
 build --release`).
 
-    python mitsuba_slab.py SPP [ETA,..] [G,..] [ALPHA,..]
+    python mitsuba_slab.py SPP [ETA,..] [G,..] [ALPHA,..] [--mu MU]
+
+With `--mu MU` the meter looks down at cosine MU with the normal: by
+reciprocity, the reflectance for light arriving at that cosine (the
+mirror reflection taken off is then `F(MU)`). The model's multiple
+scattering is then `ssM` of a one-point cloud whose `illum_cos` is MU
+(its total is not printed: sssingle's single scattering depends on a
+camera).
 
 Mitsuba's figures are kept in benches/results/mitsuba_slab.json (by case
 and sample count) and read from there when present, so that the model's
@@ -38,11 +45,18 @@ import mitsuba as mi
 mi.set_variant("scalar_rgb")
 
 
-def fresnel0(eta):
-    return ((eta - 1) / (eta + 1)) ** 2
+def fresnel(mu, eta):
+    """Unpolarised Fresnel reflectance from outside at cosine mu."""
+    if eta == 1.0:
+        return 0.0
+    st2 = (1 - mu * mu) / (eta * eta)
+    ct = (1 - st2) ** 0.5
+    rs = (mu - eta * ct) / (mu + eta * ct)
+    rp = (eta * mu - ct) / (eta * mu + ct)
+    return 0.5 * (rs * rs + rp * rp)
 
 
-def measure(alpha, eta, g, spp, max_depth):
+def measure(alpha, eta, g, spp, max_depth, mu=1.0):
     bsdf = ({"type": "null"} if eta == 1.0 else
             {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0})
     scene = mi.load_dict({
@@ -58,7 +72,8 @@ def measure(alpha, eta, g, spp, max_depth):
         },
         "meter": {
             "type": "radiancemeter",
-            "origin": [0, 0, 1], "direction": [0, 0, -1],
+            "origin": [(1 - mu * mu) ** 0.5, 0, mu],
+            "direction": [-((1 - mu * mu) ** 0.5), 0, -mu],
             "film": {"type": "hdrfilm", "width": 1, "height": 1,
                      "rfilter": {"type": "box"}, "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": spp},
@@ -89,18 +104,26 @@ def cached(key, compute):
     return entry
 
 
-def model(alpha, eta, g):
-    """The model's (R_m + R_s, R_m), as ssmulti records them."""
+def model(alpha, eta, g, mu=1.0):
+    """The model's (R_m + R_s, R_m), as ssmulti records them; at cosine
+    mu, (None, ssM of one point lit at mu)."""
     with tempfile.TemporaryDirectory() as d:
         cloud = pathlib.Path(d) / "one.ply"
         cloud.write_text(
             "ply\nformat ascii 1.0\nelement vertex 1\n"
             + "".join(f"property float {n}\n" for n in
-                      ["x", "y", "z", "nx", "ny", "nz", "ptarea", "illum_r", "illum_g", "illum_b"])
-            + "end_header\n0 0 0 0 0 1 1 1 1 1\n")
+                      ["x", "y", "z", "nx", "ny", "nz", "ptarea", "illum_r", "illum_g", "illum_b",
+                       "illum_cos"])
+            + f"end_header\n0 0 0 0 0 1 1 1 1 1 {mu!r}\n")
         out = pathlib.Path(d) / "out.ply"
         subprocess.run([BIN / "ssmulti", "-q", cloud, "--model", "physical", "--albedo", str(alpha),
                         "--mfp", "1", "--eta", str(eta), "--g", str(g), "-o", out], check=True)
+        if mu != 1.0:
+            text = subprocess.run([BIN / "pcconvert", "-q", out, "--format", "ply-ascii"],
+                                  check=True, capture_output=True, text=True).stdout
+            header, body = text.split("end_header\n")
+            names = [x.split()[-1] for x in header.splitlines() if x.startswith("property")]
+            return None, float(body.split()[names.index("ssM_r")])
         info = subprocess.run([BIN / "pcinfo", out], check=True, capture_output=True, text=True).stdout
 
         def first(name):
@@ -112,6 +135,11 @@ def model(alpha, eta, g):
 if __name__ == "__main__":
     model_too = "--mitsuba-only" not in sys.argv
     sys.argv = [x for x in sys.argv if x != "--mitsuba-only"]
+    mu = 1.0
+    if "--mu" in sys.argv:
+        i = sys.argv.index("--mu")
+        mu = float(sys.argv[i + 1])
+        del sys.argv[i:i + 2]
     spp = int(sys.argv[1])
     etas = [float(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "1,1.33").split(",")]
     gs = [float(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "0,0.8").split(",")]
@@ -123,14 +151,19 @@ if __name__ == "__main__":
         # Depths: the sensor's ray (1), in through the boundary (1 with a
         # dielectric), the event (1), out (1 with a dielectric).
         single_depth = 2 if eta == 1.0 else 4
-        f0 = fresnel0(eta) if eta != 1.0 else 0.0
+        f0 = fresnel(mu, eta)
         for g in gs:
             for a in alphas:
-                key = f"eta {eta} g {g} albedo {a} spp {spp}"
-                tot = cached(key + " all", lambda: measure(a, eta, g, spp, -1))
-                one = cached(key + " single", lambda: measure(a, eta, g, spp, single_depth))
+                key = f"eta {eta} g {g} albedo {a} spp {spp}" + (f" mu {mu}" if mu != 1.0 else "")
+                tot = cached(key + " all", lambda: measure(a, eta, g, spp, -1, mu))
+                one = cached(key + " single", lambda: measure(a, eta, g, spp, single_depth, mu))
                 total, single = tot["value"] - f0, one["value"] - f0
-                if model_too:
+                if model_too and mu != 1.0:
+                    ms = total - single
+                    _, mm = model(a, eta, g, mu)
+                    print(f"| {eta} | {g} | {a} | {total:.4f} | - | - | "
+                          f"{ms:.4f} | {mm:.4f} | {mm / ms:.3f} | {tot['seconds']:.0f} |", flush=True)
+                elif model_too:
                     mt, mm = model(a, eta, g)
                     ms = total - single
                     print(f"| {eta} | {g} | {a} | {total:.4f} | {mt:.4f} | {mt / total:.3f} | "

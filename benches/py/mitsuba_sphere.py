@@ -35,6 +35,8 @@ import numpy as np
 
 mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+# The rows of the last full run (error against time), for plot_error_time.py.
+RESULTS = ROOT / "benches" / "results" / "mitsuba_sphere.json"
 ALBEDO, MFP = 0.95, 0.05
 SIZE = 64
 LIGHT = [0.0, -0.6, -0.8]  # the light's travel direction (unit)
@@ -166,6 +168,7 @@ if __name__ == "__main__":
     print(f"reference: Mitsuba {ref_spp} spp, {ref_t:.0f} s, mean {ref.mean(axis=(0, 1))}", flush=True)
     print("| tool | setting | time (s) | RMS relative error | mean relative error |")
     print("|---|---|---|---|---|")
+    rows = []
     with tempfile.TemporaryDirectory() as dd:
         d = pathlib.Path(dd)
         mask = None
@@ -175,9 +178,12 @@ if __name__ == "__main__":
                 # Pixels the sphere covers whole in the bake, lit in the reference.
                 mask = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
             e = errors(img, ref, mask)
+            rows.append({"tool": "bake", "setting": n, "seconds": t, "rms": e[0], "mean": e[1]})
             print(f"| bake | {n} points | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
         for s in spps:
             img, t = mitsuba(s)
             e = errors(img, ref, mask)
+            rows.append({"tool": "Mitsuba", "setting": s, "seconds": t, "rms": e[0], "mean": e[1]})
             print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
         print(f"({int(mask.sum())} pixels compared)")
+    RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")

@@ -1,0 +1,174 @@
+"""The physical model's picture of the bunny against Mitsuba 3's, and the
+error of each against time.
+
+The bunny fixture (fixtures/mesh/bunny.obj, 3,674 flat triangles: Mitsuba
+renders the same facets), its two distant lights (fixtures/lights/bunny.json:
+a key from the front and a rim light from behind, which shines through the
+ears) and its camera at SIZE x SIZE pixels, filled with a medium of
+single-scattering albedo ALBEDO (per channel), mean free path MFP, g 0,
+under an index-matched boundary (eta 1: Mitsuba's light sampling reaches
+a directional light only through a null boundary). The bake is `make -C
+pipelines MODEL=physical` (scatter to render, 16 sssingle samples, 16
+rays a pixel); Mitsuba is volpath with its Gaussian pixel filter. The
+reference is Mitsuba at REF samples a pixel. Errors: RMS and mean relative
+error of the beauty over the pixels the bunny covers whole in the bake and
+that are lit in the reference, each channel a sample; and over the ears
+alone (the pixels above EAR_Y of the image's height), lit from behind.
+
+    python mitsuba_bunny.py [REF] [COUNTS] [SPPS]
+    python mitsuba_bunny.py --split [REF] [COUNT]
+
+`--split`: the bake's `ssS` and `ssM` pictures apart against Mitsuba's
+single scattering (the path cut after one event) and the rest.
+"""
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import mitsuba as mi
+import numpy as np
+
+mi.set_variant("scalar_rgb")
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+# The rows of the last full run (error against time), for plot_error_time.py.
+RESULTS = ROOT / "benches" / "results" / "mitsuba_bunny.json"
+ALBEDO, MFP = [0.95, 0.85, 0.7], 0.1
+SIZE = 96
+# The ears: the image's top rows, above the head.
+EAR_ROWS = 0.42
+LIGHTS = json.loads((ROOT / "fixtures/lights/bunny.json").read_text())["lights"]
+CAMERA = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), width=SIZE, height=SIZE)
+MESH = ROOT / "fixtures/mesh/bunny.obj"
+
+
+def mitsuba(spp, max_depth=-1):
+    scene = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": max_depth},
+        "bunny": {
+            "type": "obj", "filename": str(MESH), "face_normals": True, "bsdf": {"type": "null"},
+            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
+                         "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
+        },
+        "camera": {
+            "type": "perspective", "fov": CAMERA["fov"], "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(origin=CAMERA["position"],
+                                                       target=CAMERA["look_at"], up=CAMERA["up"]),
+            "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE, "pixel_format": "rgb",
+                     "rfilter": {"type": "gaussian"}},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+    }
+    # A distant light of colour * intensity gives an irradiance of that
+    # across its direction (illum's Cl).
+    for l in LIGHTS:
+        e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
+        scene[l["name"]] = {"type": "directional", "direction": l["direction"],
+                            "irradiance": {"type": "rgb", "value": e}}
+    t = time.time()
+    img = np.array(mi.render(mi.load_dict(scene), spp=spp))
+    return img[:, :, :3], time.time() - t
+
+
+def read_image(exr, d):
+    """(beauty premultiplied, coverage) as SIZE x SIZE arrays, from the
+    render's OpenEXR (through pcconvert to ASCII PLY)."""
+    ply = d / "img.ply"
+    subprocess.run([ROOT / "target/release/pcconvert", "-q", exr, "--format", "ply-ascii", "-o", ply],
+                   check=True)
+    text = ply.read_text().split("end_header\n")
+    names = [l.split()[-1] for l in text[0].splitlines() if l.startswith("property")]
+    rows = np.loadtxt(text[1].splitlines(), ndmin=2)
+    col = {n: rows[:, k] for k, n in enumerate(names)}
+    img, a = np.zeros((SIZE, SIZE, 3)), np.zeros((SIZE, SIZE))
+    x, y = col["pixel_x"].astype(int), col["pixel_y"].astype(int)
+    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
+        img[y, x, c] = col[n]
+    a[y, x] = col["A"]
+    return img, a
+
+
+def bake(count, d):
+    cam = d / "cam.json"
+    cam.write_text(json.dumps(CAMERA))
+    out = d / f"out{count}"
+    t = time.time()
+    subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={MESH}", f"CAMERA={cam}",
+                    f"OUT={out}", f"COUNT={count}", "MODEL=physical",
+                    f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16",
+                    "SAMPLES=16", "SHADOWS=1"], check=True, stdout=subprocess.DEVNULL)
+    took = time.time() - t
+    img, a = read_image(out / "bunny.exr", d)
+    return img, a, took
+
+
+def errors(img, ref, mask):
+    rel = (img[mask] - ref[mask]) / ref[mask]
+    return float(np.sqrt(np.mean(rel ** 2))), float(np.mean(rel))
+
+
+def masks(a, ref):
+    whole = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
+    ears = whole.copy()
+    ears[int(EAR_ROWS * SIZE):, :] = False
+    return whole, ears
+
+
+def split(ref_spp, count):
+    ref, _ = mitsuba(ref_spp)
+    single, _ = mitsuba(ref_spp, max_depth=2)
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        img, a, _ = bake(count, d)
+        out = d / f"out{count}"
+        whole, ears = masks(a, ref)
+        part = {}
+        for attr in ["ssM", "ssS"]:
+            exr = d / f"{attr}.exr"
+            subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / "bunny_mesh.ply",
+                            "--camera", d / "cam.json", "--cloud", out / "bunny_sss.ply",
+                            "--attr", attr, "--spp", "16", "-o", exr], check=True)
+            part[attr] = read_image(exr, d)[0]
+    for name, m in [("whole", whole), ("ears", ears)]:
+        print(f"{name}: single scattering: bake {part['ssS'][m].mean():.4f}, Mitsuba {single[m].mean():.4f}; "
+              f"multiple (ssM / pi): bake {part['ssM'][m].mean() / np.pi:.4f}, "
+              f"Mitsuba {(ref - single)[m].mean():.4f}")
+
+
+if __name__ == "__main__":
+    if "--split" in sys.argv:
+        args = [x for x in sys.argv[1:] if x != "--split"]
+        split(int(args[0]) if args else 1024, int(args[1]) if len(args) > 1 else 200000)
+        sys.exit()
+    ref_spp = int(sys.argv[1]) if len(sys.argv) > 1 else 1024
+    counts = [int(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "50000,200000,1000000").split(",")]
+    spps = [int(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "4,16,64,256").split(",")]
+    ref, ref_t = mitsuba(ref_spp)
+    print(f"reference: Mitsuba {ref_spp} spp, {ref_t:.0f} s, mean {ref.mean(axis=(0, 1))}", flush=True)
+    print("| tool | setting | time (s) | RMS relative error | mean relative error | ears: RMS | ears: mean |")
+    print("|---|---|---|---|---|---|---|")
+    rows = []
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        whole = ears = None
+        for n in counts:
+            img, a, t = bake(n, d)
+            if whole is None:
+                whole, ears = masks(a, ref)
+            e, f = errors(img, ref, whole), errors(img, ref, ears)
+            rows.append({"tool": "bake", "setting": n, "seconds": t, "rms": e[0], "mean": e[1],
+                         "ears_rms": f[0], "ears_mean": f[1]})
+            print(f"| bake | {n} points | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} | {f[0]:.3f} | {f[1]:+.3f} |",
+                  flush=True)
+        for s in spps:
+            img, t = mitsuba(s)
+            e, f = errors(img, ref, whole), errors(img, ref, ears)
+            rows.append({"tool": "Mitsuba", "setting": s, "seconds": t, "rms": e[0], "mean": e[1],
+                         "ears_rms": f[0], "ears_mean": f[1]})
+            print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} | {f[0]:.3f} | {f[1]:+.3f} |",
+                  flush=True)
+        print(f"({int(whole.sum())} pixels compared, {int(ears.sum())} on the ears)")
+    RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")
