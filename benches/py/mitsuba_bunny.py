@@ -134,7 +134,7 @@ def split(ref_spp, count):
             part[attr] = read_image(exr, d)[0]
     for name, m in [("whole", whole), ("ears", ears)]:
         print(f"{name}: single scattering: bake {part['ssS'][m].mean():.4f}, Mitsuba {single[m].mean():.4f}; "
-              f"multiple (ssM / pi): bake {part['ssM'][m].mean() / np.pi:.4f}, "
+              f"multiple (ssM / pi): bake {part['ssM'][m].mean():.4f}, "
               f"Mitsuba {(ref - single)[m].mean():.4f}")
 
 
