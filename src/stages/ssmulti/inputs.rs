@@ -341,7 +341,11 @@ pub(super) fn weigh_light(
             f = [0, 1, 2].map(|ch| f[ch] * k[ch]);
         }
         for c in 0..3 {
-            pt.illum[c] = (pt.illum[c] as f64 * f[c]) as f32;
+            // (Flushed below the normal floats: a part a hair's breadth
+            // thick returns next to nothing, and subnormal light would
+            // slow every pair it is in.)
+            let v = (pt.illum[c] as f64 * f[c]) as f32;
+            pt.illum[c] = if v.abs() < f32::MIN_POSITIVE { 0.0 } else { v };
         }
     });
     inp.grey = inp

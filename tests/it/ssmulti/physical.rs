@@ -198,6 +198,23 @@ fn a_thin_part_returns_what_a_slab_that_thick_does() {
     }
 }
 
+/// A NaN `illum_cos` or `thickness` is refused, naming the point and
+/// the attribute.
+#[test]
+fn nan_weights_are_refused_naming_the_point() {
+    let m = Medium::new([0.8; 3], [0.05; 3], 1.3, 0.0).unwrap();
+    for name in ["illum_cos", "thickness"] {
+        let mut c = wavy(200, DVec3::ZERO, 1.0, 4);
+        let mut v = vec![0.5f32; 200];
+        v[37] = f32::NAN;
+        c.points_mut().set_scalar(name, v).unwrap();
+        let err = ssmulti::ssmulti(&mut c, &physical(m), &Progress::hidden())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("point 37") && err.contains(name), "{err}");
+    }
+}
+
 #[test]
 fn the_sums_equal_the_double_loop_with_the_medium_kernel() {
     let m = Medium::new([0.99, 0.9, 0.6], [0.05, 0.04, 0.1], 1.4, 0.3).unwrap();
@@ -332,6 +349,22 @@ fn a_white_medium_and_tiny_or_huge_paths_are_refused_or_finite() {
         assert!(
             got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0),
             "mfp {mfp}, eta {eta}, albedo {alpha}"
+        );
+        // With the light's cosines and the thicknesses behind (grazing to
+        // along the normal; nothing, a hair's breadth, an open mesh's
+        // float maximum, infinity): finite too.
+        let mut weighed = c.clone();
+        let n = weighed.points().len();
+        let cos: Vec<f32> = (0..n).map(|i| [0.0, 0.01, 0.5, 1.0, 1.5][i % 5]).collect();
+        let thick: Vec<f32> = (0..n)
+            .map(|i| [0.0, 1e-30, 0.3, f32::MAX, f32::INFINITY][i % 5])
+            .collect();
+        weighed.points_mut().set_scalar("illum_cos", cos).unwrap();
+        weighed.points_mut().set_scalar("thickness", thick).unwrap();
+        let w = run(&weighed, &physical(m));
+        assert!(
+            w.iter().flatten().all(|x| x.is_finite() && *x >= 0.0),
+            "weighed: mfp {mfp}, eta {eta}, albedo {alpha}"
         );
         if mfp < 1e-6 {
             // A kernel narrower than every point's disk: each point
