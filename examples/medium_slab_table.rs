@@ -3,8 +3,8 @@
 //! (`pcsss::stages::medium::walk::walk_in`) into a slab of each thickness
 //! in [`THICKNESS`] mean free paths, lit along its normal, at each node of
 //! phase asymmetry `g` and relative index `eta` (those of
-//! `src/stages/medium/table.rs`), its histogram of scattering events of
-//! the light that leaves through either face.
+//! `src/stages/medium/table.rs`), its histograms of scattering events of
+//! the light that leaves through either face, and through the far one.
 //!
 //!     cargo run --release --example medium_slab_table > src/stages/medium/slab_table.rs
 //!
@@ -16,7 +16,7 @@ use std::fmt::Write;
 use std::time::Instant;
 
 use pcsss::stages::medium::table::{ETA, G};
-use pcsss::stages::medium::walk::{edges, walk_in};
+use pcsss::stages::medium::walk::{edges, walk_faces};
 
 /// Slab thicknesses in mean free paths (thicker: the semi-infinite
 /// medium of the main table).
@@ -27,14 +27,14 @@ const PATHS: u64 = 200_000;
 
 fn main() {
     let nb = edges().len() - 1;
-    let mut rows = String::new();
+    let (mut rows, mut through_rows) = (String::new(), String::new());
     let start = Instant::now();
     for (i, &g) in G.iter().enumerate() {
         for (j, &eta) in ETA.iter().enumerate() {
             for &t in &THICKNESS {
                 let k = i * ETA.len() + j;
                 let s = Instant::now();
-                let h = walk_in(g, eta, 1.0, t, PATHS, k as u64);
+                let (h, through) = walk_faces(g, eta, 1.0, t, PATHS, k as u64);
                 eprintln!(
                     "g {g} eta {eta} thickness {t}: {:.1} s, R+T(0.9) {:.5}, survivors {:.5}",
                     s.elapsed().as_secs_f64(),
@@ -49,6 +49,17 @@ fn main() {
                     .collect();
                 writeln!(
                     rows,
+                    "    // g {g}, eta {eta}, thickness {t}\n    [{}],",
+                    cells.join(", ")
+                )
+                .unwrap();
+                let cells: Vec<String> = through
+                    .bins
+                    .iter()
+                    .map(|&p| format!("{:?}", p as f32))
+                    .collect();
+                writeln!(
+                    through_rows,
                     "    // g {g}, eta {eta}, thickness {t}\n    [{}],",
                     cells.join(", ")
                 )
@@ -76,10 +87,14 @@ fn main() {
 /// Slab thicknesses, in mean free paths.\npub const THICKNESS: [f64; {}] = [{}];\n\
 /// Paths walked at each node.\npub const PATHS: u64 = {PATHS};\n\
 /// Per node, the shares of each bin and the survivors'.\n\
-pub static SHARES: [[f32; {}]; {}] = [\n{rows}];\n",
+pub static SHARES: [[f32; {}]; {}] = [\n{rows}];\n\n\
+/// Per node, the shares of each bin that leave through the far face.\n\
+pub static THROUGH: [[f32; {}]; {}] = [\n{through_rows}];\n",
         THICKNESS.len(),
         list(&THICKNESS),
         nb + 1,
+        G.len() * ETA.len() * THICKNESS.len(),
+        nb,
         G.len() * ETA.len() * THICKNESS.len(),
     );
 }

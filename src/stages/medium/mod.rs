@@ -122,22 +122,51 @@ fn histogram(eta: f64, g: f64, mu_i: f64) -> Histogram {
 /// than its first, that node's scaled by `thickness / first` for one
 /// event and its square for more (each event within the thickness).
 fn slab_histogram(eta: f64, g: f64, thickness: f64) -> Histogram {
+    slab_blend(&slab_table::SHARES, eta, g, thickness, true)
+}
+
+/// [`slab_histogram`] of the light that leaves through the far face
+/// alone (thicker than the table's last node, blended with nothing: a
+/// semi-infinite medium lets nothing through).
+fn slab_through(eta: f64, g: f64, thickness: f64) -> Histogram {
+    slab_blend(&slab_table::THROUGH, eta, g, thickness, false)
+}
+
+/// The blend of one of the slab tables (`rows` of `SHARES` or `THROUGH`,
+/// with a survivors' column when `survivors`) at `(eta, g, thickness)`.
+fn slab_blend<const N: usize>(
+    rows: &[[f32; N]],
+    eta: f64,
+    g: f64,
+    thickness: f64,
+    survivors: bool,
+) -> Histogram {
     let nodes = &slab_table::THICKNESS;
     let (first, last) = (nodes[0], nodes[nodes.len() - 1]);
+    // The semi-infinite medium, as a row of this table's shape.
+    let deep = || -> Vec<f64> {
+        if !survivors {
+            return vec![0.0; N];
+        }
+        let h = histogram(eta, g, 1.0);
+        let mut d = h.bins;
+        d.push(h.survivors);
+        d
+    };
     if thickness.is_nan() || thickness == f64::INFINITY {
-        return histogram(eta, g, 1.0);
+        return split(deep(), survivors);
     }
     let blend = |k: usize, tk: f64| -> Vec<f64> {
         let (i, tg) = bracket(&table::G, g);
         let (j, te) = bracket(&table::ETA, eta);
         let (ne, nt) = (table::ETA.len(), nodes.len());
-        let mut v = vec![0.0f64; slab_table::SHARES[0].len()];
+        let mut v = vec![0.0f64; N];
         for (di, wg) in [(0, 1.0 - tg), (1, tg)] {
             for (dj, we) in [(0, 1.0 - te), (1, te)] {
                 for (dk, wt) in [(0, 1.0 - tk), (1, tk)] {
                     let w = wg * we * wt;
                     if w > 0.0 {
-                        let row = &slab_table::SHARES[((i + di) * ne + j + dj) * nt + k + dk];
+                        let row = &rows[((i + di) * ne + j + dj) * nt + k + dk];
                         v.iter_mut().zip(row).for_each(|(a, &b)| *a += w * b as f64);
                     }
                 }
@@ -145,14 +174,11 @@ fn slab_histogram(eta: f64, g: f64, thickness: f64) -> Histogram {
         }
         v
     };
-    let mut v = if thickness >= last {
-        let deep = histogram(eta, g, 1.0);
+    let v = if thickness >= last {
         let w = last / thickness;
         let slab = blend(nodes.len() - 2, 1.0);
-        let mut d = deep.bins.clone();
-        d.push(deep.survivors);
         slab.iter()
-            .zip(&d)
+            .zip(&deep())
             .map(|(a, b)| w * a + (1.0 - w) * b)
             .collect()
     } else if thickness <= first {
@@ -166,7 +192,17 @@ fn slab_histogram(eta: f64, g: f64, thickness: f64) -> Histogram {
         let (k, tk) = bracket(&logs, thickness.ln());
         blend(k, tk)
     };
-    let survivors = v.pop().unwrap_or(0.0);
+    split(v, survivors)
+}
+
+/// A table row as a histogram (its last column the survivors', when it
+/// has one).
+fn split(mut v: Vec<f64>, survivors: bool) -> Histogram {
+    let survivors = if survivors {
+        v.pop().unwrap_or(0.0)
+    } else {
+        0.0
+    };
     Histogram { bins: v, survivors }
 }
 
@@ -400,6 +436,21 @@ impl Medium {
         })
     }
 
+    /// The share per channel of [`Medium::rm_slab`] that leaves through
+    /// the far face (0 for a thick part; about a half for a thin one).
+    pub fn through_slab(&self, thickness: f64) -> [f64; 3] {
+        [0, 1, 2].map(|c| {
+            let t = thickness / self.mfp[c];
+            let all = slab_histogram(self.eta, self.g, t).reflectance(self.albedo[c], 2);
+            let far = slab_through(self.eta, self.g, t).reflectance(self.albedo[c], 2);
+            if all > 0.0 {
+                (far / all).clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        })
+    }
+
     /// [`Medium::rm_slab`] over `rm`, tabulated for [`Thinness::factor`].
     pub fn thinness(&self) -> Thinness {
         let ratios = (0..THIN_NODES)
@@ -416,8 +467,15 @@ impl Medium {
                 })
             })
             .collect();
+        let through = (0..THIN_NODES)
+            .map(|k| {
+                let x = THIN_LO + k as f64 * THIN_STEP;
+                [0, 1, 2].map(|c| self.through_slab(x.exp() * self.mfp[c])[c])
+            })
+            .collect();
         Thinness {
             ratios,
+            through,
             mfp: self.mfp,
         }
     }
@@ -435,10 +493,29 @@ const THIN_NODES: usize = 101;
 pub struct Thinness {
     /// Per node, per channel.
     ratios: Vec<[f64; 3]>,
+    /// Per node, per channel: the share through the far face.
+    through: Vec<[f64; 3]>,
     mfp: [f64; 3],
 }
 
 impl Thinness {
+    /// The share per channel of the light a part `thickness` thick sends
+    /// out that leaves through its far face ([`Medium::through_slab`]),
+    /// linear in `ln(thickness / mfp)` between the nodes, the end nodes'
+    /// beyond them (0 at 0 or a non-number).
+    pub fn through(&self, thickness: f64) -> [f64; 3] {
+        [0, 1, 2].map(|c| {
+            let t = thickness / self.mfp[c];
+            if t.is_nan() || t <= 0.0 {
+                return 0.0;
+            }
+            let x = ((t.ln() - THIN_LO) / THIN_STEP).clamp(0.0, (THIN_NODES - 1) as f64);
+            let i = (x.floor() as usize).min(THIN_NODES - 2);
+            let f = x - i as f64;
+            self.through[i][c] * (1.0 - f) + self.through[i + 1][c] * f
+        })
+    }
+
     /// The ratio per channel at `thickness` in the scene's units: linear
     /// in `ln(thickness / mfp)` between the nodes, the thickest node's
     /// beyond them (within 1e-3 of 1), and `(thickness / thinnest)^2` times

@@ -178,44 +178,72 @@ pub fn walk_from(g: f64, eta: f64, mu_i: f64, paths: u64, seed: u64) -> Histogra
 /// are in no bin (the shares then sum to less than 1). The same random
 /// streams as [`walk_from`]'s.
 pub fn walk_in(g: f64, eta: f64, mu_i: f64, thickness: f64, paths: u64, seed: u64) -> Histogram {
+    walk_faces(g, eta, mu_i, thickness, paths, seed).0
+}
+
+/// [`walk_in`], and beside it the histogram of the light that leaves
+/// through the far face alone (a slab's transmission; nothing for the
+/// semi-infinite medium).
+pub fn walk_faces(
+    g: f64,
+    eta: f64,
+    mu_i: f64,
+    thickness: f64,
+    paths: u64,
+    seed: u64,
+) -> (Histogram, Histogram) {
     let mu0 = refracted(mu_i, eta);
     let e = edges();
+    let nb = e.len() - 1;
     let chunks = paths.div_ceil(CHUNK);
-    let (bins, survivors) = (0..chunks)
+    let (bins, through, survivors) = (0..chunks)
         .into_par_iter()
         .map(|k| {
             let mut r = Pcg32::new(seed, k);
-            let mut bins = vec![0u64; e.len() - 1];
+            let (mut bins, mut through) = (vec![0u64; nb], vec![0u64; nb]);
             let mut survivors = 0u64;
             let n_paths = CHUNK.min(paths - k * CHUNK);
             for _ in 0..n_paths {
                 match one(g, eta, mu0, thickness, &mut r) {
-                    Some(0) => {}
-                    Some(n) => bins[bin_of(&e, n)] += 1,
+                    Some((0, _)) => {}
+                    Some((n, far)) => {
+                        bins[bin_of(&e, n)] += 1;
+                        if far {
+                            through[bin_of(&e, n)] += 1;
+                        }
+                    }
                     None => survivors += 1,
                 }
             }
-            (bins, survivors)
+            (bins, through, survivors)
         })
         .reduce(
-            || (vec![0u64; e.len() - 1], 0u64),
-            |(mut a, sa), (b, sb)| {
+            || (vec![0u64; nb], vec![0u64; nb], 0u64),
+            |(mut a, mut at, sa), (b, bt, sb)| {
                 a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                (a, sa + sb)
+                at.iter_mut().zip(&bt).for_each(|(x, y)| *x += y);
+                (a, at, sa + sb)
             },
         );
     let p = paths as f64;
-    Histogram {
-        bins: bins.iter().map(|&c| c as f64 / p).collect(),
-        survivors: survivors as f64 / p,
-    }
+    let share = |c: &[u64]| c.iter().map(|&c| c as f64 / p).collect();
+    (
+        Histogram {
+            bins: share(&bins),
+            survivors: survivors as f64 / p,
+        },
+        Histogram {
+            bins: share(&through),
+            survivors: 0.0,
+        },
+    )
 }
 
 /// One path entering at cosine `mu0` with the inward normal a slab
 /// `thickness` thick: the scattering events before it leaves through
-/// either face (0: it crossed unscattered), `None` if it is still inside
-/// after [`N_MAX`].
-fn one(g: f64, eta: f64, mu0: f64, thickness: f64, r: &mut Pcg32) -> Option<u32> {
+/// either face (0: it crossed unscattered) and whether it left by the far
+/// one, `None` if it is still inside after [`N_MAX`].
+fn one(g: f64, eta: f64, mu0: f64, thickness: f64, r: &mut Pcg32) -> Option<(u32, bool)> {
     // Depth below the surface and the direction's cosine with the inward
     // normal.
     let (mut z, mut mu) = (0.0f64, mu0);
@@ -231,13 +259,13 @@ fn one(g: f64, eta: f64, mu0: f64, thickness: f64, r: &mut Pcg32) -> Option<u32>
         loop {
             if z < 0.0 {
                 if uniform53(r) >= fresnel(-mu, 1.0 / eta) {
-                    return Some(n);
+                    return Some((n, false));
                 }
                 z = -z;
                 mu = -mu;
             } else if z > thickness {
                 if uniform53(r) >= fresnel(mu, 1.0 / eta) {
-                    return Some(n);
+                    return Some((n, true));
                 }
                 z = 2.0 * thickness - z;
                 mu = -mu;
@@ -352,7 +380,7 @@ pub(super) mod tests {
     fn a_thin_slab_passes_what_it_does_not_scatter() {
         for thick in [0.1, 0.5, 2.0] {
             let paths = 100_000;
-            let h = walk_in(0.0, 1.0, 1.0, thick, paths, 13);
+            let (h, through) = walk_faces(0.0, 1.0, 1.0, thick, paths, 13);
             let scattered: f64 = h.bins.iter().sum::<f64>() + h.survivors;
             let p0 = (-thick).exp();
             let se = (p0 * (1.0 - p0) / paths as f64).sqrt();
@@ -363,22 +391,31 @@ pub(super) mod tests {
             );
             assert_eq!(h.survivors, 0.0);
             let m = 400;
-            let mut want = 0.0;
+            let (mut want, mut down) = (0.0, 0.0);
             for a in 0..m {
                 let z = thick * (a as f64 + 0.5) / m as f64;
-                let mut s = 0.0;
+                let (mut s, mut sd) = (0.0, 0.0);
                 for b in 0..m {
                     let mu = (b as f64 + 0.5) / m as f64;
-                    s += (-z / mu).exp() + (-(thick - z) / mu).exp();
+                    s += (-z / mu).exp();
+                    sd += (-(thick - z) / mu).exp();
                 }
-                want += (-z).exp() * 0.5 * s / m as f64 * thick / m as f64;
+                let w = (-z).exp() * 0.5 / m as f64 * thick / m as f64;
+                want += w * (s + sd);
+                down += w * sd;
             }
-            let se = (want / paths as f64).sqrt();
-            assert!(
-                (h.bins[0] - want).abs() < 4.0 * se + 2e-3 * want,
-                "T {thick}: one event {}, quadrature {want}",
-                h.bins[0]
-            );
+            for (got, want, what) in [
+                (h.bins[0], want, "both faces"),
+                (through.bins[0], down, "far face"),
+            ] {
+                let se = (want / paths as f64).sqrt();
+                assert!(
+                    (got - want).abs() < 4.0 * se + 2e-3 * want,
+                    "T {thick}: one event, {what}: {got}, quadrature {want}"
+                );
+            }
+            // The far face's share is part of the whole, bin by bin.
+            assert!(through.bins.iter().zip(&h.bins).all(|(t, a)| t <= a));
         }
         // An infinite slab is the half-space, draw for draw.
         assert_eq!(

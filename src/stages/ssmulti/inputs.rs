@@ -311,6 +311,7 @@ fn area_scale(atot: f64) -> f64 {
 pub(super) fn weigh_light(
     cloud: &Cloud,
     medium: &crate::stages::medium::Medium,
+    kernel: (f64, [f64; 3]),
     inp: &mut Inputs,
 ) -> Result<(bool, bool)> {
     let pts = cloud.points();
@@ -348,9 +349,137 @@ pub(super) fn weigh_light(
             pt.illum[c] = if v.abs() < f32::MIN_POSITIVE { 0.0 } else { v };
         }
     });
+    if let Some((c, thin)) = &thin {
+        through_the_far_face(cloud, c, thin, kernel, inp)?;
+    }
     inp.grey = inp
         .pts
         .par_iter()
         .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
     Ok((inc.is_some(), thin.is_some()))
+}
+
+/// A thin part's light leaves through both faces (`docs/DESIGN.md#thickness`):
+/// a share of a source's light is moved to the cloud point nearest where
+/// `-N` leaves the mesh, `P - thickness N`, when that point faces the
+/// other way and lies nearer the exit than the source does (a far face
+/// sampled there); else it stays. The kernel then spreads it from the far
+/// face as it spreads the rest from the near one; since each spreads a
+/// share `s` of its light on its own face and `1 - s` across (on two
+/// parallel planes `thickness` apart, in closed form: [`own_face`]), the
+/// share moved is `(f - (1 - s)) / (2 s - 1)` (clamped to `[0, 1]`) for
+/// the far face to get the share `f` a slab walk sends out of it. Moves
+/// in point order: the same bits for any thread count. `kernel`: the
+/// Burley `kappa` and each channel's distance `D`.
+fn through_the_far_face(
+    cloud: &Cloud,
+    thick: &ReadColumn,
+    thin: &crate::stages::medium::Thinness,
+    kernel: (f64, [f64; 3]),
+    inp: &mut Inputs,
+) -> Result<()> {
+    let nrm = cloud.points().vec3_f64("N")?;
+    let n = inp.pts.len();
+    let unit = |i: usize| DVec3::from_array(nrm[i]).normalize_or_zero();
+    let origin = if n > 0 {
+        inp.pts[0].pos_v()
+    } else {
+        DVec3::ZERO
+    };
+    let tree = crate::geom::kdtree::PointTree::new(inp.pts.iter().map(|q| q.pos_v()), origin);
+    let moves: Vec<(usize, u32, [f32; 3])> = (0..n)
+        .into_par_iter()
+        .filter_map(|i| {
+            let q = &inp.pts[i];
+            let t = thick.get(i);
+            if q.illum == [0.0; 3] || !(t > 0.0 && t < f32::MAX as f64) {
+                return None;
+            }
+            let f = thin.through(t);
+            if f.iter().all(|&s| s <= 0.0) {
+                return None;
+            }
+            let share = [0, 1, 2].map(|c| {
+                let s = own_face(kernel.0, kernel.1[c], t);
+                if 2.0 * s - 1.0 > 1e-3 {
+                    ((f[c] - (1.0 - s)) / (2.0 * s - 1.0)).clamp(0.0, 1.0)
+                } else {
+                    // (Both faces get half whatever is moved.)
+                    f[c]
+                }
+            });
+            let ni = unit(i);
+            let exit = q.pos_v() - ni * t;
+            let j = tree.nearest_one(exit).item;
+            let far = inp.pts[j as usize].pos_v().distance_squared(exit) < t * t;
+            if j as usize == i || !far || unit(j as usize).dot(ni) >= 0.0 {
+                return None;
+            }
+            let moved = [0, 1, 2].map(|c| (q.illum[c] as f64 * share[c]) as f32);
+            Some((i, j, moved))
+        })
+        .collect();
+    for (i, j, moved) in moves {
+        for c in 0..3 {
+            inp.pts[i].illum[c] -= moved[c];
+            inp.pts[j as usize].illum[c] += moved[c];
+        }
+    }
+    Ok(())
+}
+
+/// The share of a source's light the Burley kernel of shape `kappa` and
+/// reach `reach` puts on the source's own plane, with a parallel plane
+/// `gap` away: `I(0) / (I(0) + I(gap))`, `I(h) = int W(sqrt(rho^2 + h^2))
+/// 2 pi rho drho` over the disk within reach `= 2 pi (d (e^(-h/d) -
+/// e^-kappa) + 3d (e^(-h/3d) - e^(-kappa/3)))`, `d = reach / kappa`
+/// (`r dr = rho drho`). 1 when the gap is beyond reach.
+pub(super) fn own_face(kappa: f64, reach: f64, gap: f64) -> f64 {
+    if reach.is_nan() || reach <= 0.0 || gap >= reach {
+        return 1.0;
+    }
+    let d = reach / kappa;
+    let i = |h: f64| {
+        d * ((-h / d).exp() - (-kappa).exp())
+            + 3.0 * d * ((-h / (3.0 * d)).exp() - (-kappa / 3.0).exp())
+    };
+    let (own, across) = (i(0.0), i(gap.max(0.0)));
+    own / (own + across)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::own_face;
+    use std::f64::consts::PI;
+
+    /// The closed form against a quadrature of the truncated Burley
+    /// kernel over the two planes; half and half with no gap, all on its
+    /// own plane beyond reach.
+    #[test]
+    fn the_kernels_own_face_share_is_its_integral() {
+        let (kappa, reach) = (12.95, 0.4);
+        let d = reach / kappa;
+        let w = |r: f64| ((-r / d).exp() + (-r / (3.0 * d)).exp()) / r;
+        // int over the disk of the plane h away, in rho (midpoints, dense
+        // near the axis where the own plane's 1/r core lives).
+        let plane = |h: f64| {
+            let m = 200_000;
+            let top = (reach * reach - h * h).max(0.0).sqrt();
+            (0..m)
+                .map(|k| {
+                    let rho = top * ((k as f64 + 0.5) / m as f64).powi(2);
+                    let drho = top * 2.0 * (k as f64 + 0.5) / (m as f64 * m as f64);
+                    w((rho * rho + h * h).sqrt()) * 2.0 * PI * rho * drho
+                })
+                .sum::<f64>()
+        };
+        for gap in [0.005, 0.03, 0.2] {
+            let want = plane(0.0) / (plane(0.0) + plane(gap));
+            let got = own_face(kappa, reach, gap);
+            assert!((got - want).abs() < 1e-4, "gap {gap}: {got} against {want}");
+        }
+        assert!((own_face(kappa, reach, 0.0) - 0.5).abs() < 1e-12);
+        assert_eq!(own_face(kappa, reach, 0.5), 1.0);
+        assert_eq!(own_face(kappa, 0.0, 0.1), 1.0);
+    }
 }

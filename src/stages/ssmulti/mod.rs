@@ -511,7 +511,7 @@ fn ssmulti_columns(
     let mut ph = progress.phases("ssmulti");
     let mut inp = inputs(cloud, p.bounce > 0.0)?;
     let (by_incidence, by_thickness) = match &p.medium {
-        Some(m) => weigh_light(cloud, m, &mut inp)?,
+        Some(m) => weigh_light(cloud, m, (physical_kappa(p), p.distances()), &mut inp)?,
         None => (false, false),
     };
     ph.mark("inputs");

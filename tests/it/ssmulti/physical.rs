@@ -215,6 +215,69 @@ fn nan_weights_are_refused_naming_the_point() {
     }
 }
 
+/// A slab two mean free paths thick, lit on one face: the light its
+/// thickness returns leaves by both faces, a share moved to the far
+/// face's points so that, after the kernel spreads both, the far face
+/// returns the share the slab walk gives (the kernel alone puts half as
+/// much there); together the two faces return the whole.
+#[test]
+fn a_slab_lit_on_one_face_shares_its_light_between_its_faces() {
+    let m = Medium::new([0.9; 3], [0.02; 3], 1.0, 0.0).unwrap();
+    let p = physical(m);
+    let ld1 = p.distances()[0];
+    let (k, h, t) = (161usize, 0.005, 0.04);
+    let span = (k - 1) as f64 * h;
+    // The lit face (z 0, facing down) and the far one (z t, facing up,
+    // or down too: then nothing is moved).
+    let slab = |far_up: bool| {
+        let (mut pos, mut nrm, mut area, mut e) = (vec![], vec![], vec![], vec![]);
+        for (z, up, lit) in [(0.0, false, true), (t, far_up, false)] {
+            for a in 0..k {
+                for b in 0..k {
+                    pos.push([a as f64 * h, b as f64 * h, z]);
+                    nrm.push([0.0, 0.0, if up { 1.0 } else { -1.0 }]);
+                    area.push(h * h);
+                    e.push(if lit { [1.0; 3] } else { [0.0; 3] });
+                }
+            }
+        }
+        let mut c = cloud_of(&pos, &nrm, &area, &e);
+        c.points_mut()
+            .set_scalar("thickness", vec![t as f32; 2 * k * k])
+            .unwrap();
+        c
+    };
+    let faces = |c: &Cloud| {
+        let got = run(c, &p);
+        let pos = c.points().vec3_f64("P").unwrap();
+        let far = 2.0 * ld1;
+        let (mut s, mut n) = ([0.0f64; 2], [0usize; 2]);
+        for (q, v) in pos.iter().zip(&got) {
+            if q[0] > far && q[0] < span - far && q[1] > far && q[1] < span - far {
+                let f = (q[2] > 0.0) as usize;
+                s[f] += v[0];
+                n[f] += 1;
+            }
+        }
+        assert!(n[0] > 100 && n[1] > 100, "{n:?}");
+        [s[0] / n[0] as f64, s[1] / n[1] as f64]
+    };
+    let [near, far] = faces(&slab(true));
+    let whole = m.rm_slab(t)[0];
+    assert!(
+        rel_err(near + far, whole) < 0.02,
+        "{near} + {far} against {whole}"
+    );
+    let want = m.through_slab(t)[0];
+    let [n0, f0] = faces(&slab(false));
+    let (moved, kernel) = (far / (near + far), f0 / (n0 + f0));
+    eprintln!("far face's share {moved} (kernel alone {kernel}), the walk's {want}");
+    assert!(
+        (moved - want).abs() < 0.01 && (kernel - want).abs() > 0.1,
+        "far face's share {moved} (kernel alone {kernel}), the walk's {want}"
+    );
+}
+
 #[test]
 fn the_sums_equal_the_double_loop_with_the_medium_kernel() {
     let m = Medium::new([0.99, 0.9, 0.6], [0.05, 0.04, 0.1], 1.4, 0.3).unwrap();
