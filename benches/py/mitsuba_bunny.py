@@ -31,6 +31,8 @@ import time
 import mitsuba as mi
 import numpy as np
 
+from mitsuba_images import camera, errors, read_image, render_attr
+
 mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 # The rows of the last full run (error against time), for plot_error_time.py.
@@ -53,14 +55,7 @@ def mitsuba(spp, max_depth=-1):
             "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
                          "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
         },
-        "camera": {
-            "type": "perspective", "fov": CAMERA["fov"], "fov_axis": "y",
-            "to_world": mi.ScalarTransform4f().look_at(origin=CAMERA["position"],
-                                                       target=CAMERA["look_at"], up=CAMERA["up"]),
-            "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE, "pixel_format": "rgb",
-                     "rfilter": {"type": "gaussian"}},
-            "sampler": {"type": "independent", "sample_count": spp},
-        },
+        "camera": camera(CAMERA, spp),
     }
     # A distant light of colour * intensity gives an irradiance of that
     # across its direction (illum's Cl).
@@ -73,24 +68,6 @@ def mitsuba(spp, max_depth=-1):
     return img[:, :, :3], time.time() - t
 
 
-def read_image(exr, d):
-    """(beauty premultiplied, coverage) as SIZE x SIZE arrays, from the
-    render's OpenEXR (through pcconvert to ASCII PLY)."""
-    ply = d / "img.ply"
-    subprocess.run([ROOT / "target/release/pcconvert", "-q", exr, "--format", "ply-ascii", "-o", ply],
-                   check=True)
-    text = ply.read_text().split("end_header\n")
-    names = [l.split()[-1] for l in text[0].splitlines() if l.startswith("property")]
-    rows = np.loadtxt(text[1].splitlines(), ndmin=2)
-    col = {n: rows[:, k] for k, n in enumerate(names)}
-    img, a = np.zeros((SIZE, SIZE, 3)), np.zeros((SIZE, SIZE))
-    x, y = col["pixel_x"].astype(int), col["pixel_y"].astype(int)
-    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
-        img[y, x, c] = col[n]
-    a[y, x] = col["A"]
-    return img, a
-
-
 def bake(count, d):
     cam = d / "cam.json"
     cam.write_text(json.dumps(CAMERA))
@@ -101,13 +78,8 @@ def bake(count, d):
                     f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16",
                     "SAMPLES=16", "SHADOWS=1"], check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t
-    img, a = read_image(out / "bunny.exr", d)
+    img, a = read_image(out / "bunny.exr", d, SIZE)
     return img, a, took
-
-
-def errors(img, ref, mask):
-    rel = (img[mask] - ref[mask]) / ref[mask]
-    return float(np.sqrt(np.mean(rel ** 2))), float(np.mean(rel))
 
 
 def masks(a, ref):
@@ -128,10 +100,8 @@ def split(ref_spp, count):
         part = {}
         for attr in ["ssM", "ssS"]:
             exr = d / f"{attr}.exr"
-            subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / "bunny_mesh.ply",
-                            "--camera", d / "cam.json", "--cloud", out / "bunny_sss.ply",
-                            "--attr", attr, "--spp", "16", "-o", exr], check=True)
-            part[attr] = read_image(exr, d)[0]
+            render_attr(out, "bunny", d / "cam.json", attr, exr)
+            part[attr] = read_image(exr, d, SIZE)[0]
     for name, m in [("whole", whole), ("ears", ears)]:
         print(f"{name}: single scattering: bake {part['ssS'][m].mean():.4f}, Mitsuba {single[m].mean():.4f}; "
               f"multiple (ssM / pi): bake {part['ssM'][m].mean():.4f}, "

@@ -1,0 +1,56 @@
+"""What the image comparisons against Mitsuba 3 share (mitsuba_sphere.py,
+mitsuba_bunny.py): a Mitsuba perspective camera from the toolkit's camera
+file, the bake's picture read back from its OpenEXR, and the errors."""
+import pathlib
+import subprocess
+
+import mitsuba as mi
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def camera(cam, spp):
+    """Mitsuba's pinhole camera for the toolkit's camera `cam` (its
+    vertical field of view; Mitsuba's Gaussian pixel filter)."""
+    return {
+        "type": "perspective", "fov": cam["fov"], "fov_axis": "y",
+        "to_world": mi.ScalarTransform4f().look_at(origin=cam["position"], target=cam["look_at"],
+                                                   up=cam["up"]),
+        "film": {"type": "hdrfilm", "width": cam["width"], "height": cam["height"],
+                 "pixel_format": "rgb", "rfilter": {"type": "gaussian"}},
+        "sampler": {"type": "independent", "sample_count": spp},
+    }
+
+
+def read_image(exr, d, size):
+    """(beauty premultiplied, coverage) as size x size arrays, from the
+    render's OpenEXR (through pcconvert to ASCII PLY)."""
+    ply = d / "img.ply"
+    subprocess.run([ROOT / "target/release/pcconvert", "-q", exr, "--format", "ply-ascii", "-o", ply],
+                   check=True)
+    text = ply.read_text().split("end_header\n")
+    names = [l.split()[-1] for l in text[0].splitlines() if l.startswith("property")]
+    rows = np.loadtxt(text[1].splitlines(), ndmin=2)
+    col = {n: rows[:, k] for k, n in enumerate(names)}
+    img, a = np.zeros((size, size, 3)), np.zeros((size, size))
+    x, y = col["pixel_x"].astype(int), col["pixel_y"].astype(int)
+    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
+        img[y, x, c] = col[n]
+    a[y, x] = col["A"]
+    return img, a
+
+
+def errors(img, ref, mask):
+    """RMS and mean relative error of `img` against `ref` over `mask`,
+    each channel a sample."""
+    rel = (img[mask] - ref[mask]) / np.maximum(ref[mask], 1e-6)
+    return float(np.sqrt(np.mean(rel ** 2))), float(np.mean(rel))
+
+
+def render_attr(out, name, cam, attr, exr):
+    """The bake's `attr` alone (ssM as its radiance, ssS), 16 rays a
+    pixel, from the bake's directory `out` and its mesh `name`."""
+    subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / f"{name}_mesh.ply",
+                    "--camera", cam, "--cloud", out / f"{name}_sss.ply", "--attr", attr, "--spp", "16",
+                    "-o", exr], check=True)
