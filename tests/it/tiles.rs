@@ -736,3 +736,54 @@ fn tiled_ssmulti_equals_the_untiled_for_every_falloff_and_normalisation() {
         }
     }
 }
+
+/// A thin part's light moved to its far face (the physical model with
+/// `thickness`) reaches across tile borders as in the untiled run: moves
+/// are no longer than the longest kernel distance `D`, so a source whose
+/// moved light reaches a tile's point lies within `2 D` of it, inside the
+/// halo the source normalisation already needs.
+#[test]
+fn tiled_thin_parts_move_their_light_as_the_untiled() {
+    let d = tempdir();
+    // A wavy sheet and its twin behind it, facing the other way, the
+    // front lit; the thickness between them.
+    let front = sheet(12000);
+    let n = front.points().len();
+    let p = front.points().vec3_f64("P").unwrap();
+    let nn = front.points().vec3_f64("N").unwrap();
+    let a = front.points().scalar_f64("ptarea").unwrap();
+    let e = front.points().vec3_f64("illum").unwrap();
+    let (mut pos, mut nrm, mut area, mut light) = (p.clone(), nn.clone(), a.clone(), e.clone());
+    let gap = 0.05;
+    for i in 0..n {
+        let u = DVec3::from_array(nn[i]).normalize();
+        pos.push((DVec3::from_array(p[i]) - u * gap).to_array());
+        nrm.push((-u).to_array());
+        area.push(a[i]);
+        light.push([0.0; 3]);
+    }
+    let mut c = crate::ssmulti::cloud_of(&pos, &nrm, &area, &light);
+    c.points_mut()
+        .set_scalar("thickness", vec![gap as f32; 2 * n])
+        .unwrap();
+    let input = d.path().join("slab.ply");
+    write(&input, &c);
+    let ss = [
+        "--model",
+        "physical",
+        "--albedo",
+        "0.95,0.9,0.8",
+        "--mfp",
+        "0.02,0.03,0.04",
+    ];
+    let (whole, tiled, _) = whole_and_tiled(d.path(), "thin", &input, &ss, 6);
+    let (t, w) = (read(&tiled), read(&whole));
+    let e = worst(&t, &w, "ssM");
+    assert!(e < 2e-3, "worst {e}");
+    // Light did cross: the unlit twin is lit.
+    let back: f64 = w.points().vec3_f64("ssM").unwrap()[n..]
+        .iter()
+        .map(|v| v[0])
+        .sum();
+    assert!(back > 0.0);
+}

@@ -369,7 +369,8 @@ pub(super) fn weigh_light(
 /// parallel planes `thickness` apart, in closed form: [`own_face`]), the
 /// share moved is `(f - (1 - s)) / (2 s - 1)` (clamped to `[0, 1]`) for
 /// the far face to get the share `f` a slab walk sends out of it. Moves
-/// in point order: the same bits for any thread count. `kernel`: the
+/// in point order: the same bits for any thread count. Only parts
+/// thinner than the longest kernel distance move light. `kernel`: the
 /// Burley `kappa` and each channel's distance `D`.
 fn through_the_far_face(
     cloud: &Cloud,
@@ -387,12 +388,17 @@ fn through_the_far_face(
         DVec3::ZERO
     };
     let tree = crate::geom::kdtree::PointTree::new(inp.pts.iter().map(|q| q.pos_v()), origin);
+    let ld1 = kernel.1.iter().copied().fold(0.0, f64::max);
     let moves: Vec<(usize, u32, [f32; 3])> = (0..n)
         .into_par_iter()
         .filter_map(|i| {
             let q = &inp.pts[i];
             let t = thick.get(i);
-            if q.illum == [0.0; 3] || !(t > 0.0 && t < f32::MAX as f64) {
+            // (A part thicker than the kernel's longest distance `D` sends
+            // little through, and a move no longer than `D` keeps a source
+            // whose moved light reaches a point within `2 D` of it: in a
+            // tile's halo, which the source normalisation already needs.)
+            if q.illum == [0.0; 3] || !(t > 0.0 && t < ld1) {
                 return None;
             }
             let f = thin.through(t);
