@@ -362,8 +362,9 @@ pub(super) fn weigh_light(
 /// A thin part's light leaves through both faces (`docs/DESIGN.md#thickness`):
 /// a share of a source's light is moved to the cloud point nearest where
 /// `-N` leaves the mesh, `P - thickness N`, when that point faces the
-/// other way and lies nearer the exit than the source does (a far face
-/// sampled there); else it stays. The kernel then spreads it from the far
+/// other way (its normal within 25 degrees of the source's reversed) and
+/// lies nearer the exit than the source does (a far face sampled there);
+/// else it stays. The kernel then spreads it from the far
 /// face as it spreads the rest from the near one; since each spreads a
 /// share `s` of its light on its own face and `1 - s` across (on two
 /// parallel planes `thickness` apart, in closed form: [`own_face`]), the
@@ -418,7 +419,10 @@ fn through_the_far_face(
             let exit = q.pos_v() - ni * t;
             let j = tree.nearest_one(exit).item;
             let far = inp.pts[j as usize].pos_v().distance_squared(exit) < t * t;
-            if j as usize == i || !far || unit(j as usize).dot(ni) >= 0.0 {
+            // The slab's model holds where the far face is near parallel
+            // (within 25 degrees of facing the other way): not across
+            // an ear's rim, where `-N` runs along the part.
+            if j as usize == i || !far || unit(j as usize).dot(ni) > -0.9 {
                 return None;
             }
             let moved = [0, 1, 2].map(|c| (q.illum[c] as f64 * share[c]) as f32);
