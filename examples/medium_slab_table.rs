@@ -1,22 +1,27 @@
-//! Writes `src/stages/medium/slab_table.rs`, the physical medium's table
+//! Writes `src/stages/medium/slab_table/`, the physical medium's table
 //! for thin parts (`docs/DESIGN.md#thickness`): a random walk
-//! (`pcsss::stages::medium::walk::walk_in`) into a slab of each thickness
-//! in [`THICKNESS`] mean free paths, lit along its normal, at each node of
-//! phase asymmetry `g` and relative index `eta` (those of
-//! `src/stages/medium/table.rs`), its histograms of scattering events of
-//! the light that leaves through either face, and through the far one.
+//! (`pcsss::stages::medium::walk::walk_faces`) into a slab of each
+//! thickness in [`THICKNESS`] mean free paths, lit along its normal, at
+//! each node of phase asymmetry `g` and relative index `eta` (those of
+//! `src/stages/medium/table/`), its histograms of scattering events of the
+//! light that leaves through either face, and through the far one; one
+//! file per node of `g`.
 //!
-//!     cargo run --release --example medium_slab_table > src/stages/medium/slab_table.rs
+//!     cargo run --release --example medium_slab_table -- src/stages/medium/slab_table
 //!
 //! Seeded (the nodes of `(g, eta)` pair `k` by seed `k`, as the main
 //! table's), so the table is the same on any machine and thread count;
 //! progress goes to stderr.
 
-use std::fmt::Write;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use pcsss::stages::medium::table::{ETA, G};
 use pcsss::stages::medium::walk::{edges, walk_faces};
+
+#[path = "shared/tables.rs"]
+mod tables;
+use tables::{cells, list, node_index, write_node, Rows};
 
 /// Slab thicknesses in mean free paths (thicker: the semi-infinite
 /// medium of the main table).
@@ -26,10 +31,12 @@ const THICKNESS: [f64; 12] = [
 const PATHS: u64 = 200_000;
 
 fn main() {
+    let dir = PathBuf::from(std::env::args().nth(1).expect("the table's directory"));
+    std::fs::create_dir_all(&dir).unwrap();
     let nb = edges().len() - 1;
-    let (mut rows, mut through_rows) = (String::new(), String::new());
     let start = Instant::now();
     for (i, &g) in G.iter().enumerate() {
+        let (mut both, mut far) = (Vec::new(), Vec::new());
         for (j, &eta) in ETA.iter().enumerate() {
             for &t in &THICKNESS {
                 let k = i * ETA.len() + j;
@@ -41,60 +48,55 @@ fn main() {
                     h.reflectance(0.9, 1),
                     h.survivors
                 );
-                let cells: Vec<String> = h
-                    .bins
-                    .iter()
-                    .chain([&h.survivors])
-                    .map(|&p| format!("{:?}", p as f32))
-                    .collect();
-                writeln!(
-                    rows,
-                    "    // g {g}, eta {eta}, thickness {t}\n    [{}],",
-                    cells.join(", ")
-                )
-                .unwrap();
-                let cells: Vec<String> = through
-                    .bins
-                    .iter()
-                    .map(|&p| format!("{:?}", p as f32))
-                    .collect();
-                writeln!(
-                    through_rows,
-                    "    // g {g}, eta {eta}, thickness {t}\n    [{}],",
-                    cells.join(", ")
-                )
-                .unwrap();
+                let label = format!("eta {eta}, thickness {t}");
+                both.push((label.clone(), cells(&h.bins, Some(h.survivors))));
+                far.push((label, cells(&through.bins, None)));
             }
         }
+        let tables = [
+            Rows {
+                name: "SHARES",
+                width: nb + 1,
+                rows: both,
+            },
+            Rows {
+                name: "THROUGH",
+                width: nb,
+                rows: far,
+            },
+        ];
+        write_node(
+            &dir,
+            "The physical medium's table for thin parts",
+            i,
+            g,
+            &tables,
+        );
     }
     eprintln!("all: {:.0} s", start.elapsed().as_secs_f64());
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x:?}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    print!(
+    let per_g = ETA.len() * THICKNESS.len();
+    let index = node_index(
+        G.len(),
+        &[
+            ("SHARES", nb + 1, per_g, "Per node of `G`, its rows (`eta` major, thickness minor): the shares of each bin and the survivors'."),
+            ("THROUGH", nb, per_g, "Per node of `G`, its rows: the shares of each bin that leave through the far face."),
+        ],
+    );
+    let text = format!(
         "//! The physical medium's table for thin parts, written by `cargo run --release\n\
-//! --example medium_slab_table > src/stages/medium/slab_table.rs` (do not edit):\n\
-//! at each node of `table::G` and `table::ETA` and each slab thickness in\n\
-//! [`THICKNESS`] mean free paths (`g` major, thickness minor), a random walk of\n\
-//! [`PATHS`] paths along the normal into a slab that absorbs nothing, the share\n\
-//! of the light refracted in that leaves through either face after `n`\n\
-//! scattering events in each bin of `walk::edges()`, the survivors' share last\n\
-//! (the light that crosses unscattered is in no bin).\n\n\
+//! --example medium_slab_table -- src/stages/medium/slab_table` (do not edit): at\n\
+//! each node of `table::G` and `table::ETA` and each slab thickness in\n\
+//! [`THICKNESS`] mean free paths, a random walk of [`PATHS`] paths along the\n\
+//! normal into a slab that absorbs nothing, the share of the light refracted in\n\
+//! that leaves through either face after `n` scattering events in each bin of\n\
+//! `walk::edges()`, the survivors' share last (the light that crosses unscattered\n\
+//! is in no bin), and the share that leaves through the far face; one file per\n\
+//! node of `g`.\n\n\
 #![cfg_attr(rustfmt, rustfmt_skip)]\n\n\
 /// Slab thicknesses, in mean free paths.\npub const THICKNESS: [f64; {}] = [{}];\n\
-/// Paths walked at each node.\npub const PATHS: u64 = {PATHS};\n\
-/// Per node, the shares of each bin and the survivors'.\n\
-pub static SHARES: [[f32; {}]; {}] = [\n{rows}];\n\n\
-/// Per node, the shares of each bin that leave through the far face.\n\
-pub static THROUGH: [[f32; {}]; {}] = [\n{through_rows}];\n",
+/// Paths walked at each node.\npub const PATHS: u64 = {PATHS};\n\n{index}",
         THICKNESS.len(),
         list(&THICKNESS),
-        nb + 1,
-        G.len() * ETA.len() * THICKNESS.len(),
-        nb,
-        G.len() * ETA.len() * THICKNESS.len(),
     );
+    std::fs::write(dir.join("mod.rs"), text).unwrap();
 }

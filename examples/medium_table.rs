@@ -1,20 +1,24 @@
-//! Writes `src/stages/medium/table.rs`, the physical medium's reflectance
+//! Writes `src/stages/medium/table/`, the physical medium's reflectance
 //! table (`docs/DESIGN.md#physical-medium`): a random walk
-//! (`pcsss::stages::medium::walk`) at each node of phase asymmetry `g` and
+//! (`pcsss::stages::medium::walk`) at each node of phase asymmetry `g`,
 //! relative index `eta` and cosine `mu` of the light's arrival outside, its
-//! histogram of scattering events.
+//! histogram of scattering events; one file per node of `g`.
 //!
-//!     cargo run --release --example medium_table > src/stages/medium/table.rs
+//!     cargo run --release --example medium_table -- src/stages/medium/table
 //!
 //! The walks are seeded (the nodes of `(g, eta)` pair `k` by seed `k`, at
 //! every cosine: their histograms share their random streams), so the
 //! table is the same on any machine and thread count; progress goes to
 //! stderr.
 
-use std::fmt::Write;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use pcsss::stages::medium::walk::{edges, walk_from};
+
+#[path = "shared/tables.rs"]
+mod tables;
+use tables::{cells, list, node_index, write_node, Rows};
 
 const G: [f64; 9] = [-0.6, -0.3, 0.0, 0.2, 0.4, 0.6, 0.7, 0.8, 0.9];
 const ETA: [f64; 8] = [1.0, 1.15, 1.3, 1.45, 1.6, 2.0, 2.5, 3.0];
@@ -26,10 +30,12 @@ const PATHS: u64 = 100_000;
 const PATHS_OBLIQUE: u64 = 40_000;
 
 fn main() {
+    let dir = PathBuf::from(std::env::args().nth(1).expect("the table's directory"));
+    std::fs::create_dir_all(&dir).unwrap();
     let nb = edges().len() - 1;
-    let mut rows = String::new();
     let start = Instant::now();
     for (i, &g) in G.iter().enumerate() {
+        let mut rows = Vec::new();
         for (j, &eta) in ETA.iter().enumerate() {
             for &mu in &MU {
                 let k = i * ETA.len() + j;
@@ -42,48 +48,54 @@ fn main() {
                     h.reflectance(0.9, 1),
                     h.survivors
                 );
-                let cells: Vec<String> = h
-                    .bins
-                    .iter()
-                    .chain([&h.survivors])
-                    .map(|&p| format!("{:?}", p as f32))
-                    .collect();
-                writeln!(
-                    rows,
-                    "    // g {g}, eta {eta}, mu {mu}\n    [{}],",
-                    cells.join(", ")
-                )
-                .unwrap();
+                rows.push((
+                    format!("eta {eta}, mu {mu}"),
+                    cells(&h.bins, Some(h.survivors)),
+                ));
             }
         }
+        let shares = Rows {
+            name: "SHARES",
+            width: nb + 1,
+            rows,
+        };
+        write_node(
+            &dir,
+            "The physical medium's reflectance table",
+            i,
+            g,
+            &[shares],
+        );
     }
     eprintln!("all: {:.0} s", start.elapsed().as_secs_f64());
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x:?}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    print!(
-        "//! The physical medium's reflectance table, written by `cargo run \
---release --example\n//! medium_table > src/stages/medium/table.rs` (do not edit): \
-at each node of\n//! [`G`], [`ETA`] and [`MU`] (`g` major, `mu` minor), a random walk of [`PATHS`]\n//! paths along the normal, [`PATHS_OBLIQUE`] at the other cosines, into a\n//! medium that absorbs nothing, the share of the light refracted in that \
-leaves\n//! after `n` scattering events in each bin of `walk::edges()`, the \
-survivors'\n//! share last.\n\n\
+    let per_g = ETA.len() * MU.len();
+    let index = node_index(
+        G.len(),
+        &[(
+            "SHARES",
+            nb + 1,
+            per_g,
+            "Per node of `G`, its rows (`eta` major, `mu` minor): the shares of each bin and the survivors'.",
+        )],
+    );
+    let text = format!(
+        "//! The physical medium's reflectance table, written by `cargo run --release\n\
+//! --example medium_table -- src/stages/medium/table` (do not edit): at each node\n\
+//! of [`G`], [`ETA`] and [`MU`], a random walk of [`PATHS`] paths along the normal,\n\
+//! [`PATHS_OBLIQUE`] at the other cosines, into a medium that absorbs nothing, the\n\
+//! share of the light refracted in that leaves after `n` scattering events in each\n\
+//! bin of `walk::edges()`, the survivors' share last; one file per node of `g`.\n\n\
 #![cfg_attr(rustfmt, rustfmt_skip)]\n\n\
 /// Nodes of the Henyey-Greenstein asymmetry.\npub const G: [f64; {}] = [{}];\n\
 /// Nodes of the relative index of refraction.\npub const ETA: [f64; {}] = [{}];\n\
 /// Nodes of the cosine of the light's arrival with the normal, outside.\npub const MU: [f64; {}] = [{}];\n\
-/// Paths walked at each node along the normal, and at the others.\npub const PATHS: u64 = {PATHS};\npub const PATHS_OBLIQUE: u64 = {PATHS_OBLIQUE};\n\
-/// Per node, the shares of each bin and the survivors'.\n\
-pub static SHARES: [[f32; {}]; {}] = [\n{rows}];\n",
+/// Paths walked at each node along the normal, and at the others.\npub const PATHS: u64 = {PATHS};\npub const PATHS_OBLIQUE: u64 = {PATHS_OBLIQUE};\n\n{index}",
         G.len(),
         list(&G),
         ETA.len(),
         list(&ETA),
         MU.len(),
         list(&MU),
-        nb + 1,
-        G.len() * ETA.len() * MU.len(),
     );
+    std::fs::write(dir.join("mod.rs"), text).unwrap();
 }

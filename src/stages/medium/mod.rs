@@ -88,14 +88,14 @@ fn histogram(eta: f64, g: f64, mu_i: f64) -> Histogram {
     // in the cosine follows less well.
     let roots = table::MU.map(f64::sqrt);
     let (k, tm) = bracket(&roots, mu_i.clamp(0.0, 1.0).sqrt());
-    let (ne, nm) = (table::ETA.len(), table::MU.len());
-    let mut v = vec![0.0f64; table::SHARES[0].len()];
+    let nm = table::MU.len();
+    let mut v = vec![0.0f64; table::SHARES[0][0].len()];
     for (di, wg) in [(0, 1.0 - tg), (1, tg)] {
         for (dj, we) in [(0, 1.0 - te), (1, te)] {
             for (dk, wm) in [(0, 1.0 - tm), (1, tm)] {
                 let w = wg * we * wm;
                 if w > 0.0 {
-                    let row = &table::SHARES[((i + di) * ne + j + dj) * nm + k + dk];
+                    let row = &table::SHARES[i + di][(j + dj) * nm + k + dk];
                     v.iter_mut().zip(row).for_each(|(a, &b)| *a += w * b as f64);
                 }
             }
@@ -134,8 +134,8 @@ fn slab_through(eta: f64, g: f64, thickness: f64) -> Histogram {
 
 /// The blend of one of the slab tables (`rows` of `SHARES` or `THROUGH`,
 /// with a survivors' column when `survivors`) at `(eta, g, thickness)`.
-fn slab_blend<const N: usize>(
-    rows: &[[f32; N]],
+fn slab_blend<const N: usize, const M: usize>(
+    rows: &[&[[f32; N]; M]],
     eta: f64,
     g: f64,
     thickness: f64,
@@ -159,14 +159,14 @@ fn slab_blend<const N: usize>(
     let blend = |k: usize, tk: f64| -> Vec<f64> {
         let (i, tg) = bracket(&table::G, g);
         let (j, te) = bracket(&table::ETA, eta);
-        let (ne, nt) = (table::ETA.len(), nodes.len());
+        let nt = nodes.len();
         let mut v = vec![0.0f64; N];
         for (di, wg) in [(0, 1.0 - tg), (1, tg)] {
             for (dj, we) in [(0, 1.0 - te), (1, te)] {
                 for (dk, wt) in [(0, 1.0 - tk), (1, tk)] {
                     let w = wg * we * wt;
                     if w > 0.0 {
-                        let row = &rows[((i + di) * ne + j + dj) * nt + k + dk];
+                        let row = &rows[i + di][(j + dj) * nt + k + dk];
                         v.iter_mut().zip(row).for_each(|(a, &b)| *a += w * b as f64);
                     }
                 }
@@ -802,11 +802,11 @@ mod tests {
     #[test]
     fn the_table_is_the_walks() {
         let nb = walk::edges().len() - 1;
-        assert_eq!(
-            table::SHARES.len(),
-            table::G.len() * table::ETA.len() * table::MU.len()
-        );
-        for row in &table::SHARES {
+        assert_eq!(table::SHARES.len(), table::G.len());
+        assert!(table::SHARES
+            .iter()
+            .all(|g| g.len() == table::ETA.len() * table::MU.len()));
+        for row in table::SHARES.iter().flat_map(|g| g.iter()) {
             assert_eq!(row.len(), nb + 1);
             let sum: f64 = row.iter().map(|&x| x as f64).sum();
             assert!((sum - 1.0).abs() < 1e-5, "{sum}");
