@@ -7,9 +7,13 @@
 #            on the bunny and the dragon;
 #   physical ssmulti's physical model against the seed model on the bunny,
 #            and the seed model with the Burley falloff, channel and source
-#            normalisations (what the physical model's time is made of).
+#            normalisations (what the physical model's time is made of);
+#   bake     whole bakes of the default bunny scene at 1M points, the seed
+#            model against the physical one at the seed's kernel distances
+#            (no bench clouds needed), then the physical ssmulti on that
+#            bake's cloud with shorter truncations (kappa 9, 7).
 #
-#     benches/probes/stage_costs.sh [shadows|physical|all]   (REPS=3)
+#     benches/probes/stage_costs.sh [shadows|physical|bake|all]   (REPS=3)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 BIN=$ROOT/target/release
@@ -53,5 +57,21 @@ if [ "$what" = physical ] || [ "$what" = all ]; then
   bch=$(fastest ss --rd 0.9,0.5,0.3 --sd 0.6 --rgb --falloff burley --norm channel)
   bso=$(fastest ss --rd 0.9,0.5,0.3 --sd 0.6 --rgb --falloff burley --norm source)
   echo "ssmulti bunny: seed $seed s; physical $phys s (ratio $(echo "scale=1; $phys / $seed" | bc)); burley channel $bch s; burley source $bso s"
+fi
+if [ "$what" = bake ] || [ "$what" = all ]; then
+  out=/tmp/stage_costs_bake
+  bk() { rm -rf "$out"; make -s -C "$ROOT/pipelines" OUT="$out" COUNT=1000000 "$@"; }
+  # The physical medium whose kernel distances are the seed's Rd * sd.
+  medium=(MODEL=physical COLOR=0.9,0.5,0.3 DMFP=0.125,0.0695,0.0417)
+  seed=$(fastest bk)
+  phys=$(fastest bk "${medium[@]}")
+  echo "bake bunny 1M: seed $seed s; physical $phys s (ratio $(echo "scale=2; $phys / $seed" | bc))"
+  bk "${medium[@]}" >/dev/null 2>&1
+  for kappa in 12.952642092055077 9 7; do
+    t=$(fastest "$BIN/ssmulti" -q "$out/bunny_illum.ply" --model physical --color 0.9,0.5,0.3 \
+      --dmfp 0.125,0.0695,0.0417 --g 0.4 --eta 1.3 --falloff burley --sigma "$kappa" -o /tmp/stage_costs.ply)
+    echo "ssmulti physical bunny 1M, kappa $kappa: $t s"
+  done
+  rm -rf "$out"
 fi
 rm -f /tmp/stage_costs.ply

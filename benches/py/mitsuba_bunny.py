@@ -22,6 +22,7 @@ alone (the pixels above EAR_Y of the image's height), lit from behind.
 single scattering (the path cut after one event) and the rest.
 """
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -35,6 +36,9 @@ from mitsuba_images import camera, errors, read_image, render_attr
 
 mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+# More of the bake's Makefile variables, `;`-separated, from the
+# environment: `BAKE_VARS='FALLOFF=burley --sigma 9;NORMALS=flat'`.
+EXTRA = [v for v in os.environ.get("BAKE_VARS", "").split(";") if v]
 # The rows of the last full run (error against time), for plot_error_time.py.
 RESULTS = ROOT / "benches" / "results" / "mitsuba_bunny.json"
 ALBEDO, MFP = [0.95, 0.85, 0.7], 0.1
@@ -76,7 +80,7 @@ def bake(count, d):
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={MESH}", f"CAMERA={cam}",
                     f"OUT={out}", f"COUNT={count}", "MODEL=physical",
                     f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16",
-                    "SAMPLES=16", "SHADOWS=1"], check=True, stdout=subprocess.DEVNULL)
+                    "SAMPLES=16", "SHADOWS=1"] + EXTRA, check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t
     img, a = read_image(out / "bunny.exr", d, SIZE)
     return img, a, took
@@ -102,6 +106,9 @@ def split(ref_spp, count):
             exr = d / f"{attr}.exr"
             render_attr(out, "bunny", d / "cam.json", attr, exr)
             part[attr] = read_image(exr, d, SIZE)[0]
+    rel = (img[whole] - ref[whole]) / np.maximum(ref[whole], 1e-6)
+    print("whole, the picture's relative error per pixel and channel: quantiles 5, 25, 50, 75, 95%:",
+          np.quantile(rel, [0.05, 0.25, 0.5, 0.75, 0.95]).round(3))
     for name, m in [("whole", whole), ("ears", ears)]:
         print(f"{name}: single scattering: bake {part['ssS'][m].mean():.4f}, Mitsuba {single[m].mean():.4f}; "
               f"multiple (ssM / pi): bake {part['ssM'][m].mean():.4f}, "
@@ -141,4 +148,5 @@ if __name__ == "__main__":
             print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} | {f[0]:.3f} | {f[1]:+.3f} |",
                   flush=True)
         print(f"({int(whole.sum())} pixels compared, {int(ears.sum())} on the ears)")
-    RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")
+    if not EXTRA:  # (a variant's rows are printed, not kept)
+        RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")

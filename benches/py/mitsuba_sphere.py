@@ -24,6 +24,7 @@ after one event) and the rest, and the bake over Mitsuba by quarters of
 the reference's brightness (from the terminator to the lit pole).
 """
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -37,6 +38,9 @@ from mitsuba_images import camera, errors, read_image, render_attr
 
 mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+# More of the bake's Makefile variables, `;`-separated, from the
+# environment: `BAKE_VARS='FALLOFF=burley --sigma 9;NORMALS=flat'`.
+EXTRA = [v for v in os.environ.get("BAKE_VARS", "").split(";") if v]
 # The rows of the last full run (error against time), for plot_error_time.py.
 RESULTS = ROOT / "benches" / "results" / "mitsuba_sphere.json"
 ALBEDO, MFP = 0.95, 0.05
@@ -96,7 +100,7 @@ def bake(count, d):
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={mesh}", f"LIGHTS={lights}",
                     f"CAMERA={cam}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
                     f"ALBEDO={ALBEDO}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16", "SAMPLES=16",
-                    "SHADOWS=1"], check=True, stdout=subprocess.DEVNULL)
+                    "SHADOWS=1"] + EXTRA, check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t
     img, a = read_image(out / "sphere.exr", d, SIZE)
     return img, a, took
@@ -155,4 +159,5 @@ if __name__ == "__main__":
             rows.append({"tool": "Mitsuba", "setting": s, "seconds": t, "rms": e[0], "mean": e[1]})
             print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
         print(f"({int(mask.sum())} pixels compared)")
-    RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")
+    if not EXTRA:  # (a variant's rows are printed, not kept)
+        RESULTS.write_text(json.dumps({"reference_spp": ref_spp, "rows": rows}, indent=1) + "\n")

@@ -15,6 +15,12 @@ without scattering is not in either (a distant light is a direction no
 meter sees).
 
     python mitsuba_thin.py [SPP] [T,..] [ALPHA,..] [COUNT]
+    python mitsuba_thin.py --angles [SPP] [T,..] [ALPHA,..]
+
+`--angles`: Mitsuba's multiple scattering out of the front face at exit
+cosines 1, 0.7, 0.4, 0.15, and its exitance over pi, `2 int L mu dmu` by
+the trapezoid rule (L taken as the 0.15 value down to grazing): what the
+bake's Lambertian `ssM / pi` is to be held against.
 
 Mitsuba's figures are kept in benches/results/mitsuba_thin.json (by case
 and sample count) and read from there when present.
@@ -45,7 +51,7 @@ def cached(key, compute):
     return data[key]["value"]
 
 
-def mitsuba(alpha, t, spp, max_depth=-1):
+def mitsuba(alpha, t, spp, max_depth=-1, mu=1.0):
     scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": 1_000_000},
@@ -59,7 +65,8 @@ def mitsuba(alpha, t, spp, max_depth=-1):
                          "sigma_t": 1.0, "phase": {"type": "hg", "g": 0.0}},
         },
         "meter": {
-            "type": "radiancemeter", "origin": [0, 0, t + 1], "direction": [0, 0, -1],
+            "type": "radiancemeter", "origin": [(1 - mu * mu) ** 0.5, 0, t + mu],
+            "direction": [-((1 - mu * mu) ** 0.5), 0, -mu],
             "film": {"type": "hdrfilm", "width": 1, "height": 1, "rfilter": {"type": "box"},
                      "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": spp},
@@ -102,7 +109,25 @@ def bake(alpha, t, count, d):
     return float(col["ssM_r"][front].mean() / np.pi), float(col["ssS_r"][front].mean()), took
 
 
+def angles(spp, ts, alphas):
+    cosines = [1.0, 0.7, 0.4, 0.15]
+    for t in ts:
+        for a in alphas:
+            multiple = [mitsuba(a, t, spp, -1, mu)[0] - mitsuba(a, t, spp, 2, mu)[0] for mu in cosines]
+            xs, ys = [0.0] + cosines[::-1], [multiple[-1]] + multiple[::-1]
+            f = [x * y for x, y in zip(xs, ys)]
+            exit_over_pi = 2 * sum((xs[k + 1] - xs[k]) * (f[k] + f[k + 1]) / 2 for k in range(len(xs) - 1))
+            print(f"thickness {t}, albedo {a}: multiple at cosines {cosines}: "
+                  f"{[round(m, 4) for m in multiple]}; exitance / pi {exit_over_pi:.4f}", flush=True)
+
+
 if __name__ == "__main__":
+    if "--angles" in sys.argv:
+        args = [x for x in sys.argv[1:] if x != "--angles"]
+        angles(int(args[0]) if args else 65536,
+               [float(x) for x in (args[1] if len(args) > 1 else "0.5,2").split(",")],
+               [float(x) for x in (args[2] if len(args) > 2 else "0.8").split(",")])
+        sys.exit()
     spp = int(sys.argv[1]) if len(sys.argv) > 1 else 65536
     ts = [float(x) for x in (sys.argv[2] if len(sys.argv) > 2 else "0.1,0.5,2").split(",")]
     alphas = [float(x) for x in (sys.argv[3] if len(sys.argv) > 3 else "0.8,0.95").split(",")]
