@@ -551,7 +551,7 @@ pub struct Arrival {
 /// shifted by `(r1, r2)` modulo 1 (Cranley-Patterson rotation): evenly
 /// spread for any `n`.
 #[inline]
-fn lattice(k: u32, n: u32, r1: f64, r2: f64) -> (f64, f64) {
+pub fn lattice(k: u32, n: u32, r1: f64, r2: f64) -> (f64, f64) {
     const PHI: f64 = 0.618_033_988_749_894_8;
     let a = (k as f64 + r1) / n as f64;
     let b = (k as f64 * PHI + r2).fract();

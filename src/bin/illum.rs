@@ -17,6 +17,10 @@ fn run(args: Args) -> anyhow::Result<()> {
         let why = "needs --mesh (the mesh the points lie on)";
         return Err(pcsss::Error::param("thickness", why).into());
     }
+    if args.indirect.is_some() && args.mesh.is_none() {
+        let why = "needs --mesh (the surface the light travels between)";
+        return Err(pcsss::Error::param("indirect", why).into());
+    }
     // The mesh first: a missing or broken mesh fails before the cloud is read.
     let (occluder, mesh) = match &args.mesh {
         Some(path) => {
@@ -27,10 +31,25 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
         None => (None, None),
     };
-    let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;
+    let mut cloud = match args.indirect {
+        // The indirect light needs the last run's ssM.
+        Some(_) => args.io.read(&Select::only(&["P", "N", "ssM"]))?,
+        None => args.io.read(&Select::only(&["P", "N"]))?,
+    };
     let progress = msg.progress();
-    let rep = illum::illum(&mut cloud, &used, occluder.as_ref(), args.seed, &progress)
-        .map_err(cli::at(&name))?;
+    let passage = args.material.medium()?.map(|m| illum::Passage {
+        sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),
+        eta: m.eta,
+    });
+    let rep = illum::illum(
+        &mut cloud,
+        &used,
+        occluder.as_ref(),
+        passage.as_ref(),
+        args.seed,
+        &progress,
+    )
+    .map_err(cli::at(&name))?;
     if let (true, Some(mesh)) = (args.thickness, &mesh) {
         let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
         if open > 0 {
@@ -38,6 +57,14 @@ fn run(args: Args) -> anyhow::Result<()> {
                 "{open} points see no back to the mesh along -N (an open mesh?): their thickness is taken as infinite"
             ));
         }
+    }
+    if let (Some(rays), Some(occ), Some(mesh)) = (args.indirect, &occluder, &mesh) {
+        let rep = illum::indirect(&mut cloud, occ, mesh, rays, args.seed, &progress)
+            .map_err(cli::at(&name))?;
+        msg.info(format!(
+            "indirect light: {} rays, {} met the surface",
+            rep.rays, rep.hits
+        ));
     }
     let names: Vec<&str> = used.iter().map(|l| l.name.as_str()).collect();
     msg.info(format!(

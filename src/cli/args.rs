@@ -329,11 +329,21 @@ pub struct IllumArgs {
     /// thin parts. Needs --mesh.
     #[arg(long)]
     pub thickness: bool,
+    /// Also the light the rest of the surface sends each point (one
+    /// bounce between surfaces), gathered by RAYS rays a point from the
+    /// input's ssM (a cloud ssmulti --model physical has run on): run
+    /// ssmulti again on the output. Needs --mesh.
+    #[arg(long, value_name = "RAYS", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub indirect: Option<u32>,
     /// Lights to use: names and glob patterns, separated by commas or
     /// spaces; ^PATTERN excludes ('*': all).
     #[arg(long, value_name = "PATTERNS", default_value = "*")]
     pub lmask: String,
-    /// Seed of the area lights' sample offsets.
+    /// Seed of the area lights' sample offsets and the indirect rays.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// The medium (--model physical): shadows then let through the light
+    /// that crosses the mesh's inside unscattered.
+    #[command(flatten)]
+    pub material: MaterialArgs,
 }

@@ -496,6 +496,14 @@ impl Occluder {
         self.ids[j as usize]
     }
 
+    /// The outward (counter-clockwise) normal of triangle `j` of the leaf
+    /// order, not normalised: which side a ray meets it from.
+    #[inline]
+    pub fn leaf_normal(&self, j: u32) -> DVec3 {
+        let t = &self.plain[j as usize];
+        (t.v1 - t.v0).cross(t.v2 - t.v0).as_dvec3()
+    }
+
     /// A distance in the unit frame in mesh units.
     #[inline]
     pub fn mesh_dist(&self, t: f32) -> f64 {

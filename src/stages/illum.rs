@@ -34,7 +34,7 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
-use crate::geom::bvh::Occluder;
+use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::columns::{self, Columns};
 use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
@@ -74,10 +74,88 @@ pub fn occluder(mesh: &TriMesh) -> Result<Occluder> {
     Ok(Occluder::new(mesh))
 }
 
+/// Shadows of a medium: the light a shadow ray carries through the mesh's
+/// inside, `exp(-sigma_t d)` over the length `d` it crosses, and the
+/// boundary's Fresnel transmittance where it enters and leaves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Passage {
+    /// Extinction per channel (1 / the mean free path).
+    pub sigma_t: DVec3,
+    /// Relative index of refraction of the boundary.
+    pub eta: f64,
+}
+
+/// Crossings a shadow ray follows through the mesh before it counts as
+/// blocked.
+const MAX_CROSSINGS: usize = 64;
+
+/// The light that a shadow ray from `p` (normal `n`) along `dir` for `dist`
+/// carries through the medium `m` bounded by the mesh of `occ`
+/// : the product over its passages
+/// inside of `exp(-sigma_t d)` and the Fresnel transmittance where it
+/// enters and leaves, along a straight line (exact at eta 1; at other
+/// eta the refraction's sideways shift is not followed). Zero once every
+/// channel is below 1e-12, or after [`MAX_CROSSINGS`].
+fn passage(occ: &Occluder, m: &Passage, p: DVec3, n: DVec3, dir: DVec3, dist: f64) -> DVec3 {
+    use crate::stages::sssingle::optics::fresnel;
+    let mut ray = occ.shadow_ray(p, n, dir, dist);
+    let end = ray.tmax;
+    let mut t = DVec3::ONE;
+    // Where the ray went in (the mesh frame's distance), when inside.
+    let mut inside: Option<f64> = None;
+    for k in 0..MAX_CROSSINGS {
+        let Some(j) = occ.nearest_ray(&mut ray, Facing::Any) else {
+            // Never left: an open mesh, or the ray ends inside (a light
+            // inside the mesh) - the medium up to the end counts.
+            if let Some(t0) = inside {
+                let d = occ.mesh_dist(end.min(f32::MAX)) - t0;
+                if d.is_finite() {
+                    t *= (-m.sigma_t * d.max(0.0)).exp();
+                } else {
+                    return DVec3::ZERO;
+                }
+            }
+            return t;
+        };
+        let at = occ.mesh_dist(ray.tmax);
+        let f = occ.leaf_normal(j);
+        let cos = (f.dot(dir) / f.length()).abs();
+        let entering = f.dot(dir) < 0.0;
+        match (entering, inside) {
+            (true, None) => inside = Some(at),
+            (false, Some(t0)) => {
+                t *= (-m.sigma_t * (at - t0).max(0.0)).exp();
+                inside = None;
+            }
+            // Leaving first: the ray started inside (a smooth normal
+            // facing the light where the facet does not, by the shadow
+            // terminator), and crossed the medium from its start.
+            (false, None) if k == 0 => t *= (-m.sigma_t * at.max(0.0)).exp(),
+            // Two faces the same way in a row (a mesh that overlaps
+            // itself): the boundary is crossed, the inside's length
+            // counted from the first.
+            _ => {}
+        }
+        t *= 1.0 - fresnel(cos, m.eta);
+        if t.max_element() < 1e-12 {
+            return DVec3::ZERO;
+        }
+        // On past this hit (a relative step: the unit frame's f32).
+        let next = ray.tmax * (1.0 + 4.0 * f32::EPSILON) + 1e-7;
+        ray.tmin = next;
+        ray.tmax = end;
+        if next >= end {
+            return if inside.is_some() { DVec3::ZERO } else { t };
+        }
+    }
+    DVec3::ZERO
+}
+
 pub fn illum(
     cloud: &mut Cloud,
     lights: &[Light],
     occluder: Option<&Occluder>,
+    medium: Option<&Passage>,
     seed: u64,
     progress: &Progress,
 ) -> Result<Report> {
@@ -159,6 +237,17 @@ pub fn illum(
                             };
                             if blocked_here {
                                 blocked += 1;
+                                let through = match medium {
+                                    Some(m) => passage(occ, m, p, n, a.dir, a.dist),
+                                    None => DVec3::ZERO,
+                                };
+                                if through == DVec3::ZERO {
+                                    continue;
+                                }
+                                e += a.e * through;
+                                let s = (a.e * through).element_sum();
+                                w += s;
+                                wc += s * n.dot(a.dir).clamp(0.0, 1.0);
                                 continue;
                             }
                         }
@@ -211,22 +300,28 @@ pub fn illum(
     }
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
     cloud.points_mut().set_scalar("illum_cos", cosines)?;
+    // An earlier run's light between surfaces is not in this illum
+    // (`indirect` adds it again).
+    cloud.points_mut().remove("illum_indirect");
     // What the run was: the lights (their names, and all they are), the
     // mesh that shadowed them, the area lights' seed.
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
     let shadows = occluder.map_or("none".to_string(), |o| o.mesh_digest.clone());
-    cloud.record(
-        "illum_",
-        vec![
-            ("illum_lights", DetailValue::Str(names.join(","))),
-            (
-                "illum_lights_digest",
-                DetailValue::Str(crate::lights::digest(lights)),
-            ),
-            ("illum_shadows", DetailValue::Str(shadows)),
-            ("illum_seed", DetailValue::Str(seed.to_string())),
-        ],
-    );
+    let mut details = vec![
+        ("illum_lights", DetailValue::Str(names.join(","))),
+        (
+            "illum_lights_digest",
+            DetailValue::Str(crate::lights::digest(lights)),
+        ),
+        ("illum_shadows", DetailValue::Str(shadows)),
+        ("illum_seed", DetailValue::Str(seed.to_string())),
+    ];
+    // A medium's shadows let light through: what it was.
+    if let (Some(m), Some(_)) = (medium, occluder) {
+        details.push(("illum_mfp", DetailValue::V3D((1.0 / m.sigma_t).to_array())));
+        details.push(("illum_eta", DetailValue::F64(m.eta)));
+    }
+    cloud.record("illum_", details);
     Ok(report)
 }
 
@@ -278,4 +373,185 @@ pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Resu
         vec![("illum_thickness", DetailValue::Str(mesh.digest()))],
     );
     Ok(open)
+}
+
+/// What [`indirect`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IndirectReport {
+    /// Rays cast (`rays` a point).
+    pub rays: u64,
+    /// Of them, those that met the surface from outside (the others left
+    /// the scene, or met a face from behind).
+    pub hits: u64,
+}
+
+/// The key of the indirect rays' random streams (apart from the area
+/// lights').
+const INDIRECT_KEY: u64 = 0xD1B5_4A32_D192_ED03;
+
+/// Adds to `illum` the light the rest of the surface sends each point
+/// (one bounce of light between surfaces): the radiance `ssM / pi` of the
+/// physical model's last run (the cloud's own `ssM`), gathered by `rays`
+/// cosine-weighted rays a point against `mesh` (`occluder` its BVH):
+/// about the point's `N`, and those below the plane of the mesh's
+/// triangle under the point bring nothing (as a path tracer's shading
+/// normals: with smooth normals they would meet the facets beside it). A ray that meets the mesh from outside takes the `ssM` of the
+/// cloud point nearest where it meets it; one that leaves the scene or
+/// meets a face from behind brings nothing. With cosine-weighted rays the
+/// irradiance is `pi` times the mean radiance, so the mean of the `ssM`
+/// met. `illum_cos` becomes the mean cosine of all the light, direct and
+/// indirect, and `illum_indirect` holds the indirect part
+/// (`docs/DESIGN.md#light-between-surfaces`). The rays a point takes are
+/// a rank-1 lattice shifted by a random offset from `seed` and the
+/// point's index: the same bits for any thread count.
+pub fn indirect(
+    cloud: &mut Cloud,
+    occluder: &Occluder,
+    mesh: &TriMesh,
+    rays: u32,
+    seed: u64,
+    progress: &Progress,
+) -> Result<IndirectReport> {
+    let pts = cloud.points();
+    let physical = matches!(
+        cloud.detail("ssmulti_radiance"),
+        Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
+    );
+    if !pts.has("ssM") {
+        return Err(pts.missing("ssM"));
+    }
+    if !physical {
+        return Err(Error::param(
+            "indirect",
+            "needs the ssM of ssmulti's physical model (an exitance; the cloud does not record ssmulti_radiance)",
+        ));
+    }
+    if rays == 0 {
+        return Err(Error::param("indirect", "0 rays a point gather nothing"));
+    }
+    let pos = pts.vec3_f64("P")?;
+    let nrm = pts.vec3_f64("N")?;
+    let ssm = pts.vec3_f64("ssM")?;
+    let direct = pts.vec3_f64("illum")?;
+    let direct_cos = pts.scalar_f64("illum_cos")?;
+    if let Some(i) = ssm
+        .iter()
+        .position(|c| !c.iter().all(|v| v.is_finite() && *v >= 0.0))
+    {
+        return Err(Error::invalid(format!(
+            "point {i} has ssM {:?}: an exitance is finite and not negative",
+            ssm[i]
+        )));
+    }
+    let origin = pos.first().map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
+    let tree =
+        crate::geom::kdtree::PointTree::new(pos.iter().map(|p| DVec3::from_array(*p)), origin);
+    progress.start("indirect", pos.len() as u64);
+    let chunks: Vec<(Vec<(DVec3, f64)>, u64)> = pos
+        .par_chunks(CHUNK)
+        .zip(nrm.par_chunks(CHUNK))
+        .enumerate()
+        .map(|(c, (pc, nc))| {
+            let mut out = Vec::with_capacity(pc.len());
+            let mut hits = 0u64;
+            for (k, (p, n)) in pc.iter().zip(nc).enumerate() {
+                let i = c * CHUNK + k;
+                let p = DVec3::from_array(*p);
+                let n = DVec3::from_array(*n).normalize();
+                let (u, v) = n.any_orthonormal_pair();
+                // The plane of the triangle under the point.
+                let flat = occluder
+                    .closest_point(mesh, p)
+                    .map(|(t, _, _)| {
+                        let [a, b, c] = mesh.tri(t);
+                        (b - a).cross(c - a).normalize_or_zero()
+                    })
+                    .filter(|g| *g != DVec3::ZERO)
+                    .unwrap_or(n);
+                let mut rng = Pcg32::new(seed ^ INDIRECT_KEY, i as u64);
+                let (r1, r2) = (uniform24(&mut rng), uniform24(&mut rng));
+                let (mut e, mut w, mut wc) = (DVec3::ZERO, 0.0f64, 0.0f64);
+                for k in 0..rays {
+                    let (a, b) = crate::lights::lattice(k, rays, r1, r2);
+                    // Cosine-weighted: the disc's point lifted to the
+                    // hemisphere.
+                    let (s, phi) = (a.sqrt(), std::f64::consts::TAU * b);
+                    let cos = (1.0 - a).max(0.0).sqrt();
+                    let dir = (u * (s * phi.cos()) + v * (s * phi.sin()) + n * cos).normalize();
+                    if dir.dot(flat) <= 0.0 {
+                        continue;
+                    }
+                    let mut ray = occluder.shadow_ray(p, n, dir, f64::INFINITY);
+                    let Some(j) = occluder.nearest_ray(&mut ray, Facing::Any) else {
+                        continue;
+                    };
+                    if occluder.leaf_normal(j).dot(dir) >= 0.0 {
+                        continue;
+                    }
+                    let hit = p + dir * occluder.mesh_dist(ray.tmax);
+                    let near = tree.nearest_one(hit).item as usize;
+                    let l = DVec3::from_array(ssm[near]);
+                    hits += 1;
+                    e += l;
+                    let sum = l.element_sum();
+                    w += sum;
+                    wc += sum * cos;
+                }
+                let e = e / rays as f64;
+                let (w, wc) = (w / rays as f64, wc / rays as f64);
+                // The mean cosine of all the light: the direct light's
+                // with its weight, and the indirect rays'.
+                let wd = DVec3::from_array(direct[i]).element_sum();
+                let all = wd + w;
+                let cos = if all > 0.0 {
+                    ((wd * direct_cos[i] + wc) / all).clamp(0.0, 1.0)
+                } else {
+                    direct_cos[i].clamp(0.0, 1.0)
+                };
+                out.push((e, cos));
+            }
+            progress.inc(pc.len() as u64);
+            (out, hits)
+        })
+        .collect();
+    progress.finish();
+    let mut report = IndirectReport {
+        rays: pos.len() as u64 * rays as u64,
+        hits: 0,
+    };
+    let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut extra: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut cosines: Vec<f32> = Vec::with_capacity(pos.len());
+    for (out, hits) in chunks {
+        for (e, cos) in out {
+            let i = illum.len();
+            let all = DVec3::from_array(direct[i]) + e;
+            if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
+                return Err(Error::invalid(format!(
+                    "point {i}: illum with the indirect light would be {:e}, {:e}, {:e}, beyond the range of a float attribute",
+                    all.x, all.y, all.z
+                )));
+            }
+            illum.push(all.as_vec3().to_array());
+            extra.push(e.as_vec3().to_array());
+            cosines.push(cos as f32);
+        }
+        report.hits += hits;
+    }
+    cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
+    cloud
+        .points_mut()
+        .set_vec3("illum_indirect", Role::Color, &extra)?;
+    cloud.points_mut().set_scalar("illum_cos", cosines)?;
+    cloud.record(
+        "illum_indirect",
+        vec![
+            (
+                "illum_indirect_rays",
+                DetailValue::Str(format!("{rays} rays, from ssM")),
+            ),
+            ("illum_indirect_seed", DetailValue::Str(seed.to_string())),
+        ],
+    );
+    Ok(report)
 }

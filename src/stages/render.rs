@@ -627,7 +627,7 @@ pub fn beauty(
     let out: Vec<[f32; 3]> = match direct {
         None => sum.iter().map(|v| v.map(|x| x as f32)).collect(),
         Some((lights, occ, kd)) => {
-            crate::stages::illum::illum(shade, lights, Some(occ), 0, progress)?;
+            crate::stages::illum::illum(shade, lights, Some(occ), None, 0, progress)?;
             let e = shade.points().vec3_f64("illum")?;
             sum.iter()
                 .zip(&e)

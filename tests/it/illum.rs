@@ -115,7 +115,7 @@ fn run_illum(
 ) -> (Vec<[f64; 3]>, illum::Report) {
     let mut c = cloud.clone();
     let occ = shadows.map(|m| Occluder::new(&TriMesh::from_cloud(m).unwrap()));
-    let rep = illum::illum(&mut c, lights, occ.as_ref(), 0, &Progress::hidden()).unwrap();
+    let rep = illum::illum(&mut c, lights, occ.as_ref(), None, 0, &Progress::hidden()).unwrap();
     (c.points().vec3_f64("illum").unwrap(), rep)
 }
 
@@ -619,7 +619,7 @@ fn illum_cos_is_the_irradiance_weighted_mean_cosine() {
     let cosine = |lights: &[Light]| {
         let mut c = pts.clone();
         let occ = Occluder::new(&TriMesh::from_cloud(&mesh).unwrap());
-        illum::illum(&mut c, lights, Some(&occ), 0, &Progress::hidden()).unwrap();
+        illum::illum(&mut c, lights, Some(&occ), None, 0, &Progress::hidden()).unwrap();
         c.points().scalar_f64("illum_cos").unwrap()
     };
     // Weights: 3 x 1 from the top, 3.5 x 0.28 from the low light.
@@ -671,4 +671,331 @@ fn thickness_is_how_far_the_mesh_goes_on_behind_a_point() {
         .unwrap()
         .iter()
         .all(|&t| t == f32::MAX as f64));
+}
+
+/// `mesh` with every face turned the other way (its outward normals
+/// reversed).
+fn flipped(mesh: &Cloud) -> Cloud {
+    let p = mesh.points().vec3_f64("P").unwrap();
+    let f = pcsss::geom::mesh::Polygons::of(mesh).unwrap();
+    let faces: Vec<Vec<i32>> = (0..f.len())
+        .map(|k| f.polygon(k).iter().rev().map(|&v| v as i32).collect())
+        .collect();
+    mesh_from(&p, &faces)
+}
+
+/// The physical model's shadows: a shadow ray that crosses the medium for
+/// `d` carries `exp(-d / mfp)` of the light per channel, times the
+/// boundary's Fresnel transmittance where it enters and where it leaves
+/// (`(1 - ((eta - 1) / (eta + 1))^2)^2` along the normal); two slabs
+/// multiply. Without the medium the same points are dark.
+#[test]
+fn a_mediums_shadow_lets_through_what_crosses_it_unscattered() {
+    let floor = plane(8, 4.0, DVec3::ZERO);
+    let pts = points_on(&floor, 400);
+    let slab = |z0: f64, z1: f64| boxed(DVec3::new(-3.0, -3.0, z0), DVec3::new(3.0, 3.0, z1));
+    let one = join(&floor, &slab(2.0, 2.5));
+    let two = join(&one, &slab(3.0, 3.3));
+    let l = parse(r#"{"lights": [{"name": "top", "type": "distant", "direction": [0, 0, -1]}]}"#);
+    let mfp = DVec3::new(0.25, 0.5, 1.0);
+    for (scene, d) in [(&one, 0.5), (&two, 0.8)] {
+        let crossings = if d == 0.5 { 2 } else { 4 };
+        for eta in [1.0, 1.5] {
+            let m = illum::Passage {
+                sigma_t: 1.0 / mfp,
+                eta,
+            };
+            let mut c = pts.clone();
+            let occ = Occluder::new(&TriMesh::from_cloud(scene).unwrap());
+            let rep =
+                illum::illum(&mut c, &l, Some(&occ), Some(&m), 0, &Progress::hidden()).unwrap();
+            assert_eq!(rep.blocked, 400);
+            let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+            let want = (-d / mfp).exp() * (1.0 - f0).powi(crossings);
+            for e in c.points().vec3_f64("illum").unwrap() {
+                for ch in 0..3 {
+                    assert!(
+                        close(e[ch], want[ch], 1e-5),
+                        "d {d}, eta {eta}: {e:?} against {want:?}"
+                    );
+                }
+            }
+            // The light's cosine is that of the light that got through.
+            assert!(c
+                .points()
+                .scalar_f64("illum_cos")
+                .unwrap()
+                .iter()
+                .all(|&x| close(x, 1.0, 1e-6)));
+        }
+        let (e, _) = run_illum(&pts, &l, Some(scene));
+        assert!(e.iter().all(|e| *e == [0.0; 3]));
+    }
+}
+
+/// The view factor from a point to a parallel rectangle of half-sides
+/// `a`, `b` centred `h` above it (four corner rectangles).
+fn view_factor(a: f64, b: f64, h: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let corner = (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan()
+        + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
+        / (2.0 * std::f64::consts::PI);
+    4.0 * corner
+}
+
+/// A cloud of one point at the origin (normal +z, no light) under a
+/// square of points `h` above it facing down, `half` on each side, every
+/// one sending the exitance `m` (ssM of the physical model), and the mesh
+/// the light travels between: a small quad under the point and the square
+/// (facing down, or up when `away`).
+fn under_a_glowing_square(half: f64, h: f64, m: [f64; 3], away: bool) -> (Cloud, TriMesh) {
+    let k = (2.0 * half / 0.1).round() as usize;
+    let mut p = vec![[0.0; 3]];
+    let mut n = vec![[0.0, 0.0, 1.0]];
+    let mut ssm = vec![[0.0f32; 3]];
+    for i in 0..=k {
+        for j in 0..=k {
+            let x = i as f64 / k as f64 * 2.0 * half - half;
+            let y = j as f64 / k as f64 * 2.0 * half - half;
+            p.push([x, y, h]);
+            n.push([0.0, 0.0, -1.0]);
+            ssm.push(m.map(|v| v as f32));
+        }
+    }
+    let mut c = Cloud::with_points(p.len());
+    let pts = c.points_mut();
+    pts.set_vec3("P", Role::Point, &p).unwrap();
+    pts.set_vec3("N", Role::Normal, &n).unwrap();
+    pts.set_vec3("ssM", Role::Color, &ssm).unwrap();
+    c.set_detail(
+        "ssmulti_radiance",
+        pcsss::cloud::DetailValue::Str(pcsss::stages::ssmulti::RADIANCE.into()),
+    );
+    let square = plane(4, 2.0 * half, DVec3::new(0.0, 0.0, h));
+    let square = if away { square } else { flipped(&square) };
+    let scene = join(&plane(2, 0.5, DVec3::ZERO), &square);
+    (c, TriMesh::from_cloud(&scene).unwrap())
+}
+
+/// `illum --indirect`: the light the rest of the surface sends. Under a
+/// square whose points all send the exitance `M`, a point gets `M` times
+/// the view factor of the square (closed form), and its `illum_cos` is
+/// the mean cosine of that light (`int cos^2 / int cos` over the square,
+/// by quadrature); a square seen from behind sends nothing; the bits do
+/// not depend on the thread count.
+#[test]
+fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
+    let (half, h, m) = (2.0, 1.0, [1.0, 0.5, 0.25]);
+    let f = view_factor(half, half, h);
+    assert!((f - 0.83103).abs() < 1e-4, "{f}");
+    // int cos dw = int dA / r^4, int cos^2 dw = int dA / r^5.
+    let (mut c1, mut c2) = (0.0, 0.0);
+    let q = 800;
+    for i in 0..q {
+        for j in 0..q {
+            let x = ((i as f64 + 0.5) / q as f64 * 2.0 - 1.0) * half;
+            let y = ((j as f64 + 0.5) / q as f64 * 2.0 - 1.0) * half;
+            let r2: f64 = x * x + y * y + h * h;
+            c1 += r2.powi(-2);
+            c2 += r2.powf(-2.5);
+        }
+    }
+    let want_cos = c2 / c1;
+    assert!((c1 * (2.0 * half / q as f64).powi(2) / std::f64::consts::PI - f).abs() < 1e-5);
+    let run = |away: bool, threads: usize| {
+        let (mut c, mesh) = under_a_glowing_square(half, h, m, away);
+        let occ = Occluder::new(&mesh);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            illum::illum(&mut c, &[], Some(&occ), None, 0, &Progress::hidden()).unwrap();
+            illum::indirect(&mut c, &occ, &mesh, 1024, 3, &Progress::hidden()).unwrap()
+        });
+        c
+    };
+    let c = run(false, 2);
+    let e = c.points().vec3_f64("illum").unwrap()[0];
+    let ind = c.points().vec3_f64("illum_indirect").unwrap()[0];
+    assert_eq!(e, ind);
+    for ch in 0..3 {
+        assert!(close(e[ch], m[ch] * f, 3e-3), "{e:?} against {f} x {m:?}");
+    }
+    let cos = c.points().scalar_f64("illum_cos").unwrap()[0];
+    assert!(close(cos, want_cos, 3e-3), "{cos} against {want_cos}");
+    assert!(c.detail("illum_indirect_rays").is_some());
+    // illum again: the light between surfaces is gone, attribute and record.
+    let mut again = c.clone();
+    let occ = Occluder::new(&under_a_glowing_square(half, h, m, false).1);
+    illum::illum(&mut again, &[], Some(&occ), None, 0, &Progress::hidden()).unwrap();
+    assert!(!again.points().has("illum_indirect") && again.detail("illum_indirect_rays").is_none());
+    // Seen from behind: nothing.
+    let back = run(true, 2);
+    assert_eq!(back.points().vec3_f64("illum").unwrap()[0], [0.0; 3]);
+    // One thread: the same bits.
+    assert_same_values(&c, &run(false, 1));
+}
+
+/// `--indirect` needs the physical model's ssM (an exitance): a cloud
+/// without ssM names ssmulti, the seed model's ssM is a parameter error,
+/// and the option needs --mesh.
+#[test]
+fn indirect_light_needs_the_physical_models_ssm() {
+    let (c, mesh) = under_a_glowing_square(1.0, 1.0, [1.0; 3], false);
+    let occ = Occluder::new(&mesh);
+    let mut seed = c.clone();
+    seed.set_detail(
+        "ssmulti_radiance",
+        pcsss::cloud::DetailValue::Str("ssM".into()),
+    );
+    let err = illum::indirect(&mut seed, &occ, &mesh, 16, 0, &Progress::hidden()).unwrap_err();
+    assert!(err.to_string().contains("physical"), "{err}");
+    let mut none = c.clone();
+    none.points_mut().remove("ssM");
+    let err = illum::indirect(&mut none, &occ, &mesh, 16, 0, &Progress::hidden()).unwrap_err();
+    assert!(err.to_string().contains("ssmulti"), "{err}");
+    let d = tempdir();
+    let cloud = d.path().join("c.ply");
+    std::fs::write(&cloud, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
+    let lights = fixtures().join("lights/bunny.json");
+    let o = run(
+        "illum",
+        &[
+            cloud.to_str().unwrap(),
+            "--lights",
+            lights.to_str().unwrap(),
+            "--no-shadows",
+            "--indirect",
+            "16",
+        ],
+        b"",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--indirect"), "{}", stderr(&o));
+    let o = run(
+        "illum",
+        &[
+            cloud.to_str().unwrap(),
+            "--lights",
+            lights.to_str().unwrap(),
+            "--indirect",
+            "0",
+        ],
+        b"",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+/// The bake with light between surfaces, through the binaries: on the
+/// torus (whose inner ring sees itself) illum --indirect adds light where
+/// the surface sees itself and none where it sees only the sky, and
+/// ssmulti run again returns at least what it returned from the direct
+/// light alone, at every point (its sum is linear in the light).
+#[test]
+fn light_between_surfaces_through_the_binaries() {
+    let d = tempdir();
+    let at = |n: &str| d.path().join(n).display().to_string();
+    let torus = fixtures().join("mesh/torus.obj").display().to_string();
+    let lights = fixtures().join("lights/torus.json").display().to_string();
+    let b = |n: &str| bin(n).display().to_string();
+    let medium = "--model physical --albedo 0.95,0.8,0.6 --mfp 0.05 --eta 1 --g 0";
+    let cmd = format!(
+        "set -o pipefail; {m} {torus} | {p} --class face --attr area --method sum --as Tarea > mesh.ply && \
+         {s} mesh.ply -n 6000 --seed 3 | {f} --mesh mesh.ply | {p} --normalize -o cloud.ply && \
+         {i} cloud.ply --lights {lights} --mesh mesh.ply {medium} -o lit.ply && \
+         {ss} lit.ply {medium} -o once.ply && \
+         {i} once.ply --lights {lights} --mesh mesh.ply {medium} --indirect 512 -o bounce.ply && \
+         {ss} bounce.ply {medium} -o twice.ply",
+        m = b("measure"),
+        p = b("promote"),
+        s = b("scatter"),
+        f = b("facet"),
+        i = b("illum"),
+        ss = b("ssmulti"),
+    );
+    let out = std::process::Command::new("bash")
+        .args(["-c", &cmd])
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read = |n: &str| from_bytes(&std::fs::read(at(n)).unwrap());
+    let (lit, bounce, once, twice) = (
+        read("lit.ply"),
+        read("bounce.ply"),
+        read("once.ply"),
+        read("twice.ply"),
+    );
+    let ind = bounce.points().vec3_f64("illum_indirect").unwrap();
+    let p = bounce.points().vec3_f64("P").unwrap();
+    let n = bounce.points().vec3_f64("N").unwrap();
+    // The direct light is what illum gave before.
+    let direct = lit.points().vec3_f64("illum").unwrap();
+    let all = bounce.points().vec3_f64("illum").unwrap();
+    for i in 0..p.len() {
+        for c in 0..3 {
+            assert!(close(all[i][c], direct[i][c] + ind[i][c], 1e-5));
+        }
+    }
+    // The torus lies in a plane through its centre: a point on the
+    // inner ring facing the centre sees the ring across; one on the
+    // outer rim facing out sees the sky alone.
+    let (mut inner, mut outer) = (Vec::new(), Vec::new());
+    let axis = (0..3)
+        .min_by(|&a, &b| {
+            let ext = |k: usize| {
+                let (lo, hi) = p
+                    .iter()
+                    .fold((f64::MAX, f64::MIN), |(l, h), q| (l.min(q[k]), h.max(q[k])));
+                hi - lo
+            };
+            ext(a).partial_cmp(&ext(b)).unwrap()
+        })
+        .unwrap();
+    let centre = p.iter().fold(DVec3::ZERO, |s, q| s + DVec3::from_array(*q)) / p.len() as f64;
+    for i in 0..p.len() {
+        let mut r = DVec3::from_array(p[i]) - centre;
+        r[axis] = 0.0;
+        let facing = DVec3::from_array(n[i]).dot(r.normalize());
+        if facing < -0.95 {
+            inner.push(ind[i][0]);
+        } else if facing > 0.95 {
+            outer.push(ind[i][0]);
+        }
+    }
+    assert!(
+        inner.len() > 20 && outer.len() > 20,
+        "{} {}",
+        inner.len(),
+        outer.len()
+    );
+    // (The ring across is narrow: a point's rays meet it a few times.)
+    let seen = inner.iter().filter(|&&e| e > 0.0).count();
+    assert!(seen * 10 >= inner.len() * 9, "{seen} of {}", inner.len());
+    assert!(outer.iter().all(|&e| e == 0.0), "{outer:?}");
+    let (m1, m2) = (
+        once.points().vec3_f64("ssM").unwrap(),
+        twice.points().vec3_f64("ssM").unwrap(),
+    );
+    let mut more = 0;
+    for i in 0..m1.len() {
+        for c in 0..3 {
+            assert!(
+                m2[i][c] >= m1[i][c] * (1.0 - 1e-5),
+                "point {i}: {:?} then {:?}",
+                m1[i],
+                m2[i]
+            );
+        }
+        more += (m2[i][0] > m1[i][0] * 1.001) as usize;
+    }
+    assert!(more > 100, "{more}");
+    assert!(
+        twice.detail("ssmulti_indirect").is_some() && twice.detail("illum_indirect_rays").is_some()
+    );
 }
