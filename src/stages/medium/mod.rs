@@ -406,6 +406,37 @@ impl Medium {
         self.albedo.map(|a| ti * h.reflectance(a, 2))
     }
 
+    /// The single-scattering reflectance per channel under light that
+    /// arrives evenly from the whole sky (cosine-weighted:
+    /// `int_0^1 rs(mu_i) 2 mu_i dmu_i`, Simpson's rule in `sqrt(mu_i)`,
+    /// where `rs` changes fastest): what single scattering returns of the
+    /// light between surfaces (`docs/DESIGN.md#light-between-surfaces`).
+    pub fn rs_diffuse(&self) -> [f64; 3] {
+        [0, 1, 2].map(|c| {
+            let m = Unit {
+                alpha: self.albedo[c],
+                eta: self.eta,
+                g: self.g,
+            };
+            // mu = s^2: 2 mu dmu = 4 s^3 ds.
+            simpson(
+                |s| {
+                    let mu = s * s;
+                    if mu <= 0.0 {
+                        return 0.0;
+                    }
+                    4.0 * s
+                        * mu
+                        * t_in(self.eta, mu)
+                        * ss_reflectance(m, walk::refracted(mu, self.eta))
+                },
+                0.0,
+                1.0,
+                32,
+            )
+        })
+    }
+
     /// [`Medium::rm_at`] over `rm`, tabulated for [`Incidence::factor`].
     pub fn incidence(&self) -> Incidence {
         let ratios = (0..INCIDENCE_NODES)
@@ -678,6 +709,29 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Single scattering under light from the whole sky: at eta 1 and g 0
+    /// the cosine-weighted mean of `alpha / 2 (1 - mu ln((1 + mu) / mu))`
+    /// is `2 alpha / 3 (1 - ln 2)`; under a dielectric less enters, and
+    /// forward scattering returns less.
+    #[test]
+    fn single_scattering_of_light_from_every_side_has_its_closed_form() {
+        let alpha = [0.3, 0.8, 1.0];
+        let m = Medium::new(alpha, [1.0; 3], 1.0, 0.0).unwrap();
+        let got = m.rs_diffuse();
+        for c in 0..3 {
+            let want = 2.0 * alpha[c] / 3.0 * (1.0 - std::f64::consts::LN_2);
+            assert!(
+                (got[c] - want).abs() < 1e-5 * want,
+                "{got:?} against {want}"
+            );
+        }
+        let glass = Medium::new(alpha, [1.0; 3], 1.5, 0.0).unwrap().rs_diffuse();
+        let forward = Medium::new(alpha, [1.0; 3], 1.0, 0.8).unwrap().rs_diffuse();
+        for c in 0..3 {
+            assert!(glass[c] < got[c] && forward[c] < got[c] && glass[c] > 0.0);
         }
     }
 

@@ -306,14 +306,15 @@ fn area_scale(atot: f64) -> f64 {
 /// reflectance at the point's `illum_cos` over the one along the normal
 /// (`illum_cos` clamped to `[0, 1]`), and the light a slab of the point's
 /// `thickness` returns over a thick part's. Without either attribute
-/// that weight is 1 (the light along the normal, a thick part): returns
-/// which were there.
+/// that weight is 1 (the light along the normal, a thick part). Then the
+/// single scattering of the light between surfaces ([`indirect_single`]).
+/// Returns which of the three were there.
 pub(super) fn weigh_light(
     cloud: &Cloud,
     medium: &crate::stages::medium::Medium,
     kernel: (f64, [f64; 3]),
     inp: &mut Inputs,
-) -> Result<(bool, bool)> {
+) -> Result<(bool, bool, bool)> {
     let pts = cloud.points();
     let column = |name: &str| -> Result<Option<ReadColumn>> {
         if !pts.has(name) {
@@ -328,7 +329,7 @@ pub(super) fn weigh_light(
     };
     let (cos, thick) = (column("illum_cos")?, column("thickness")?);
     if cos.is_none() && thick.is_none() {
-        return Ok((false, false));
+        return Ok((false, false, indirect_single(cloud, medium, inp)?));
     }
     let inc = cos.map(|c| (c, medium.incidence()));
     let thin = thick.map(|c| (c, medium.thinness()));
@@ -352,11 +353,59 @@ pub(super) fn weigh_light(
     if let Some((c, thin)) = &thin {
         through_the_far_face(cloud, c, thin, kernel, inp)?;
     }
+    // After the weights: the single scattering of light from every side
+    // needs neither.
+    let indirect = indirect_single(cloud, medium, inp)?;
     inp.grey = inp
         .pts
         .par_iter()
         .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
-    Ok((inc.is_some(), thin.is_some()))
+    Ok((inc.is_some(), thin.is_some(), indirect))
+}
+
+/// Light between surfaces arrives from every side, and the single
+/// scattering it gives leaves nearly as evenly: where the cloud has
+/// `illum_indirect` (illum --indirect), a point's light gains that light
+/// times `rs_diffuse / rm` per channel, so that ssM returns its single
+/// scattering too (sssingle follows the lights alone). Returns whether it
+/// was there.
+fn indirect_single(
+    cloud: &Cloud,
+    medium: &crate::stages::medium::Medium,
+    inp: &mut Inputs,
+) -> Result<bool> {
+    let pts = cloud.points();
+    if !pts.has("illum_indirect") {
+        return Ok(false);
+    }
+    let ind = pts.vec3_f64("illum_indirect")?;
+    if let Some(i) = ind
+        .iter()
+        .position(|c| !c.iter().all(|v| v.is_finite() && *v >= 0.0))
+    {
+        return Err(Error::invalid(format!(
+            "point {i} has illum_indirect {:?}: light is finite and not negative",
+            ind[i]
+        )));
+    }
+    let rs = medium.rs_diffuse();
+    let k = [0, 1, 2].map(|c| {
+        if medium.rm[c] > 0.0 {
+            rs[c] / medium.rm[c]
+        } else {
+            0.0
+        }
+    });
+    inp.pts.par_iter_mut().zip(&ind).for_each(|(pt, e)| {
+        for c in 0..3 {
+            pt.illum[c] = (pt.illum[c] as f64 + e[c] * k[c]) as f32;
+        }
+    });
+    inp.grey = inp
+        .pts
+        .par_iter()
+        .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
+    Ok(true)
 }
 
 /// A thin part's light leaves through both faces (`docs/DESIGN.md#thickness`):

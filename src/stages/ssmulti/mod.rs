@@ -332,6 +332,9 @@ pub struct Report {
     /// The physical model weighed each point's light by the thickness
     /// behind it (`thickness`); `false`: every part taken as thick.
     pub by_thickness: bool,
+    /// The light between surfaces (`illum_indirect`) brought its single
+    /// scattering into ssM.
+    pub indirect: bool,
 }
 
 /// The largest tolerance of the approximate method: a cluster half as wide
@@ -478,6 +481,10 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
             "thick"
         };
         details.push(("ssmulti_thickness", DetailValue::Str(how.into())));
+        if report.indirect {
+            let how = "illum_indirect: its single scattering in ssM";
+            details.push(("ssmulti_indirect", DetailValue::Str(how.into())));
+        }
     }
     cloud.record("ssmulti_", details);
     Ok(report)
@@ -510,9 +517,9 @@ fn ssmulti_columns(
     let p = &p.resolved();
     let mut ph = progress.phases("ssmulti");
     let mut inp = inputs(cloud, p.bounce > 0.0)?;
-    let (by_incidence, by_thickness) = match &p.medium {
+    let (by_incidence, by_thickness, indirect) = match &p.medium {
         Some(m) => weigh_light(cloud, m, (physical_kappa(p), p.distances()), &mut inp)?,
-        None => (false, false),
+        None => (false, false, false),
     };
     ph.mark("inputs");
     let n = inp.pts.len();
@@ -526,6 +533,7 @@ fn ssmulti_columns(
         points: n,
         by_incidence,
         by_thickness,
+        indirect,
         ..Report::default()
     };
     if n > 0 && Distances::of(p).ld1 > 0.0 {

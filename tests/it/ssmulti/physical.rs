@@ -153,6 +153,42 @@ fn oblique_light_is_returned_by_the_reflectance_at_its_cosine() {
     }
 }
 
+/// Light between surfaces (`illum_indirect` from `illum --indirect`, part
+/// of `illum`): the plane returns the direct light times `rm` and the
+/// indirect light times `rm + rs_diffuse`, its single scattering too.
+#[test]
+fn light_between_surfaces_brings_its_single_scattering() {
+    let (direct, indirect) = ([2.0, 1.0, 0.5], [0.3, 0.6, 0.9]);
+    let e = [0, 1, 2].map(|c| direct[c] + indirect[c]);
+    let (k, h) = (201usize, 0.006);
+    let m = Medium::new([0.95, 0.8, 0.5], [0.02, 0.03, 0.05], 1.0, 0.0).unwrap();
+    let p = physical(m);
+    let ld1 = p.distances().iter().copied().fold(0.0, f64::max);
+    let mut c = grid(k, h, e, 0.0, 5);
+    let ind = vec![indirect.map(|x| x as f32); k * k];
+    c.points_mut()
+        .set_vec3("illum_indirect", pcsss::cloud::Role::Color, &ind)
+        .unwrap();
+    let rep = ssmulti::ssmulti(&mut c, &p, &Progress::hidden()).unwrap();
+    assert!(rep.indirect);
+    assert!(c.detail("ssmulti_indirect").is_some());
+    let rs = m.rs_diffuse();
+    let got = c.points().vec3_f64("ssM").unwrap();
+    let pos = c.points().vec3_f64("P").unwrap();
+    let (span, far) = ((k - 1) as f64 * h, 2.0 * ld1);
+    let mut inner = 0;
+    for (q, v) in pos.iter().zip(&got) {
+        if q[0] > far && q[0] < span - far && q[1] > far && q[1] < span - far {
+            inner += 1;
+            for ch in 0..3 {
+                let w = m.rm[ch] * e[ch] + rs[ch] * indirect[ch];
+                assert!(rel_err(v[ch], w) < 1e-3, "{} against {w}", v[ch]);
+            }
+        }
+    }
+    assert!(inner > 1000, "{inner}");
+}
+
 /// Light entering a thin part (`thickness` from `illum --thickness`): the
 /// plane returns its irradiance times the multiple-scattering light a slab
 /// that thick sends out of both faces.
