@@ -9,7 +9,9 @@ single-scattering albedo ALBEDO (per channel), mean free path MFP, g 0,
 under an index-matched boundary (eta 1: Mitsuba's light sampling reaches
 a directional light only through a null boundary). The bake is `make -C
 pipelines MODEL=physical` (scatter to render, 16 sssingle samples, 16
-rays a pixel); Mitsuba is volpath with its Gaussian pixel filter. The
+rays a pixel), at each point count once with direct light alone and once
+with light between surfaces (`INDIRECT=16`); Mitsuba is volpath; both
+weigh a pixel's rays by Mitsuba's Gaussian pixel filter. The
 reference is Mitsuba at REF samples a pixel. Errors: RMS and mean relative
 error of the beauty over the pixels the bunny covers whole in the bake and
 that are lit in the reference, each channel a sample; and over the ears
@@ -72,14 +74,14 @@ def mitsuba(spp, max_depth=-1):
     return img[:, :, :3], time.time() - t
 
 
-def bake(count, d):
+def bake(count, d, indirect=0):
     cam = d / "cam.json"
     cam.write_text(json.dumps(CAMERA))
-    out = d / f"out{count}"
+    out = d / f"out{count}_{indirect}"
     t = time.time()
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={MESH}", f"CAMERA={cam}",
-                    f"OUT={out}", f"COUNT={count}", "MODEL=physical",
-                    f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16",
+                    f"OUT={out}", f"COUNT={count}", "MODEL=physical", f"INDIRECT={indirect}",
+                    f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16", "PIXEL_FILTER=gaussian",
                     "SAMPLES=16", "SHADOWS=1"] + EXTRA, check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t
     img, a = read_image(out / "bunny.exr", d, SIZE)
@@ -99,7 +101,7 @@ def split(ref_spp, count):
     with tempfile.TemporaryDirectory() as dd:
         d = pathlib.Path(dd)
         img, a, _ = bake(count, d)
-        out = d / f"out{count}"
+        out = d / f"out{count}_0"
         whole, ears = masks(a, ref)
         part = {}
         for attr in ["ssM", "ssS"]:
@@ -131,15 +133,16 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as dd:
         d = pathlib.Path(dd)
         whole = ears = None
-        for n in counts:
-            img, a, t = bake(n, d)
-            if whole is None:
-                whole, ears = masks(a, ref)
-            e, f = errors(img, ref, whole), errors(img, ref, ears)
-            rows.append({"tool": "bake", "setting": n, "seconds": t, "rms": e[0], "mean": e[1],
-                         "ears_rms": f[0], "ears_mean": f[1]})
-            print(f"| bake | {n} points | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} | {f[0]:.3f} | {f[1]:+.3f} |",
-                  flush=True)
+        for indirect, tool in [(0, "bake"), (16, "bake, indirect")]:
+            for n in counts:
+                img, a, t = bake(n, d, indirect)
+                if whole is None:
+                    whole, ears = masks(a, ref)
+                e, f = errors(img, ref, whole), errors(img, ref, ears)
+                rows.append({"tool": tool, "setting": n, "seconds": t, "rms": e[0], "mean": e[1],
+                             "ears_rms": f[0], "ears_mean": f[1]})
+                print(f"| {tool} | {n} points | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} | {f[0]:.3f} | {f[1]:+.3f} |",
+                      flush=True)
         for s in spps:
             img, t = mitsuba(s)
             e, f = errors(img, ref, whole), errors(img, ref, ears)

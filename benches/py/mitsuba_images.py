@@ -50,7 +50,8 @@ def errors(img, ref, mask):
 
 def render_attr(out, name, cam, attr, exr):
     """The bake's `attr` alone (ssM as its radiance, ssS), 16 rays a
-    pixel, from the bake's directory `out` and its mesh `name`."""
+    pixel under Mitsuba's Gaussian pixel filter, from the bake's directory
+    `out` and its mesh `name`."""
     subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / f"{name}_mesh.ply",
-                    "--camera", cam, "--cloud", out / f"{name}_sss.ply", "--attr", attr, "--spp", "16",
+                    "--camera", cam, "--cloud", out / f"{name}_sss.ply", "--attr", attr, "--spp", "16", "--pixel-filter", "gaussian",
                     "-o", exr], check=True)

@@ -7,9 +7,7 @@ single-scattering albedo ALBEDO, mean free path MFP, g 0, under an
 index-matched boundary (eta 1: a directional light is then reachable by
 Mitsuba's light sampling), lit by a distant light from above and in
 front, seen by a 64 x 64 pinhole camera (Mitsuba's Gaussian pixel
-filter; the bake's 16 rays a pixel in a box, the Makefile's default: on
-the pixels the sphere covers whole, a smooth picture, the two differ
-little). The reference is Mitsuba at REF samples a pixel. For the bake
+filter in both: the bake's 16 rays a pixel weighed by it). The reference is Mitsuba at REF samples a pixel. For the bake
 (`make -C pipelines MODEL=physical`: scatter, facet, illum, ssmulti,
 sssingle, render with 16 rays a pixel) at each point count, and for
 Mitsuba at each sample count: the wall time and the RMS and mean relative
@@ -99,7 +97,7 @@ def bake(count, d):
     t = time.time()
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={mesh}", f"LIGHTS={lights}",
                     f"CAMERA={cam}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
-                    f"ALBEDO={ALBEDO}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16", "SAMPLES=16",
+                    f"ALBEDO={ALBEDO}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=16", "PIXEL_FILTER=gaussian", "SAMPLES=16",
                     "SHADOWS=1"] + EXTRA, check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t
     img, a = read_image(out / "sphere.exr", d, SIZE)

@@ -2,7 +2,7 @@
 from the rows benches/py/mitsuba_sphere.py and mitsuba_bunny.py keep.
 
 Usage: plot_error_time.py OUT.png RESULTS.json [RESULTS.json ...]
-Each file: {"reference_spp": N, "rows": [{"tool": "bake" | "Mitsuba",
+Each file: {"reference_spp": N, "rows": [{"tool": "bake" | "bake, indirect" | "Mitsuba",
 "setting": points or samples a pixel, "seconds", "rms", ...}]}; its name
 (mitsuba_NAME.json) labels its curves.
 """
@@ -23,16 +23,18 @@ def main():
     for k, f in enumerate(files):
         data = json.loads(pathlib.Path(f).read_text())
         scene = pathlib.Path(f).stem.removeprefix("mitsuba_")
-        for tool, marker, style in [("bake", "o", "-"), ("Mitsuba", "s", "--")]:
+        for j, (tool, marker, style) in enumerate([("bake", "o", "-"), ("Mitsuba", "s", "--"),
+                                                   ("bake, indirect", "^", "-.")]):
             rows = sorted((r for r in data["rows"] if r["tool"] == tool), key=lambda r: r["seconds"])
             if not rows:
                 continue
-            col = colours[(2 * k + (tool == "Mitsuba")) % len(colours)]
+            col = colours[(3 * k + j) % len(colours)]
             ax.plot([r["seconds"] for r in rows], [r["rms"] for r in rows], marker + style, color=col,
                     label=f"{scene}: {tool}")
-            unit = "k" if tool == "bake" else " spp"
+            baked = tool.startswith("bake")
+            unit = "k" if baked else " spp"
             for r in rows:
-                s = r["setting"] // 1000 if tool == "bake" else r["setting"]
+                s = r["setting"] // 1000 if baked else r["setting"]
                 ax.annotate(f"{s}{unit}", (r["seconds"], r["rms"]), fontsize=7, color=col,
                             textcoords="offset points", xytext=(3, 3))
     ax.axhline(0.02, color="grey", lw=0.8, ls=":")

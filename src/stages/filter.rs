@@ -396,7 +396,9 @@ pub fn spacing(cloud: &Cloud) -> Option<f64> {
 /// The cloud points a shade point reads: the `nfp` nearest, else all
 /// within `radius`, a fraction of D ([`distance`]), finite and > 0;
 /// without one, [`DEFAULT_RADIUS`] of D but at least [`SPACINGS`]
-/// spacings. Also says when the spacing raised the radius.
+/// spacings, and for the physical model's ssM (given, or computed
+/// lazily) [`SPACINGS`] spacings alone when the spacing is known. Also
+/// says when the spacing raised the radius.
 pub fn reach(
     cloud: &Cloud,
     nfp: Option<usize>,
@@ -418,6 +420,22 @@ pub fn reach(
             Reach::Radius(radius * distance(cloud, multi, single)?),
             None,
         ));
+    }
+    // The physical model's ssM is each point's exitance, its kernel sum
+    // done: a shade point's filter need only interpolate between points,
+    // and a wider one would blur sharp edges of light (a shadow's, a
+    // crease's) that the path tracer keeps (docs/DESIGN.md#filter).
+    let physical = match multi {
+        Some(p) => p.medium.is_some(),
+        None => matches!(
+            cloud.detail("ssmulti_model"),
+            Some(DetailValue::Str(m)) if m == "physical"
+        ),
+    };
+    if physical {
+        if let Some(h) = spacing(cloud) {
+            return Ok((Reach::Radius(SPACINGS * h), None));
+        }
     }
     let r = DEFAULT_RADIUS * distance(cloud, multi, single)?;
     match spacing(cloud).map(|h| SPACINGS * h) {

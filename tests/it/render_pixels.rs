@@ -302,3 +302,33 @@ fn the_default_filter_radius_never_falls_below_the_clouds_spacing() {
     c2.set_detail("scatter_count", DetailValue::F64(100.0));
     assert_eq!(filter::spacing(&c2), Some(0.2));
 }
+
+/// The physical model's ssM (recorded, or computed lazily) is filtered
+/// over two spacings by default, however long its kernel; the seed
+/// model's over a quarter of D.
+#[test]
+fn the_physical_models_ssm_is_filtered_over_two_spacings() {
+    let mut cloud = constant_cloud([1.0, 1.0, 1.0]);
+    cloud.set_detail("Tarea", DetailValue::F64(4.0));
+    cloud.set_detail("scatter_count", DetailValue::F64(10_000.0));
+    let h = 0.02;
+    // A long kernel: a quarter of it is far above two spacings.
+    cloud.set_detail("ssmulti_sd", DetailValue::F64(4.0));
+    let reach = |c: &pcsss::Cloud, multi: Option<&pcsss::stages::ssmulti::Params>| {
+        filter::Setup::new(c, &[], multi, None, None, None, false)
+            .unwrap()
+            .params
+            .reach
+    };
+    assert_eq!(reach(&cloud, None), Reach::Radius(1.0));
+    let mut physical = cloud.clone();
+    physical.set_detail("ssmulti_model", DetailValue::Str("physical".into()));
+    physical.set_detail("ssmulti_distances", DetailValue::V3D([4.0, 2.0, 1.0]));
+    assert_eq!(reach(&physical, None), Reach::Radius(2.0 * h));
+    let medium = pcsss::stages::medium::Medium::new([0.9; 3], [1.0; 3], 1.0, 0.0).unwrap();
+    let lazy = pcsss::stages::ssmulti::Params {
+        medium: Some(medium),
+        ..Default::default()
+    };
+    assert_eq!(reach(&cloud, Some(&lazy)), Reach::Radius(2.0 * h));
+}
