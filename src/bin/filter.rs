@@ -34,7 +34,8 @@ struct Args {
     /// Use the cloud points within this fraction of the scattering
     /// distance D = sd * max(Rd) (the physical model's largest distance)
     /// [default: 0.25, but never under twice the cloud's spacing
-    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea)].
+    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea); the physical
+    /// model's ssM: twice the spacing].
     #[arg(long, value_name = "FRACTION")]
     radius: Option<f64>,
     /// Only cloud points whose normal faces the shade point's side.
