@@ -21,6 +21,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         let why = "needs --mesh (the surface the light travels between)";
         return Err(pcsss::Error::param("indirect", why).into());
     }
+    let medium = args.material.medium()?;
+    if args.indirect.is_some() && medium.is_none() {
+        let why = "needs the medium ssmulti ran with (--model physical and its options)";
+        return Err(pcsss::Error::param("indirect", why).into());
+    }
     // The mesh first: a missing or broken mesh fails before the cloud is read.
     let (occluder, mesh) = match &args.mesh {
         Some(path) => {
@@ -37,7 +42,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         None => args.io.read(&Select::only(&["P", "N"]))?,
     };
     let progress = msg.progress();
-    let passage = args.material.medium()?.map(|m| illum::Passage {
+    let passage = medium.as_ref().map(|m| illum::Passage {
         sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),
         eta: m.eta,
     });
@@ -58,8 +63,9 @@ fn run(args: Args) -> anyhow::Result<()> {
             ));
         }
     }
-    if let (Some(rays), Some(occ), Some(mesh)) = (args.indirect, &occluder, &mesh) {
-        let rep = illum::indirect(&mut cloud, occ, mesh, rays, args.seed, &progress)
+    if let (Some(rays), Some(occ), Some(mesh), Some(m)) = (args.indirect, &occluder, &mesh, &medium)
+    {
+        let rep = illum::indirect(&mut cloud, occ, mesh, m, rays, args.seed, &progress)
             .map_err(cli::at(&name))?;
         msg.info(format!(
             "indirect light: {} rays, {} met the surface",

@@ -39,6 +39,7 @@ use crate::geom::columns::{self, Columns};
 use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
 use crate::progress::Progress;
+use crate::stages::medium::Medium;
 
 /// What `illum` did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -375,6 +376,36 @@ pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Resu
     Ok(open)
 }
 
+/// `--indirect` gathers the light of the medium ssmulti ran with: a
+/// different one given to illum is an error naming both.
+fn same_medium(cloud: &Cloud, m: &Medium) -> Result<()> {
+    let given = [
+        ("ssmulti_albedo", m.albedo.to_vec()),
+        ("ssmulti_mfp", m.mfp.to_vec()),
+        ("ssmulti_eta", vec![m.eta]),
+        ("ssmulti_g", vec![m.g]),
+    ];
+    for (name, want) in given {
+        let Some(have) = cloud.detail(name).map(|d| d.components()) else {
+            continue;
+        };
+        let close = have.len() == want.len()
+            && have
+                .iter()
+                .zip(&want)
+                .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()));
+        if !close {
+            return Err(Error::param(
+                "indirect",
+                format!(
+                    "the cloud's ssM was made with {name} {have:?}, the medium given is {want:?} (give illum the medium ssmulti ran with)"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// What [`indirect`] did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct IndirectReport {
@@ -391,12 +422,14 @@ const INDIRECT_KEY: u64 = 0xD1B5_4A32_D192_ED03;
 
 /// Adds to `illum` the light the rest of the surface sends each point
 /// (one bounce of light between surfaces): the radiance `ssM / pi` of the
-/// physical model's last run (the cloud's own `ssM`), gathered by `rays`
+/// physical model's last run (the cloud's own `ssM`, with the medium
+/// `medium` it ran with), and the single scattering of the direct light
+/// (`rs(illum_cos) illum / pi`: taken as leaving evenly), gathered by `rays`
 /// cosine-weighted rays a point against `mesh` (`occluder` its BVH):
 /// about the point's `N`, and those below the plane of the mesh's
 /// triangle under the point bring nothing (as a path tracer's shading
 /// normals: with smooth normals they would meet the facets beside it). A ray that meets the mesh from outside takes the `ssM` of the
-/// cloud point nearest where it meets it; one that leaves the scene or
+/// cloud point nearest where it meets it (that point's exitance); one that leaves the scene or
 /// meets a face from behind brings nothing. With cosine-weighted rays the
 /// irradiance is `pi` times the mean radiance, so the mean of the `ssM`
 /// met. `illum_cos` becomes the mean cosine of all the light, direct and
@@ -408,6 +441,7 @@ pub fn indirect(
     cloud: &mut Cloud,
     occluder: &Occluder,
     mesh: &TriMesh,
+    medium: &Medium,
     rays: u32,
     seed: u64,
     progress: &Progress,
@@ -429,6 +463,7 @@ pub fn indirect(
     if rays == 0 {
         return Err(Error::param("indirect", "0 rays a point gather nothing"));
     }
+    same_medium(cloud, medium)?;
     let pos = pts.vec3_f64("P")?;
     let nrm = pts.vec3_f64("N")?;
     let ssm = pts.vec3_f64("ssM")?;
@@ -443,6 +478,17 @@ pub fn indirect(
             ssm[i]
         )));
     }
+    // What each point sends: its multiple scattering, and the single
+    // scattering of its direct light, taken as leaving evenly (sssingle's
+    // ssS is for the camera's eye alone).
+    let single = medium.single_by_cosine();
+    let exitance: Vec<DVec3> = (0..pos.len())
+        .into_par_iter()
+        .map(|i| {
+            let rs = DVec3::from_array(single.factor(direct_cos[i]));
+            DVec3::from_array(ssm[i]) + rs * DVec3::from_array(direct[i])
+        })
+        .collect();
     let origin = pos.first().map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
     let tree =
         crate::geom::kdtree::PointTree::new(pos.iter().map(|p| DVec3::from_array(*p)), origin);
@@ -489,8 +535,7 @@ pub fn indirect(
                         continue;
                     }
                     let hit = p + dir * occluder.mesh_dist(ray.tmax);
-                    let near = tree.nearest_one(hit).item as usize;
-                    let l = DVec3::from_array(ssm[near]);
+                    let l = exitance[tree.nearest_one(hit).item as usize];
                     hits += 1;
                     e += l;
                     let sum = l.element_sum();

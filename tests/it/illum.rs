@@ -777,6 +777,11 @@ fn under_a_glowing_square(half: f64, h: f64, m: [f64; 3], away: bool) -> (Cloud,
     (c, TriMesh::from_cloud(&scene).unwrap())
 }
 
+/// The medium of the indirect-light tests.
+fn medium() -> pcsss::stages::medium::Medium {
+    pcsss::stages::medium::Medium::new([0.95, 0.8, 0.5], [0.1; 3], 1.0, 0.0).unwrap()
+}
+
 /// `illum --indirect`: the light the rest of the surface sends. Under a
 /// square whose points all send the exitance `M`, a point gets `M` times
 /// the view factor of the square (closed form), and its `illum_cos` is
@@ -811,7 +816,7 @@ fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
             .unwrap();
         pool.install(|| {
             illum::illum(&mut c, &[], Some(&occ), None, 0, &Progress::hidden()).unwrap();
-            illum::indirect(&mut c, &occ, &mesh, 1024, 3, &Progress::hidden()).unwrap()
+            illum::indirect(&mut c, &occ, &mesh, &medium(), 1024, 3, &Progress::hidden()).unwrap()
         });
         c
     };
@@ -837,6 +842,44 @@ fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
     assert_same_values(&c, &run(false, 1));
 }
 
+/// What a point sends to others is its multiple scattering and the
+/// single scattering of its direct light: under a square lit from
+/// below (irradiance 1 along its normal) whose points have `ssM` `M`, a
+/// point gets the view factor times `M + rs(1)`. A medium other than the
+/// one the cloud's ssM was made with is refused, naming both.
+#[test]
+fn indirect_light_carries_the_single_scattering_of_the_light_it_got() {
+    let (half, h, m) = (2.0, 1.0, [0.2, 0.1, 0.05]);
+    let f = view_factor(half, half, h);
+    let (mut c, mesh) = under_a_glowing_square(half, h, m, false);
+    let up = parse(r#"{"lights": [{"name": "below", "type": "distant", "direction": [0, 0, 1]}]}"#);
+    illum::illum(&mut c, &up, None, None, 0, &Progress::hidden()).unwrap();
+    let occ = Occluder::new(&mesh);
+    let med = medium();
+    illum::indirect(&mut c, &occ, &mesh, &med, 1024, 3, &Progress::hidden()).unwrap();
+    let e = c.points().vec3_f64("illum_indirect").unwrap()[0];
+    let rs = med.rs_at(1.0);
+    for ch in 0..3 {
+        let want = f * (m[ch] + rs[ch]);
+        assert!(
+            close(e[ch], want, 3e-3),
+            "{e:?}: channel {ch} against {want}"
+        );
+    }
+    let mut other = c.clone();
+    other.set_detail(
+        "ssmulti_albedo",
+        pcsss::cloud::DetailValue::V3D([0.9, 0.8, 0.5]),
+    );
+    let err = illum::indirect(&mut other, &occ, &mesh, &med, 16, 0, &Progress::hidden())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("ssmulti_albedo") && err.contains("0.95"),
+        "{err}"
+    );
+}
+
 /// `--indirect` needs the physical model's ssM (an exitance): a cloud
 /// without ssM names ssmulti, the seed model's ssM is a parameter error,
 /// and the option needs --mesh.
@@ -849,11 +892,29 @@ fn indirect_light_needs_the_physical_models_ssm() {
         "ssmulti_radiance",
         pcsss::cloud::DetailValue::Str("ssM".into()),
     );
-    let err = illum::indirect(&mut seed, &occ, &mesh, 16, 0, &Progress::hidden()).unwrap_err();
+    let err = illum::indirect(
+        &mut seed,
+        &occ,
+        &mesh,
+        &medium(),
+        16,
+        0,
+        &Progress::hidden(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("physical"), "{err}");
     let mut none = c.clone();
     none.points_mut().remove("ssM");
-    let err = illum::indirect(&mut none, &occ, &mesh, 16, 0, &Progress::hidden()).unwrap_err();
+    let err = illum::indirect(
+        &mut none,
+        &occ,
+        &mesh,
+        &medium(),
+        16,
+        0,
+        &Progress::hidden(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("ssmulti"), "{err}");
     let d = tempdir();
     let cloud = d.path().join("c.ply");
@@ -873,6 +934,28 @@ fn indirect_light_needs_the_physical_models_ssm() {
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--indirect"), "{}", stderr(&o));
+    // With a mesh but no medium.
+    let mesh = d.path().join("m.ply");
+    std::fs::write(
+        &mesh,
+        to_bytes(&plane(2, 1.0, DVec3::ZERO), pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let o = run(
+        "illum",
+        &[
+            cloud.to_str().unwrap(),
+            "--lights",
+            lights.to_str().unwrap(),
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--indirect",
+            "16",
+        ],
+        b"",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("medium"), "{}", stderr(&o));
     let o = run(
         "illum",
         &[

@@ -412,29 +412,33 @@ impl Medium {
     /// where `rs` changes fastest): what single scattering returns of the
     /// light between surfaces (`docs/DESIGN.md#light-between-surfaces`).
     pub fn rs_diffuse(&self) -> [f64; 3] {
+        // mu = s^2: 2 mu dmu = 4 s^3 ds.
+        [0, 1, 2].map(|c| simpson(|s| 4.0 * s * s * s * self.rs_at(s * s)[c], 0.0, 1.0, 32))
+    }
+
+    /// The single-scattering reflectance per channel for light arriving
+    /// at cosine `mu_i` with the normal (`rs` at 1): the exact quadrature,
+    /// with the Fresnel transmittance in.
+    pub fn rs_at(&self, mu_i: f64) -> [f64; 3] {
+        let mu = mu_i.clamp(0.0, 1.0);
+        let ti = t_in(self.eta, mu);
         [0, 1, 2].map(|c| {
             let m = Unit {
                 alpha: self.albedo[c],
                 eta: self.eta,
                 g: self.g,
             };
-            // mu = s^2: 2 mu dmu = 4 s^3 ds.
-            simpson(
-                |s| {
-                    let mu = s * s;
-                    if mu <= 0.0 {
-                        return 0.0;
-                    }
-                    4.0 * s
-                        * mu
-                        * t_in(self.eta, mu)
-                        * ss_reflectance(m, walk::refracted(mu, self.eta))
-                },
-                0.0,
-                1.0,
-                32,
-            )
+            ti * ss_reflectance(m, walk::refracted(mu, self.eta))
         })
+    }
+
+    /// [`Medium::rs_at`] itself (not a ratio), tabulated for
+    /// [`Incidence::factor`].
+    pub fn single_by_cosine(&self) -> Incidence {
+        let ratios = (0..INCIDENCE_NODES)
+            .map(|k| self.rs_at((k as f64 / (INCIDENCE_NODES - 1) as f64).powi(2)))
+            .collect();
+        Incidence { ratios }
     }
 
     /// [`Medium::rm_at`] over `rm`, tabulated for [`Incidence::factor`].
@@ -578,8 +582,10 @@ impl Thinness {
 /// are dense).
 const INCIDENCE_NODES: usize = 33;
 
-/// A medium's multiple-scattering reflectance by the cosine of the
-/// light's arrival, over the one along the normal.
+/// A per-channel quantity by the cosine of the light's arrival: the
+/// multiple-scattering reflectance over the one along the normal
+/// ([`Medium::incidence`]), or the single-scattering reflectance
+/// ([`Medium::single_by_cosine`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Incidence {
     ratios: Vec<[f64; 3]>,
@@ -727,6 +733,21 @@ mod tests {
                 (got[c] - want).abs() < 1e-5 * want,
                 "{got:?} against {want}"
             );
+        }
+        // By cosine: the closed form, and its table between the nodes.
+        let table = m.single_by_cosine();
+        for mu in [1.0f64, 0.4, 0.1, 0.0] {
+            let log = if mu > 0.0 {
+                mu * ((1.0 + mu) / mu).ln()
+            } else {
+                0.0
+            };
+            let (at, tab) = (m.rs_at(mu), table.factor(mu));
+            for c in 0..3 {
+                let want = 0.5 * alpha[c] * (1.0 - log);
+                assert!((at[c] - want).abs() <= 1e-6 * want, "mu {mu}: {at:?}");
+                assert!((tab[c] - want).abs() <= 2e-3 * alpha[c], "mu {mu}: {tab:?}");
+            }
         }
         let glass = Medium::new(alpha, [1.0; 3], 1.5, 0.0).unwrap().rs_diffuse();
         let forward = Medium::new(alpha, [1.0; 3], 1.0, 0.8).unwrap().rs_diffuse();
