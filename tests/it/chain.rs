@@ -10,7 +10,7 @@ fn the_chain_runs_as_a_shell_pipe() {
     let cube = fixtures().join("mesh/cube.obj");
     let b = |n: &str| bin(n).display().to_string();
     let cmd = format!(
-        "set -o pipefail; {m} {cube} | {p} --class face --attr area --as Tarea > mesh.ply && \
+        "{m} {cube} | {p} --class face --attr area --as Tarea > mesh.ply && \
          {s} mesh.ply -n 2000 --seed 7 | {f} --mesh mesh.ply | {p} --normalize -o cloud.ply",
         m = b("measure"),
         p = b("promote"),
@@ -18,16 +18,7 @@ fn the_chain_runs_as_a_shell_pipe() {
         f = b("facet"),
         cube = cube.display()
     );
-    let out = std::process::Command::new("bash")
-        .args(["-c", &cmd])
-        .current_dir(d.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    shell(d.path(), &cmd);
     let c = from_bytes(&std::fs::read(d.path().join("cloud.ply")).unwrap());
     assert_eq!(c.len(), 2000);
     for a in ["P", "N", "ptarea", "sourceprim", "sourceuv"] {

@@ -920,54 +920,29 @@ fn indirect_light_needs_the_physical_models_ssm() {
     let cloud = d.path().join("c.ply");
     std::fs::write(&cloud, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
     let lights = fixtures().join("lights/bunny.json");
-    let o = run(
-        "illum",
-        &[
-            cloud.to_str().unwrap(),
-            "--lights",
-            lights.to_str().unwrap(),
-            "--no-shadows",
-            "--indirect",
-            "16",
-        ],
-        b"",
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("--indirect"), "{}", stderr(&o));
-    // With a mesh but no medium.
     let mesh = d.path().join("m.ply");
     std::fs::write(
         &mesh,
         to_bytes(&plane(2, 1.0, DVec3::ZERO), pcsss::formats::Format::DEFAULT),
     )
     .unwrap();
-    let o = run(
-        "illum",
-        &[
-            cloud.to_str().unwrap(),
-            "--lights",
-            lights.to_str().unwrap(),
-            "--mesh",
-            mesh.to_str().unwrap(),
-            "--indirect",
-            "16",
-        ],
-        b"",
+    let (cloud, lights, mesh) = (
+        cloud.to_str().unwrap(),
+        lights.to_str().unwrap(),
+        mesh.to_str().unwrap(),
     );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("medium"), "{}", stderr(&o));
-    let o = run(
-        "illum",
-        &[
-            cloud.to_str().unwrap(),
-            "--lights",
-            lights.to_str().unwrap(),
-            "--indirect",
-            "0",
-        ],
-        b"",
-    );
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // No mesh; a mesh but no medium; no rays.
+    for (extra, says) in [
+        (&["--no-shadows", "--indirect", "16"][..], "--indirect"),
+        (&["--mesh", mesh, "--indirect", "16"][..], "medium"),
+        (&["--no-shadows", "--indirect", "0"][..], "--indirect"),
+    ] {
+        let mut args = vec![cloud, "--lights", lights];
+        args.extend(extra);
+        let o = run("illum", &args, b"");
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{extra:?}: {}", stderr(&o));
+    }
 }
 
 /// The bake with light between surfaces, through the binaries: on the
@@ -984,7 +959,7 @@ fn light_between_surfaces_through_the_binaries() {
     let b = |n: &str| bin(n).display().to_string();
     let medium = "--model physical --albedo 0.95,0.8,0.6 --mfp 0.05 --eta 1 --g 0";
     let cmd = format!(
-        "set -o pipefail; {m} {torus} | {p} --class face --attr area --method sum --as Tarea > mesh.ply && \
+        "{m} {torus} | {p} --class face --attr area --method sum --as Tarea > mesh.ply && \
          {s} mesh.ply -n 6000 --seed 3 | {f} --mesh mesh.ply | {p} --normalize -o cloud.ply && \
          {i} cloud.ply --lights {lights} --mesh mesh.ply {medium} -o lit.ply && \
          {ss} lit.ply {medium} -o once.ply && \
@@ -997,16 +972,7 @@ fn light_between_surfaces_through_the_binaries() {
         i = b("illum"),
         ss = b("ssmulti"),
     );
-    let out = std::process::Command::new("bash")
-        .args(["-c", &cmd])
-        .current_dir(d.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    shell(d.path(), &cmd);
     let read = |n: &str| from_bytes(&std::fs::read(at(n)).unwrap());
     let (lit, bounce, once, twice) = (
         read("lit.ply"),

@@ -69,6 +69,22 @@ pub fn run_env(
     out.stdout
 }
 
+/// Runs `cmd` with bash in `dir` (pipefail set) and asserts it
+/// succeeded, showing its stderr when it did not.
+pub fn shell(dir: &Path, cmd: &str) -> Output {
+    let out = Command::new("bash")
+        .args(["-c", &format!("set -o pipefail; {cmd}")])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Stderr as text.
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
