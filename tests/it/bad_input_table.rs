@@ -72,6 +72,16 @@ fn inputs(dir: &Path) {
     nan.points_mut().remove("sourceprim");
     nan.points_mut().remove("sourceuv");
     w("nan_bare.ply", &bytes(&nan, LE));
+    // The physical model's ssM, one of it NaN (illum --indirect).
+    let mut phys = good.clone();
+    phys.set_detail(
+        "ssmulti_radiance",
+        pcsss::DetailValue::Str(pcsss::stages::ssmulti::RADIANCE.into()),
+    );
+    let mut m = phys.points().vec3_f64("ssM").unwrap();
+    m[7][2] = f64::NAN;
+    phys.points_mut().set_vec3("ssM", Role::Color, &m).unwrap();
+    w("nanssm.ply", &bytes(&phys, LE));
     let mut zero_n = good.clone();
     let mut n = zero_n.points().vec3_f32("N").unwrap();
     n[5] = [0.0; 3];
@@ -213,6 +223,10 @@ const TABLE: &[Row] = &[
     row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "badindex.obj", "-o", "@OUT"], 1, "badindex.obj"),
     row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "degenerate.obj", "-o", "@OUT"], 1, "degenerate.obj"),
     row("illum", &["cloud.ply", "--lights", "lights.json", "--no-shadows", "--lmask", "nosuch", "-o", "@OUT"], 2, "--lmask"),
+    row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "0.1", "--indirect", "8", "-o", "@OUT"], 2, "--indirect"),
+    row("illum", &["nanssm.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "0.1", "--indirect", "8", "-o", "@OUT"], 1, "nanssm.ply"),
+    row("illum", &["nanssm.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--indirect", "8", "-o", "@OUT"], 2, "--indirect"),
+    row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "-1", "-o", "@OUT"], 2, "--mfp"),
     // ssmulti
     row("ssmulti", &["cloud.ply", "--sd", "0", "-o", "@OUT"], 2, "--sd"),
     row("ssmulti", &["cloud.ply", "--sd", "nan", "-o", "@OUT"], 2, "--sd"),
