@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use super::{env_flag, IoArgs};
-use crate::stages::medium::{Medium, Model};
+use crate::stages::medium::{self, Medium, Model};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle;
 
@@ -47,23 +47,39 @@ pub struct SsArgs {
 }
 
 /// The material: the model both `ssmulti` and `sssingle` use (and
-/// `filter` and `render` for what they compute lazily), with the physical
-/// model's medium (docs/DESIGN.md#physical-medium).
+/// `filter` and `render` for what they compute lazily, `illum` for a
+/// medium's shadows), with the physical model's medium
+/// (docs/DESIGN.md#physical-medium), given here or by `--material`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct MaterialArgs {
+    /// The physical model's medium from a material file (JSON,
+    /// formats/MATERIAL.md) or a preset (Jensen et al. 2001's measured
+    /// media, lengths in millimetres: apple, chicken1, chicken2, cream,
+    /// ketchup, marble, potato, skimmilk, wholemilk, skin1, skin2). Implies
+    /// --model physical; an option below that gives another value is an
+    /// error naming both.
+    #[arg(long, value_name = "FILE|PRESET")]
+    pub material: Option<String>,
     /// seed: Marengo's (ssmulti --rd, --sd and the falloffs; sssingle
     /// likewise); physical: a medium (--albedo or --color, --mfp or
     /// --dmfp, --eta, --g): a random walk's reflectance for ssM,
-    /// Jensen et al. 2001 for ssS.
-    #[arg(long, value_enum, default_value = "seed")]
-    pub model: Model,
-    /// Physical model: single-scattering albedo R,G,B in [0, 1].
-    #[arg(long, value_name = "R,G,B", default_value = "0.8")]
-    pub albedo: String,
+    /// Jensen et al. 2001 for ssS [default: seed, physical with
+    /// --material].
+    #[arg(long, value_enum)]
+    pub model: Option<Model>,
+    /// Physical model: single-scattering albedo R,G,B in [0, 1]
+    /// [default: 0.8].
+    #[arg(long, value_name = "R,G,B")]
+    pub albedo: Option<String>,
     /// Physical model: the surface colour R,G,B a flat slab of the medium
     /// shows (its whole diffuse reflectance), in place of --albedo: the
     /// single-scattering albedo is found from it.
-    #[arg(long, visible_alias = "colour", value_name = "R,G,B")]
+    #[arg(
+        long,
+        visible_alias = "colour",
+        value_name = "R,G,B",
+        conflicts_with = "albedo"
+    )]
     pub color: Option<String>,
     /// Physical model: mean free path R,G,B (1 / extinction).
     #[arg(long, value_name = "R,G,B", conflicts_with = "dmfp")]
@@ -74,47 +90,158 @@ pub struct MaterialArgs {
     pub dmfp: Option<String>,
     /// Henyey-Greenstein asymmetry: in [-0.6, 0.9] for the physical model
     /// (its reflectance table), [-1, 1] for the seed model's sssingle
-    /// (used within +-0.998).
-    #[arg(long, default_value_t = 0.0)]
-    pub g: f64,
+    /// (used within +-0.998) [default: 0].
+    #[arg(long)]
+    pub g: Option<f64>,
     /// Relative index of refraction, inside over outside (in [1, 3] for
-    /// the physical model: its reflectance table).
-    #[arg(long, default_value_t = 1.3)]
+    /// the physical model: its reflectance table) [default: 1.3].
+    #[arg(long)]
+    pub eta: Option<f64>,
+}
+
+/// [`MaterialArgs`] with `--material` merged in and the defaults set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub model: Model,
+    /// The single-scattering albedo or the surface colour (`true`).
+    pub albedo: ([f64; 3], bool),
+    /// The mean free path or the diffuse one (`true`); `None` not given.
+    pub mfp: Option<([f64; 3], bool)>,
+    pub g: f64,
     pub eta: f64,
 }
 
 impl MaterialArgs {
-    /// The physical model's medium; `None` for the seed model.
-    pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
-        if self.model == Model::Seed {
-            return Ok(None);
+    /// The options with the material file or preset merged in: an option
+    /// given on the command line that the material gives otherwise is an
+    /// error naming both.
+    pub fn merged(&self) -> anyhow::Result<Material> {
+        let file = match &self.material {
+            Some(m) => Some(medium::material::load(m)?),
+            None => None,
+        };
+        let rgb = |flag: &str, v: &Option<String>| -> anyhow::Result<Option<[f64; 3]>> {
+            v.as_deref().map(|x| parse_rgb(flag, x)).transpose()
+        };
+        let (albedo, color) = (rgb("--albedo", &self.albedo)?, rgb("--color", &self.color)?);
+        let (mfp, dmfp) = (rgb("--mfp", &self.mfp)?, rgb("--dmfp", &self.dmfp)?);
+        let Some(f) = file else {
+            return Ok(Material {
+                model: self.model.unwrap_or(Model::Seed),
+                albedo: match color {
+                    Some(c) => (c, true),
+                    None => (albedo.unwrap_or([0.8; 3]), false),
+                },
+                mfp: mfp.map(|m| (m, false)).or(dmfp.map(|d| (d, true))),
+                g: self.g.unwrap_or(0.0),
+                eta: self.eta.unwrap_or(1.3),
+            });
+        };
+        let clash = |flag: &str, given: String, key: &str, theirs: String| -> anyhow::Error {
+            crate::Error::param(
+                flag,
+                format!(
+                    "{given} conflicts with the material's {key} {theirs} ({})",
+                    f.source
+                ),
+            )
+            .into()
+        };
+        let same = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .all(|(x, y)| (x - y).abs() <= 1e-12 * x.abs().max(y.abs()))
+        };
+        if self.model == Some(Model::Seed) {
+            let why = "seed conflicts with --material (the physical model's medium)";
+            return Err(crate::Error::param("--model", why).into());
         }
-        let (dist, diffuse) = match (&self.mfp, &self.dmfp) {
-            (Some(m), _) => (parse_rgb("--mfp", m)?, false),
-            (None, Some(d)) => (parse_rgb("--dmfp", d)?, true),
-            (None, None) => {
-                return Err(crate::Error::param(
-                    "--mfp",
-                    "required by --model physical (the mean free path; or --dmfp)",
-                )
-                .into())
+        // Each pair of options against the material's pair.
+        let pick = |flags: [&str; 2],
+                    given: [Option<[f64; 3]>; 2],
+                    keys: [&str; 2],
+                    theirs: [Option<[f64; 3]>; 2]|
+         -> anyhow::Result<Option<([f64; 3], bool)>> {
+            let mine = given.iter().position(Option::is_some);
+            let other = theirs.iter().position(Option::is_some);
+            match (mine, other) {
+                (Some(i), Some(j)) if i != j || !same(&given[i].unwrap(), &theirs[j].unwrap()) => {
+                    Err(clash(
+                        flags[i],
+                        format!("{} {:?}", flags[i], given[i].unwrap()),
+                        keys[j],
+                        format!("{:?}", theirs[j].unwrap()),
+                    ))
+                }
+                (Some(i), _) => Ok(Some((given[i].unwrap(), i == 1))),
+                (None, Some(j)) => Ok(Some((theirs[j].unwrap(), j == 1))),
+                (None, None) => Ok(None),
             }
         };
-        let m = match &self.color {
-            Some(c) => {
-                Medium::from_colour(parse_rgb("--color", c)?, dist, diffuse, self.eta, self.g)
-            }
-            None => {
-                let albedo = parse_rgb("--albedo", &self.albedo)?;
+        let a = pick(
+            ["--albedo", "--color"],
+            [albedo, color],
+            ["albedo", "color"],
+            [f.albedo, f.color],
+        )?;
+        let d = pick(
+            ["--mfp", "--dmfp"],
+            [mfp, dmfp],
+            ["mfp", "dmfp"],
+            [f.mfp, f.dmfp],
+        )?;
+        let scalar =
+            |flag: &str, given: Option<f64>, key: &str, theirs: Option<f64>, default: f64| match (
+                given, theirs,
+            ) {
+                (Some(x), Some(y)) if !same(&[x], &[y]) => {
+                    Err(clash(flag, format!("{flag} {x}"), key, format!("{y}")))
+                }
+                (x, y) => Ok(x.or(y).unwrap_or(default)),
+            };
+        Ok(Material {
+            model: Model::Physical,
+            albedo: a.unwrap_or(([0.8; 3], false)),
+            mfp: d,
+            g: scalar("--g", self.g, "g", f.g, 0.0)?,
+            eta: scalar("--eta", self.eta, "eta", f.eta, 1.3)?,
+        })
+    }
+
+    /// The model, after `--material`.
+    pub fn model(&self) -> Model {
+        if self.material.is_some() {
+            Model::Physical
+        } else {
+            self.model.unwrap_or(Model::Seed)
+        }
+    }
+
+    /// The physical model's medium; `None` for the seed model.
+    pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
+        let m = self.merged()?;
+        if m.model == Model::Seed {
+            return Ok(None);
+        }
+        let Some((dist, diffuse)) = m.mfp else {
+            return Err(crate::Error::param(
+                "--mfp",
+                "required by --model physical (the mean free path; or --dmfp, or --material)",
+            )
+            .into());
+        };
+        let medium = match m.albedo {
+            (c, true) => Medium::from_colour(c, dist, diffuse, m.eta, m.g),
+            (albedo, false) => {
                 let mfp = if diffuse {
-                    Medium::mfp_of_dmfp(albedo, dist, self.eta, self.g)?
+                    Medium::mfp_of_dmfp(albedo, dist, m.eta, m.g)?
                 } else {
                     dist
                 };
-                Medium::new(albedo, mfp, self.eta, self.g)
+                Medium::new(albedo, mfp, m.eta, m.g)
             }
         };
-        Ok(Some(m?))
+        Ok(Some(medium?))
     }
 }
 
@@ -153,7 +280,8 @@ impl SingleArgs {
         eye: [f64; 3],
     ) -> anyhow::Result<sssingle::Params> {
         let medium = mat.medium()?;
-        let sd = match (mat.model, sd) {
+        let m = mat.merged()?;
+        let sd = match (m.model, sd) {
             (Model::Seed, None) => {
                 return Err(crate::Error::param(
                     "--sd",
@@ -164,13 +292,14 @@ impl SingleArgs {
             (_, sd) => sd.unwrap_or(0.0),
         };
         let p = sssingle::Params {
-            model: mat.model,
+            model: m.model,
             rd: parse_rgb("--rd", rd)?,
             sd,
-            albedo: medium.map_or(parse_rgb("--albedo", &mat.albedo)?, |m| m.albedo),
+            // (The seed model's sssingle takes --albedo alone.)
+            albedo: medium.map_or(if m.albedo.1 { [0.8; 3] } else { m.albedo.0 }, |m| m.albedo),
             mfp: medium.map_or([1.0; 3], |m| m.mfp),
-            g: mat.g,
-            eta: mat.eta,
+            g: m.g,
+            eta: m.eta,
             samples: self.samples,
             rgb,
             seed: self.seed,

@@ -16,6 +16,7 @@ mod hostile;
 mod illum;
 mod inputs_kept;
 mod layers;
+mod material;
 mod measure;
 mod mesh_input;
 mod pcdiff;

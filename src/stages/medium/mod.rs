@@ -19,6 +19,7 @@ use super::sssingle::optics::{fresnel, hg};
 use crate::error::{Error, Result};
 use walk::Histogram;
 
+pub mod material;
 pub mod slab_table;
 pub mod table;
 pub mod walk;

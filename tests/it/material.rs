@@ -1,0 +1,170 @@
+//! Materials that travel (`--material FILE|PRESET`, formats/MATERIAL.md):
+//! a preset or a file gives the stages exactly what the same medium given
+//! option by option gives, and an option that says otherwise is refused,
+//! naming both.
+
+use crate::util::*;
+
+/// A lit cloud on the cube, as ssmulti and sssingle take it.
+fn lit(dir: &std::path::Path) -> String {
+    let mesh = cube();
+    let mut c = scatter_n(&mesh, 400, 2, pcsss::stages::scatter::PtareaMode::Prim);
+    let m = pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap();
+    let p = pcsss::stages::facet::Params {
+        mode: pcsss::stages::facet::Mode::Flat,
+        weight: pcsss::stages::facet::Weight::Angle,
+        cusp: 60.0,
+    };
+    pcsss::stages::facet::facet_points(&mut c, &m, &p).unwrap();
+    let n = c.len();
+    c.points_mut()
+        .set_vec3("illum", pcsss::Role::Color, &vec![[1.0f32, 0.5, 0.25]; n])
+        .unwrap();
+    let path = dir.join("lit.ply");
+    std::fs::write(&path, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
+    path.display().to_string()
+}
+
+/// ssM of `ssmulti lit.ply ARGS`.
+fn ssm(dir: &std::path::Path, lit: &str, args: &[&str]) -> Vec<[f64; 3]> {
+    let out = dir.join("out.ply").display().to_string();
+    let mut all = vec![lit, "-o", &out];
+    all.extend(args);
+    let o = run("ssmulti", &all, b"");
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    from_bytes(&std::fs::read(&out).unwrap())
+        .points()
+        .vec3_f64("ssM")
+        .unwrap()
+}
+
+#[test]
+fn a_preset_or_a_file_gives_what_its_options_give() {
+    let d = tempdir();
+    let lit = lit(d.path());
+    // Skim milk in a scene whose unit is a centimetre.
+    let p = pcsss::stages::medium::material::preset("skimmilk", 10.0).unwrap();
+    let list = |v: [f64; 3]| format!("{:?},{:?},{:?}", v[0], v[1], v[2]);
+    let (albedo, mfp) = (list(p.albedo.unwrap()), list(p.mfp.unwrap()));
+    let by_options = ssm(
+        d.path(),
+        &lit,
+        &[
+            "--model", "physical", "--albedo", &albedo, "--mfp", &mfp, "--eta", "1.3",
+        ],
+    );
+    let file = d.path().join("milk.json");
+    std::fs::write(&file, r#"{"preset": "skimmilk", "unit_length": 10}"#).unwrap();
+    let by_file = ssm(d.path(), &lit, &["--material", file.to_str().unwrap()]);
+    assert_eq!(by_options, by_file);
+    // The same value given again is no conflict.
+    let again = ssm(
+        d.path(),
+        &lit,
+        &["--material", file.to_str().unwrap(), "--eta", "1.3"],
+    );
+    assert_eq!(by_file, again);
+    // A file of the artist's parameters.
+    std::fs::write(
+        &file,
+        r#"{"color": [0.8, 0.5, 0.3], "dmfp": 0.05, "g": 0.2}"#,
+    )
+    .unwrap();
+    assert_eq!(
+        ssm(d.path(), &lit, &["--material", file.to_str().unwrap()]),
+        ssm(
+            d.path(),
+            &lit,
+            &[
+                "--model",
+                "physical",
+                "--color",
+                "0.8,0.5,0.3",
+                "--dmfp",
+                "0.05",
+                "--g",
+                "0.2"
+            ],
+        )
+    );
+    // A preset by name: millimetres.
+    let p = pcsss::stages::medium::material::preset("ketchup", 1.0).unwrap();
+    let (albedo, mfp) = (list(p.albedo.unwrap()), list(p.mfp.unwrap()));
+    assert_eq!(
+        ssm(d.path(), &lit, &["--material", "Ketchup"]),
+        ssm(
+            d.path(),
+            &lit,
+            &["--model", "physical", "--albedo", &albedo, "--mfp", &mfp],
+        )
+    );
+}
+
+#[test]
+fn a_material_and_an_option_that_disagree_are_refused_naming_both() {
+    let d = tempdir();
+    let lit = lit(d.path());
+    let bad = d.path().join("bad.json");
+    std::fs::write(&bad, r#"{"albedo": 0.9, "mfp": 1, "shine": 2}"#).unwrap();
+    let bad = bad.to_str().unwrap();
+    for (args, code, says) in [
+        (
+            &["--material", "skin1", "--eta", "1.4"][..],
+            2,
+            "--eta 1.4 conflicts with the material's eta 1.3 (preset skin1)",
+        ),
+        (
+            &["--material", "skin1", "--albedo", "0.5"][..],
+            2,
+            "--albedo",
+        ),
+        (&["--material", "skin1", "--dmfp", "1"][..], 2, "--dmfp"),
+        (
+            &["--material", "skin1", "--model", "seed"][..],
+            2,
+            "--model",
+        ),
+        (&["--material", "jelly"][..], 2, "skimmilk"),
+        (&["--material", bad][..], 1, "shine"),
+    ] {
+        let out = d.path().join("out.ply");
+        let mut all = vec![lit.as_str(), "-o", out.to_str().unwrap()];
+        all.extend(args);
+        let o = run("ssmulti", &all, b"");
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+        assert!(!out.exists());
+    }
+}
+
+/// The bake takes `MATERIAL=`: every stage that reads the medium is given
+/// it, the model is physical, and no option says otherwise.
+#[test]
+fn the_bake_passes_the_material_to_every_stage() {
+    let d = tempdir();
+    let bin = bin("ssmulti");
+    let o = std::process::Command::new("make")
+        .args(["-n", "-C"])
+        .arg(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines"))
+        .arg(format!("OUT={}", d.path().display()))
+        .arg(format!("BIN={}", bin.parent().unwrap().display()))
+        .args(["MATERIAL=skin1", "INDIRECT=8"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    // (A command's lines joined.)
+    let text = String::from_utf8_lossy(&o.stdout).replace("\\\n", " ");
+    for stage in ["illum", "ssmulti", "sssingle"] {
+        let lines: Vec<&str> = text
+            .lines()
+            .filter(|l| l.contains(&format!("/{stage} ")))
+            .collect();
+        assert!(!lines.is_empty(), "{stage}: {text}");
+        for l in lines {
+            assert!(l.contains("--material skin1"), "{l}");
+            assert!(!l.contains("--eta") && !l.contains("--albedo"), "{l}");
+        }
+    }
+    assert!(text.contains("--model physical"), "{text}");
+}
