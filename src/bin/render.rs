@@ -21,7 +21,7 @@ pcsss::global_allocator!();
 /// from the cloud at every hit (computed lazily when the cloud has only
 /// illum), plus with --direct a diffuse direct term. Writes an OpenEXR
 /// image (channels beauty, ssM, ssS, P, N, A) and, with --png, a
-/// tone-mapped sRGB preview.
+/// tone-mapped sRGB preview (alone without -o).
 #[derive(Parser, Debug)]
 #[command(version, allow_negative_numbers = true)]
 struct Args {
@@ -36,9 +36,9 @@ struct Args {
     #[arg(long, value_name = "CLOUD")]
     cloud: PathBuf,
     /// Output image (OpenEXR).
-    #[arg(short, long, value_name = "OUT.exr")]
-    output: PathBuf,
-    /// Also a PNG preview.
+    #[arg(short, long, value_name = "OUT.exr", required_unless_present = "png")]
+    output: Option<PathBuf>,
+    /// A PNG preview (beside the OpenEXR, or alone without -o).
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Preview exposure: 1 - exp(-exposure * beauty).
@@ -108,16 +108,14 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     // The outputs before any work: an OpenEXR and a PNG (cli::main checked
     // that they can be written and are no input).
-    let exr_ok = args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if !exr_ok {
-        let why = format!(
-            "{}: render writes OpenEXR: name a .exr file",
-            args.output.display()
-        );
-        return Err(Error::param("output", why).into());
+    if let Some(out) = &args.output {
+        if !out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        {
+            let why = format!("{}: render writes OpenEXR: name a .exr file", out.display());
+            return Err(Error::param("output", why).into());
+        }
     }
     if let Some(png) = &args.png {
         if png
@@ -220,16 +218,21 @@ fn run(args: Args) -> anyhow::Result<()> {
         half: vec![],
     };
     // Both files complete before either is in place: all or none.
-    let exr = files::Staged::write(&args.output, |w| {
-        formats::write_cloud_with(w, &shade, Format::Exr, &opt)
-    })?;
+    let exr = match &args.output {
+        Some(path) => Some(files::Staged::write(path, |w| {
+            formats::write_cloud_with(w, &shade, Format::Exr, &opt)
+        })?),
+        None => None,
+    };
     let png = match &args.png {
         Some(path) => Some(files::Staged::write(path, |w| {
             render::write_png(w, &shade, "beauty", args.exposure)
         })?),
         None => None,
     };
-    exr.commit()?;
+    if let Some(exr) = exr {
+        exr.commit()?;
+    }
     if let Some(png) = png {
         png.commit()?;
     }

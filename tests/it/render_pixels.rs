@@ -256,6 +256,41 @@ fn render_writes_coverage_as_alpha_in_the_exr_and_the_png() {
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains("--spp"), "{}", stderr(&o));
     }
+    // A PNG alone, without -o: the same picture, and no OpenEXR.
+    let (alone, exr2) = (d.path().join("alone.png"), d.path().join("o2.exr"));
+    let base = [
+        "--mesh",
+        m.as_str(),
+        "--camera",
+        &k,
+        "--cloud",
+        &c,
+        "--nfp",
+        "4",
+        "--spp",
+        "16",
+    ];
+    let mut a = base.to_vec();
+    a.extend(["--png", alone.to_str().unwrap()]);
+    let o = run("render", &a, b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&alone).unwrap(), std::fs::read(&png).unwrap());
+    assert!(!exr2.exists());
+    let names: Vec<_> = std::fs::read_dir(d.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        names
+            .iter()
+            .filter(|n| n.to_string_lossy().ends_with(".exr"))
+            .count(),
+        1
+    );
+    // Neither: a usage error naming the output.
+    let o = run("render", &base, b"");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--output"), "{}", stderr(&o));
 }
 
 #[test]
