@@ -71,6 +71,10 @@ struct Args {
     /// Lazy ssS: the eye of a camera file.
     #[arg(long, value_name = "FILE", requires = "single_lights")]
     camera: Option<PathBuf>,
+    /// A mesh's vertex colours tone mapped as render's PNG, 1 -
+    /// exp(-exposure * beauty) (without it: the beauty clamped to 1).
+    #[arg(long)]
+    exposure: Option<f64>,
     #[command(flatten)]
     single: SingleArgs,
     #[command(flatten)]
@@ -80,6 +84,11 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
+    if let Some(e) = args.exposure {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(pcsss::Error::param("exposure", format!("{e}: must be > 0")).into());
+        }
+    }
     let cloud_name = cli::display_name(Some(&args.cloud));
     let multi = args.ss.params(&args.material)?;
     // Lazy single scattering: its parameters, lights and mesh first.
@@ -142,8 +151,12 @@ fn run(args: Args) -> anyhow::Result<()> {
     )
     .map_err(cli::at(&name))?;
     if is_mesh {
-        let names: Vec<&str> = setup.sources.iter().map(|s| s.name()).collect();
-        filter::add_vertex_colours(&mut shade, &names).map_err(cli::at(&name))?;
+        let terms: Vec<(&str, f64)> = setup
+            .sources
+            .iter()
+            .map(|s| (s.name(), filter::radiance_scale(&cloud, s)))
+            .collect();
+        filter::add_vertex_colours(&mut shade, &terms, args.exposure).map_err(cli::at(&name))?;
     }
     let (info, warn) = rep.messages();
     info.iter().for_each(|m| msg.info(m));

@@ -740,20 +740,53 @@ pub fn srgb(x: f64) -> f64 {
     }
 }
 
-/// `red green blue` (uchar, sRGB of the sum of the colour attributes
-/// `names`, clamped to [0, 1]) on the points: the vertex colours MeshLab
-/// and Blender show.
-pub fn add_vertex_colours(shade: &mut Cloud, names: &[&str]) -> Result<()> {
+/// What a source's values are multiplied by in the beauty, a radiance:
+/// the physical model's `ssM` is an exitance (its radiance `ssM / pi`,
+/// as ssmulti records in `ssmulti_radiance`); the seed model's `ssM`, as
+/// Houdini's shader adds it, and `ssS`, a radiance, are taken as they
+/// are.
+pub fn radiance_scale(cloud: &Cloud, source: &Source) -> f64 {
+    let physical = match source {
+        Source::Multi(p) => p.medium.is_some(),
+        Source::Stored("ssM") => matches!(
+            cloud.detail("ssmulti_radiance"),
+            Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
+        ),
+        _ => false,
+    };
+    if physical {
+        std::f64::consts::FRAC_1_PI
+    } else {
+        1.0
+    }
+}
+
+/// `red green blue` (uchar) on the points, the vertex colours MeshLab
+/// and Blender show: sRGB of the beauty as `render` sums it (each of
+/// `terms`, a name and its [`radiance_scale`]), tone mapped as render's
+/// PNG, `1 - e^(-exposure x)`, with `exposure`, else clamped to [0, 1].
+pub fn add_vertex_colours(
+    shade: &mut Cloud,
+    terms: &[(&str, f64)],
+    exposure: Option<f64>,
+) -> Result<()> {
     let mut v = vec![[0.0f64; 3]; shade.len()];
-    for name in names {
+    for (name, k) in terms {
         for (acc, x) in v.iter_mut().zip(shade.points().vec3_f64(name)?) {
             for c in 0..3 {
-                acc[c] += x[c];
+                acc[c] += k * x[c];
             }
         }
     }
+    let tone = |x: f64| match exposure {
+        Some(e) => 1.0 - (-e * x.max(0.0)).exp(),
+        None => x,
+    };
     for (c, name) in ["red", "green", "blue"].iter().enumerate() {
-        let col: Vec<u8> = v.iter().map(|x| (srgb(x[c]) * 255.0 + 0.5) as u8).collect();
+        let col: Vec<u8> = v
+            .iter()
+            .map(|x| (srgb(tone(x[c])) * 255.0 + 0.5) as u8)
+            .collect();
         shade.points_mut().set(crate::cloud::Attribute::scalar(
             name,
             crate::column::Column::U8(col),

@@ -282,7 +282,7 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
     let terms: Vec<(&str, f64)> = scene
         .sources
         .iter()
-        .map(|s| (s.name(), radiance_scale(scene.cloud, s)))
+        .map(|s| (s.name(), filter::radiance_scale(scene.cloud, s)))
         .collect();
     beauty(&mut shade, &terms, direct, progress)?;
     let sum: Vec<String> = terms
@@ -301,27 +301,6 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         Some(at) => resolve(&shade, &at, scene.camera, &scene.pixels, rep)?,
     };
     Ok((shade, rep, frep))
-}
-
-/// What a source's values are multiplied by in the beauty, a radiance:
-/// the physical model's `ssM` is an exitance (its radiance `ssM / pi`,
-/// as ssmulti records in `ssmulti_radiance`); the seed model's `ssM`, as
-/// Houdini's shader adds it, and `ssS`, a radiance, are taken as they
-/// are.
-pub fn radiance_scale(cloud: &Cloud, source: &filter::Source) -> f64 {
-    let physical = match source {
-        filter::Source::Multi(p) => p.medium.is_some(),
-        filter::Source::Stored("ssM") => matches!(
-            cloud.detail("ssmulti_radiance"),
-            Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
-        ),
-        _ => false,
-    };
-    if physical {
-        std::f64::consts::FRAC_1_PI
-    } else {
-        1.0
-    }
 }
 
 /// A mesh ready for camera rays: its BVH and smooth vertex normals.
@@ -605,7 +584,7 @@ fn splat(sx: f64, sy: f64, r: i64, w: i64, h: i64, px: &Pixels, mut add: impl Fn
 }
 
 /// The beauty at the shade points: the sum of the colour attributes
-/// `terms` (`ssM`, `ssS`), each times its scale ([`radiance_scale`]),
+/// `terms` (`ssM`, `ssS`), each times its scale ([`filter::radiance_scale`]),
 /// plus `kd * illum`, with `illum` the direct
 /// diffuse light from `lights` (`illum`'s code: `Cl max(0, N.L)` with
 /// shadow rays against `occluder`, kept as the attribute `illum`).

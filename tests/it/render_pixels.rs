@@ -367,3 +367,62 @@ fn the_physical_models_ssm_is_filtered_over_two_spacings() {
     };
     assert_eq!(reach(&cloud, Some(&lazy)), Reach::Radius(2.0 * h));
 }
+
+/// A mesh's vertex colours are the render's beauty: `ssM + ssS` for the
+/// seed model, `ssM / pi + ssS` for the physical one (an exitance made
+/// radiance), clamped, or tone mapped with `--exposure` as the PNG is.
+#[test]
+fn vertex_colours_are_the_beauty_tone_mapped_as_the_png() {
+    let d = tempdir();
+    let (m, s) = ([0.6f32, 0.3, 0.1], [0.05f32, 0.02, 0.01]);
+    let mut cloud = constant_cloud(m);
+    let n = cloud.len();
+    cloud
+        .points_mut()
+        .set_vec3("ssS", Role::Color, &vec![s; n])
+        .unwrap();
+    let mesh = to_bytes(&unit_square(), pcsss::formats::Format::DEFAULT);
+    let srgb = |x: f64| {
+        let x = x.clamp(0.0, 1.0);
+        let v = if x <= 0.0031308 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (v * 255.0 + 0.5) as u8
+    };
+    for (physical, exposure) in [(false, None), (true, None), (true, Some(2.0))] {
+        let mut c = cloud.clone();
+        if physical {
+            c.set_detail(
+                "ssmulti_radiance",
+                DetailValue::Str(pcsss::stages::ssmulti::RADIANCE.into()),
+            );
+        }
+        let path = d.path().join("c.ply");
+        std::fs::write(&path, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
+        let mut args = vec!["--cloud", path.to_str().unwrap(), "--nfp", "1"];
+        let e = exposure.map(|e: f64| e.to_string());
+        if let Some(e) = &e {
+            args.extend(["--exposure", e]);
+        }
+        let o = run("filter", &args, &mesh);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = from_bytes(&o.stdout);
+        let k = if physical {
+            std::f64::consts::FRAC_1_PI
+        } else {
+            1.0
+        };
+        for (c, name) in ["red", "green", "blue"].iter().enumerate() {
+            let beauty = k * m[c] as f64 + s[c] as f64;
+            let x = exposure.map_or(beauty, |e| 1.0 - (-e * beauty).exp());
+            let got = out.points().scalar_f64(name).unwrap();
+            assert!(
+                got.iter().all(|&v| (v - srgb(x) as f64).abs() <= 1.0),
+                "{physical} {exposure:?} {name}: {got:?} against {}",
+                srgb(x)
+            );
+        }
+    }
+}
