@@ -16,15 +16,22 @@ fn run(args: Args) -> anyhow::Result<()> {
         (None, Some(cam)) => cli::read_camera(cam)?.position,
         (None, None) => unreachable!("clap requires one"),
     };
-    // Parameters and the lights before the geometry: a bad one fails fast.
-    let params = args
-        .single
-        .params(&args.material, &args.rd, args.sd, args.rgb, eye)?;
+    // The material options alone first (a bad one fails fast); then the
+    // cloud, whose record of ssmulti's run fills in what is not given.
+    args.material.merged()?;
     let lights = cli::read_lights(&args.lights, &args.lmask)?;
     let mesh = cli::read_mesh(&args.mesh)?;
     let mesh_name = args.mesh.display().to_string();
     sssingle::check_mesh(&mesh).map_err(cli::at(&mesh_name))?;
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;
+    let params = args.single.params_for(
+        &args.material,
+        args.rd.as_deref(),
+        args.sd,
+        args.rgb,
+        eye,
+        Some(&cloud),
+    )?;
     let progress = msg.progress();
     let rep = sssingle::sssingle(&mut cloud, &mesh, &lights, &params, &progress)
         .map_err(cli::at(&name))?;

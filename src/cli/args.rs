@@ -116,10 +116,100 @@ impl MaterialArgs {
     /// given on the command line that the material gives otherwise is an
     /// error naming both.
     pub fn merged(&self) -> anyhow::Result<Material> {
-        let file = match &self.material {
+        self.merged_with(None)
+    }
+
+    /// [`MaterialArgs::merged`], with the medium a cloud records
+    /// (`recorded`, [`medium::material::recorded`]) taken when no
+    /// `--material` and no `--model seed` is given: the options then
+    /// conflict with it as with a material's. With `--material` too, the
+    /// record must agree with the result.
+    pub fn merged_with(
+        &self,
+        recorded: Option<&medium::material::Material>,
+    ) -> anyhow::Result<Material> {
+        let given = match &self.material {
             Some(m) => Some(medium::material::load(m)?),
             None => None,
         };
+        let seed = self.model == Some(Model::Seed);
+        // Options of the medium given on the command line: checked against
+        // a record as the medium they make (a record holds the albedo and
+        // mean free path, the options may give a colour and a diffuse one).
+        let options = self.albedo.is_some()
+            || self.color.is_some()
+            || self.mfp.is_some()
+            || self.dmfp.is_some()
+            || self.eta.is_some()
+            || self.g.is_some();
+        // With options, the record's keys they give are theirs, and the
+        // medium that makes is held against the record's.
+        let over = |r: &medium::material::Material| {
+            let mut f = r.clone();
+            if self.albedo.is_some() || self.color.is_some() {
+                (f.albedo, f.color) = (None, None);
+            }
+            if self.mfp.is_some() || self.dmfp.is_some() {
+                (f.mfp, f.dmfp) = (None, None);
+            }
+            if self.eta.is_some() {
+                f.eta = None;
+            }
+            if self.g.is_some() {
+                f.g = None;
+            }
+            f
+        };
+        let (file, check) = match (given, recorded) {
+            (_, _) if seed => (None, None),
+            (Some(g), r) => (Some(g), r),
+            (None, Some(r)) if options => (Some(over(r)), Some(r)),
+            (None, Some(r)) => (Some(r.clone()), None),
+            (None, None) => (None, None),
+        };
+        let merged = self.merged_from(file)?;
+        if let Some(r) = check {
+            let want = (r.albedo, r.mfp, r.eta, r.g);
+            if let (Some(a), Some(m), Some(e), Some(g)) = want {
+                let medium = self.medium_of(&merged)?;
+                let close = |x: &[f64], y: &[f64]| {
+                    x.iter()
+                        .zip(y)
+                        .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()))
+                };
+                if let Some(md) = medium {
+                    if !(close(&md.albedo, &a)
+                        && close(&md.mfp, &m)
+                        && close(&[md.eta, md.g], &[e, g]))
+                    {
+                        let first = [
+                            ("--albedo", self.albedo.is_some()),
+                            ("--color", self.color.is_some()),
+                            ("--mfp", self.mfp.is_some()),
+                            ("--dmfp", self.dmfp.is_some()),
+                            ("--eta", self.eta.is_some()),
+                            ("--g", self.g.is_some()),
+                        ]
+                        .into_iter()
+                        .find_map(|(f, given)| given.then_some(f))
+                        .unwrap_or("--model");
+                        let (flag, what) = match &self.material {
+                            Some(_) => ("--material", "the material"),
+                            None => (first, "the options"),
+                        };
+                        let why = format!(
+                            "{what} give albedo {:?}, mfp {:?}, eta {}, g {}; {} has albedo {a:?}, mfp {m:?}, eta {e}, g {g}",
+                            md.albedo, md.mfp, md.eta, md.g, r.source
+                        );
+                        return Err(crate::Error::param(flag, why).into());
+                    }
+                }
+            }
+        }
+        Ok(merged)
+    }
+
+    fn merged_from(&self, file: Option<medium::material::Material>) -> anyhow::Result<Material> {
         let rgb = |flag: &str, v: &Option<String>| -> anyhow::Result<Option<[f64; 3]>> {
             v.as_deref().map(|x| parse_rgb(flag, x)).transpose()
         };
@@ -219,7 +309,19 @@ impl MaterialArgs {
 
     /// The physical model's medium; `None` for the seed model.
     pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
-        let m = self.merged()?;
+        self.medium_of(&self.merged()?)
+    }
+
+    /// [`MaterialArgs::medium`] with the medium a cloud records taken
+    /// when not told ([`MaterialArgs::merged_with`]).
+    pub fn medium_with(
+        &self,
+        recorded: Option<&medium::material::Material>,
+    ) -> anyhow::Result<Option<Medium>> {
+        self.medium_of(&self.merged_with(recorded)?)
+    }
+
+    fn medium_of(&self, m: &Material) -> anyhow::Result<Option<Medium>> {
         if m.model == Model::Seed {
             return Ok(None);
         }
@@ -279,8 +381,27 @@ impl SingleArgs {
         rgb: bool,
         eye: [f64; 3],
     ) -> anyhow::Result<sssingle::Params> {
-        let medium = mat.medium()?;
-        let m = mat.merged()?;
+        self.params_for(mat, Some(rd), sd, rgb, eye, None)
+    }
+
+    /// [`SingleArgs::params`] for the cloud `record` (its detail): what
+    /// it records of ssmulti's run is taken where nothing is given (the
+    /// physical medium, or the seed model's Rd, sd and t_rgb), and an
+    /// option that gives another value is an error naming both.
+    pub fn params_for(
+        &self,
+        mat: &MaterialArgs,
+        rd: Option<&str>,
+        sd: Option<f64>,
+        rgb: bool,
+        eye: [f64; 3],
+        record: Option<&crate::cloud::Cloud>,
+    ) -> anyhow::Result<sssingle::Params> {
+        let recorded = record.and_then(medium::material::recorded);
+        let medium = mat.medium_with(recorded.as_ref())?;
+        let m = mat.merged_with(recorded.as_ref())?;
+        let (rd, sd, rgb) = seed_record(rd, sd, rgb, record)?;
+        let rd = rd.as_str();
         let sd = match (m.model, sd) {
             (Model::Seed, None) => {
                 return Err(crate::Error::param(
@@ -310,6 +431,56 @@ impl SingleArgs {
         sssingle::validate(&p)?;
         Ok(p)
     }
+}
+
+/// The seed model's Rd, sd and t_rgb given, else those `record` holds
+/// from ssmulti's run (`ssmulti_rd`, `_sd`, `_rgb`), else Rd 1; a value
+/// given that differs from the record is an error naming both.
+fn seed_record(
+    rd: Option<&str>,
+    sd: Option<f64>,
+    rgb: bool,
+    record: Option<&crate::cloud::Cloud>,
+) -> anyhow::Result<(String, Option<f64>, bool)> {
+    let detail = |name: &str| record.and_then(|c| c.detail(name)).map(|d| d.components());
+    let (r_rd, r_sd, r_rgb) = (
+        detail("ssmulti_rd"),
+        detail("ssmulti_sd"),
+        detail("ssmulti_rgb"),
+    );
+    let clash = |flag: &str, given: String, key: &str, theirs: String| -> anyhow::Error {
+        crate::Error::param(
+            flag,
+            format!("{flag} {given} conflicts with the cloud's {key} {theirs} (ssmulti's run)"),
+        )
+        .into()
+    };
+    let rd = match (rd, &r_rd) {
+        (Some(g), Some(r)) if r.len() == 3 => {
+            let v = parse_rgb("--rd", g)?;
+            if v.iter()
+                .zip(r)
+                .any(|(a, b)| (a - b).abs() > 1e-9 * a.abs().max(b.abs()))
+            {
+                return Err(clash("--rd", g.to_string(), "ssmulti_rd", format!("{r:?}")));
+            }
+            g.to_string()
+        }
+        (Some(g), _) => g.to_string(),
+        (None, Some(r)) if r.len() == 3 => format!("{:?},{:?},{:?}", r[0], r[1], r[2]),
+        (None, _) => "1,1,1".to_string(),
+    };
+    let sd = match (sd, r_sd.as_deref()) {
+        (Some(g), Some([r])) if (g - r).abs() > 1e-9 * g.abs().max(r.abs()) => {
+            return Err(clash("--sd", g.to_string(), "ssmulti_sd", r.to_string()))
+        }
+        (Some(g), _) => Some(g),
+        (None, Some([r])) => Some(*r),
+        (None, _) => None,
+    };
+    // (A flag cannot be given as off: the record's on stays on.)
+    let rgb = rgb || r_rgb.as_deref().is_some_and(|r| r == [1.0]);
+    Ok((rd, sd, rgb))
 }
 
 impl SsArgs {
@@ -420,13 +591,16 @@ pub struct SssingleArgs {
     /// The eye of a camera file (formats/CAMERA.md).
     #[arg(long, value_name = "FILE")]
     pub camera: Option<PathBuf>,
-    /// Seed model: diffuse reflectance R,G,B (or one value).
-    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
-    pub rd: String,
-    /// Seed model: scattering distance (per channel: Rd * sd).
+    /// Seed model: diffuse reflectance R,G,B (or one value) [default:
+    /// the cloud's ssmulti_rd, else 1,1,1].
+    #[arg(long, value_name = "R,G,B")]
+    pub rd: Option<String>,
+    /// Seed model: scattering distance (per channel: Rd * sd) [default:
+    /// the cloud's ssmulti_sd].
     #[arg(long, value_name = "D")]
     pub sd: Option<f64>,
-    /// Seed model: per-channel distances (Marengo's t_rgb).
+    /// Seed model: per-channel distances (Marengo's t_rgb) [default: the
+    /// cloud's ssmulti_rgb].
     #[arg(long)]
     pub rgb: bool,
     #[command(flatten)]

@@ -170,3 +170,97 @@ fn the_bake_passes_the_material_to_every_stage() {
     }
     assert!(text.contains("--model physical"), "{text}");
 }
+
+/// sssingle takes what ssmulti recorded in the cloud when it is not told:
+/// the physical medium (given to ssmulti as a colour and a diffuse mean
+/// free path), or the seed model's Rd, sd and t_rgb; an option that says
+/// otherwise is an error naming both (issue 44: `sssingle --sd 0.25` on a
+/// cloud baked at sd 0.6 used Rd 1 and no --rgb).
+#[test]
+fn sssingle_takes_the_medium_ssmulti_recorded() {
+    let d = tempdir();
+    let lit = lit(d.path());
+    let cube = fixtures().join("mesh/cube.obj").display().to_string();
+    let lights = d.path().join("l.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [-0.3, -1, -0.5]}]}"#,
+    )
+    .unwrap();
+    let lights = lights.display().to_string();
+    let single = |cloud: &str, args: &[&str]| {
+        let out = d.path().join("s.ply").display().to_string();
+        let mut all = vec![
+            cloud,
+            "--mesh",
+            &cube,
+            "--lights",
+            &lights,
+            "--eye=3,4,5",
+            "-o",
+            &out,
+        ];
+        all.extend(args);
+        let o = run("sssingle", &all, b"");
+        (o, out)
+    };
+    let ss_of = |out: &str| {
+        from_bytes(&std::fs::read(out).unwrap())
+            .points()
+            .vec3_f64("ssS")
+            .unwrap()
+    };
+    for (ss_args, same, conflict, says) in [
+        (
+            &[
+                "--model",
+                "physical",
+                "--color",
+                "0.8,0.5,0.3",
+                "--dmfp",
+                "0.2,0.1,0.05",
+                "--g",
+                "0.3",
+            ][..],
+            &[
+                "--model",
+                "physical",
+                "--color",
+                "0.8,0.5,0.3",
+                "--dmfp",
+                "0.2,0.1,0.05",
+                "--g",
+                "0.3",
+            ][..],
+            &["--eta", "1.4"][..],
+            "--eta",
+        ),
+        (
+            &["--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb"][..],
+            &["--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb"][..],
+            &["--sd", "0.25"][..],
+            "ssmulti_sd 0.6",
+        ),
+    ] {
+        let baked = d.path().join("baked.ply").display().to_string();
+        let mut a = vec![lit.as_str(), "-o", &baked];
+        a.extend(ss_args);
+        let o = run("ssmulti", &a, b"");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (o, out) = single(&baked, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let told_nothing = ss_of(&out);
+        let (o, out) = single(&baked, same);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(told_nothing, ss_of(&out), "{ss_args:?}");
+        let (o, _) = single(&baked, conflict);
+        assert_eq!(o.status.code(), Some(2), "{conflict:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{}", stderr(&o));
+        // --model seed on a physical record: the seed model, no conflict.
+        if ss_args[0] == "--model" {
+            let (o, out) = single(&baked, &["--model", "seed", "--sd", "0.3"]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            assert_ne!(ss_of(&out), told_nothing);
+        }
+    }
+}

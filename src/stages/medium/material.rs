@@ -68,6 +68,30 @@ pub fn preset(name: &str, unit_length: f64) -> Option<Material> {
     })
 }
 
+/// The medium the physical model's `ssmulti` recorded in `cloud`'s detail
+/// (`ssmulti_model physical`, `_albedo`, `_mfp`, `_eta`, `_g`): what a
+/// later stage takes when not told otherwise. `None` without that record,
+/// or with one that is not whole (a key missing or of the wrong length).
+pub fn recorded(cloud: &crate::cloud::Cloud) -> Option<Material> {
+    use crate::cloud::DetailValue;
+    if !matches!(cloud.detail("ssmulti_model"), Some(DetailValue::Str(m)) if m == "physical") {
+        return None;
+    }
+    let rgb = |name: &str| -> Option<[f64; 3]> {
+        let v = cloud.detail(name)?.components();
+        (v.len() == 3).then(|| [v[0], v[1], v[2]])
+    };
+    let one = |name: &str| cloud.detail(name)?.as_f64();
+    Some(Material {
+        source: "the cloud's ssmulti record".into(),
+        albedo: Some(rgb("ssmulti_albedo")?),
+        mfp: Some(rgb("ssmulti_mfp")?),
+        eta: Some(one("ssmulti_eta")?),
+        g: Some(one("ssmulti_g")?),
+        ..Material::default()
+    })
+}
+
 /// A colour: one number for all three channels, or three.
 #[derive(Deserialize)]
 #[serde(untagged)]
