@@ -73,19 +73,10 @@ fn a_broken_pipe_is_success() {
     let d = tempdir();
     std::fs::write(d.path().join("in.ply"), &src).unwrap();
     let cmd = format!(
-        "set -o pipefail; {} in.ply --format ply-ascii | head -c 100 > /dev/null",
+        "{} in.ply --format ply-ascii | head -c 100 > /dev/null",
         bin("pcconvert").display()
     );
-    let out = std::process::Command::new("bash")
-        .args(["-c", &cmd])
-        .current_dir(d.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = shell(d.path(), &cmd);
     assert!(
         out.stderr.is_empty(),
         "{}",

@@ -210,37 +210,22 @@ fn sssingle_takes_the_medium_ssmulti_recorded() {
             .vec3_f64("ssS")
             .unwrap()
     };
-    for (ss_args, same, conflict, says) in [
-        (
-            &[
-                "--model",
-                "physical",
-                "--color",
-                "0.8,0.5,0.3",
-                "--dmfp",
-                "0.2,0.1,0.05",
-                "--g",
-                "0.3",
-            ][..],
-            &[
-                "--model",
-                "physical",
-                "--color",
-                "0.8,0.5,0.3",
-                "--dmfp",
-                "0.2,0.1,0.05",
-                "--g",
-                "0.3",
-            ][..],
-            &["--eta", "1.4"][..],
-            "--eta",
-        ),
-        (
-            &["--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb"][..],
-            &["--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb"][..],
-            &["--sd", "0.25"][..],
-            "ssmulti_sd 0.6",
-        ),
+    // ssmulti's options (given to sssingle too: told the same), and one
+    // that disagrees with them.
+    let physical = [
+        "--model",
+        "physical",
+        "--color",
+        "0.8,0.5,0.3",
+        "--dmfp",
+        "0.2,0.1,0.05",
+        "--g",
+        "0.3",
+    ];
+    let seed = ["--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb"];
+    for (ss_args, conflict, says) in [
+        (&physical[..], &["--eta", "1.4"][..], "--eta"),
+        (&seed[..], &["--sd", "0.25"][..], "ssmulti_sd 0.6"),
     ] {
         let baked = d.path().join("baked.ply").display().to_string();
         let mut a = vec![lit.as_str(), "-o", &baked];
@@ -250,7 +235,7 @@ fn sssingle_takes_the_medium_ssmulti_recorded() {
         let (o, out) = single(&baked, &[]);
         assert!(o.status.success(), "{}", stderr(&o));
         let told_nothing = ss_of(&out);
-        let (o, out) = single(&baked, same);
+        let (o, out) = single(&baked, ss_args);
         assert!(o.status.success(), "{}", stderr(&o));
         assert_eq!(told_nothing, ss_of(&out), "{ss_args:?}");
         let (o, _) = single(&baked, conflict);
