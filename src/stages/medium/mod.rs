@@ -10,7 +10,7 @@
 //! ([`walk`], written by `examples/medium_table.rs`) over the phase
 //! function's asymmetry, the relative index and the cosine, which gives
 //! every albedo at once; the single-scattering one the exact integral over
-//! exit directions. Thin parts (a slab's both faces) are in [`thickness`];
+//! exit directions. Thin parts (a slab's both faces) are in `thickness.rs`;
 //! material files and presets in [`material`]. The diffuse mean free path
 //! is diffusion's (Grosjean's coefficient).
 
