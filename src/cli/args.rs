@@ -168,42 +168,32 @@ impl MaterialArgs {
             (None, None) => (None, None),
         };
         let merged = self.merged_from(file)?;
-        if let Some(r) = check {
-            let want = (r.albedo, r.mfp, r.eta, r.g);
-            if let (Some(a), Some(m), Some(e), Some(g)) = want {
-                let medium = self.medium_of(&merged)?;
-                let close = |x: &[f64], y: &[f64]| {
-                    x.iter()
-                        .zip(y)
-                        .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()))
+        let medium = match check {
+            Some(_) => self.medium_of(&merged)?,
+            None => None,
+        };
+        if let (Some(r), Some(md)) = (check, medium) {
+            if let Some(what) = medium::material::mismatch(r, &md) {
+                let first = [
+                    ("--albedo", self.albedo.is_some()),
+                    ("--color", self.color.is_some()),
+                    ("--mfp", self.mfp.is_some()),
+                    ("--dmfp", self.dmfp.is_some()),
+                    ("--eta", self.eta.is_some()),
+                    ("--g", self.g.is_some()),
+                ]
+                .into_iter()
+                .find_map(|(f, given)| given.then_some(f))
+                .unwrap_or("--model");
+                let (flag, what_gave) = match &self.material {
+                    Some(_) => ("--material", "the material"),
+                    None => (first, "the options"),
                 };
-                if let Some(md) = medium {
-                    if !(close(&md.albedo, &a)
-                        && close(&md.mfp, &m)
-                        && close(&[md.eta, md.g], &[e, g]))
-                    {
-                        let first = [
-                            ("--albedo", self.albedo.is_some()),
-                            ("--color", self.color.is_some()),
-                            ("--mfp", self.mfp.is_some()),
-                            ("--dmfp", self.dmfp.is_some()),
-                            ("--eta", self.eta.is_some()),
-                            ("--g", self.g.is_some()),
-                        ]
-                        .into_iter()
-                        .find_map(|(f, given)| given.then_some(f))
-                        .unwrap_or("--model");
-                        let (flag, what) = match &self.material {
-                            Some(_) => ("--material", "the material"),
-                            None => (first, "the options"),
-                        };
-                        let why = format!(
-                            "{what} give albedo {:?}, mfp {:?}, eta {}, g {}; {} has albedo {a:?}, mfp {m:?}, eta {e}, g {g}",
-                            md.albedo, md.mfp, md.eta, md.g, r.source
-                        );
-                        return Err(crate::Error::param(flag, why).into());
-                    }
-                }
+                let why = format!(
+                    "{what_gave} make another medium than {} has: {what} given",
+                    r.source
+                );
+                return Err(crate::Error::param(flag, why).into());
             }
         }
         Ok(merged)
@@ -298,30 +288,13 @@ impl MaterialArgs {
         })
     }
 
-    /// The model, after `--material`.
-    pub fn model(&self) -> Model {
-        if self.material.is_some() {
-            Model::Physical
-        } else {
-            self.model.unwrap_or(Model::Seed)
-        }
-    }
-
     /// The physical model's medium; `None` for the seed model.
     pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
         self.medium_of(&self.merged()?)
     }
 
-    /// [`MaterialArgs::medium`] with the medium a cloud records taken
-    /// when not told ([`MaterialArgs::merged_with`]).
-    pub fn medium_with(
-        &self,
-        recorded: Option<&medium::material::Material>,
-    ) -> anyhow::Result<Option<Medium>> {
-        self.medium_of(&self.merged_with(recorded)?)
-    }
-
-    fn medium_of(&self, m: &Material) -> anyhow::Result<Option<Medium>> {
+    /// The medium of the merged options `m`; `None` for the seed model.
+    pub fn medium_of(&self, m: &Material) -> anyhow::Result<Option<Medium>> {
         if m.model == Model::Seed {
             return Ok(None);
         }
@@ -398,10 +371,9 @@ impl SingleArgs {
         record: Option<&crate::cloud::Cloud>,
     ) -> anyhow::Result<sssingle::Params> {
         let recorded = record.and_then(medium::material::recorded);
-        let medium = mat.medium_with(recorded.as_ref())?;
         let m = mat.merged_with(recorded.as_ref())?;
+        let medium = mat.medium_of(&m)?;
         let (rd, sd, rgb) = seed_record(rd, sd, rgb, record)?;
-        let rd = rd.as_str();
         let sd = match (m.model, sd) {
             (Model::Seed, None) => {
                 return Err(crate::Error::param(
@@ -414,10 +386,10 @@ impl SingleArgs {
         };
         let p = sssingle::Params {
             model: m.model,
-            rd: parse_rgb("--rd", rd)?,
+            rd,
             sd,
-            // (The seed model's sssingle takes --albedo alone.)
-            albedo: medium.map_or(if m.albedo.1 { [0.8; 3] } else { m.albedo.0 }, |m| m.albedo),
+            // (The seed model has no albedo.)
+            albedo: medium.map_or([0.8; 3], |m| m.albedo),
             mfp: medium.map_or([1.0; 3], |m| m.mfp),
             g: m.g,
             eta: m.eta,
@@ -441,7 +413,7 @@ fn seed_record(
     sd: Option<f64>,
     rgb: bool,
     record: Option<&crate::cloud::Cloud>,
-) -> anyhow::Result<(String, Option<f64>, bool)> {
+) -> anyhow::Result<([f64; 3], Option<f64>, bool)> {
     let detail = |name: &str| record.and_then(|c| c.detail(name)).map(|d| d.components());
     let (r_rd, r_sd, r_rgb) = (
         detail("ssmulti_rd"),
@@ -455,20 +427,21 @@ fn seed_record(
         )
         .into()
     };
-    let rd = match (rd, &r_rd) {
-        (Some(g), Some(r)) if r.len() == 3 => {
-            let v = parse_rgb("--rd", g)?;
+    let given = rd.map(|g| parse_rgb("--rd", g)).transpose()?;
+    let rd = match (given, r_rd.as_deref()) {
+        (Some(v), Some(&[a, b, c])) => {
             if v.iter()
-                .zip(r)
-                .any(|(a, b)| (a - b).abs() > 1e-9 * a.abs().max(b.abs()))
+                .zip([a, b, c])
+                .any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(y.abs()))
             {
-                return Err(clash("--rd", g.to_string(), "ssmulti_rd", format!("{r:?}")));
+                let g = rd.unwrap_or_default().to_string();
+                return Err(clash("--rd", g, "ssmulti_rd", format!("{:?}", [a, b, c])));
             }
-            g.to_string()
+            v
         }
-        (Some(g), _) => g.to_string(),
-        (None, Some(r)) if r.len() == 3 => format!("{:?},{:?},{:?}", r[0], r[1], r[2]),
-        (None, _) => "1,1,1".to_string(),
+        (Some(v), _) => v,
+        (None, Some(&[a, b, c])) => [a, b, c],
+        (None, _) => [1.0; 3],
     };
     let sd = match (sd, r_sd.as_deref()) {
         (Some(g), Some([r])) if (g - r).abs() > 1e-9 * g.abs().max(r.abs()) => {

@@ -379,31 +379,16 @@ pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Resu
 /// `--indirect` gathers the light of the medium ssmulti ran with: a
 /// different one given to illum is an error naming both.
 fn same_medium(cloud: &Cloud, m: &Medium) -> Result<()> {
-    let given = [
-        ("ssmulti_albedo", m.albedo.to_vec()),
-        ("ssmulti_mfp", m.mfp.to_vec()),
-        ("ssmulti_eta", vec![m.eta]),
-        ("ssmulti_g", vec![m.g]),
-    ];
-    for (name, want) in given {
-        let Some(have) = cloud.detail(name).map(|d| d.components()) else {
-            continue;
-        };
-        let close = have.len() == want.len()
-            && have
-                .iter()
-                .zip(&want)
-                .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()));
-        if !close {
-            return Err(Error::param(
-                "indirect",
-                format!(
-                    "the cloud's ssM was made with {name} {have:?}, the medium given is {want:?} (give illum the medium ssmulti ran with)"
-                ),
-            ));
-        }
+    let recorded = crate::stages::medium::material::recorded(cloud);
+    match recorded.and_then(|r| crate::stages::medium::material::mismatch(&r, m)) {
+        None => Ok(()),
+        Some(what) => Err(Error::param(
+            "indirect",
+            format!(
+                "the cloud's ssM was made with another medium: {what} given (give illum the medium ssmulti ran with)"
+            ),
+        )),
     }
-    Ok(())
 }
 
 /// What [`indirect`] did.

@@ -866,18 +866,21 @@ fn indirect_light_carries_the_single_scattering_of_the_light_it_got() {
             "{e:?}: channel {ch} against {want}"
         );
     }
+    // ssmulti's record of another medium (albedo 0.9 in red).
+    use pcsss::cloud::DetailValue as D;
     let mut other = c.clone();
-    other.set_detail(
-        "ssmulti_albedo",
-        pcsss::cloud::DetailValue::V3D([0.9, 0.8, 0.5]),
-    );
+    other.set_detail("ssmulti_model", D::Str("physical".into()));
+    other.set_detail("ssmulti_albedo", D::V3D([0.9, 0.8, 0.5]));
+    other.set_detail("ssmulti_mfp", D::V3D(med.mfp));
+    other.set_detail("ssmulti_eta", D::F64(med.eta));
+    other.set_detail("ssmulti_g", D::F64(med.g));
+    let mut same = other.clone();
+    same.set_detail("ssmulti_albedo", D::V3D(med.albedo));
+    illum::indirect(&mut same, &occ, &mesh, &med, 16, 0, &Progress::hidden()).unwrap();
     let err = illum::indirect(&mut other, &occ, &mesh, &med, 16, 0, &Progress::hidden())
         .unwrap_err()
         .to_string();
-    assert!(
-        err.contains("ssmulti_albedo") && err.contains("0.95"),
-        "{err}"
-    );
+    assert!(err.contains("albedo [0.9") && err.contains("0.95"), "{err}");
 }
 
 /// `--indirect` needs the physical model's ssM (an exitance): a cloud

@@ -92,6 +92,28 @@ pub fn recorded(cloud: &crate::cloud::Cloud) -> Option<Material> {
     })
 }
 
+/// Where the medium `m` differs from the whole record `r` (albedo, mean
+/// free path, eta and g, to 1e-9 relative): the first key that does, as
+/// `key record-value against given-value`; `None` when they agree or the
+/// record is not whole.
+pub fn mismatch(r: &Material, m: &super::Medium) -> Option<String> {
+    let close = |x: &[f64], y: &[f64]| {
+        x.iter()
+            .zip(y)
+            .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()))
+    };
+    let (a, f, e, g) = (r.albedo?, r.mfp?, r.eta?, r.g?);
+    [
+        ("albedo", a.to_vec(), m.albedo.to_vec()),
+        ("mfp", f.to_vec(), m.mfp.to_vec()),
+        ("eta", vec![e], vec![m.eta]),
+        ("g", vec![g], vec![m.g]),
+    ]
+    .into_iter()
+    .find(|(_, have, want)| !close(have, want))
+    .map(|(key, have, want)| format!("{key} {have:?} against {want:?}"))
+}
+
 /// A colour: one number for all three channels, or three.
 #[derive(Deserialize)]
 #[serde(untagged)]
