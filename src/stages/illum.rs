@@ -91,10 +91,9 @@ pub struct Passage {
 const MAX_CROSSINGS: usize = 64;
 
 /// The light that a shadow ray from `p` (normal `n`) along `dir` for `dist`
-/// carries through the medium `m` bounded by the mesh of `occ`
-/// : the product over its passages
-/// inside of `exp(-sigma_t d)` and the Fresnel transmittance where it
-/// enters and leaves, along a straight line (exact at eta 1; at other
+/// carries through the medium `m` bounded by the mesh of `occ`: the
+/// product over its passages inside of `exp(-sigma_t d)` and the Fresnel
+/// transmittance where it enters and leaves, along a straight line (exact at eta 1; at other
 /// eta the refraction's sideways shift is not followed). Zero once every
 /// channel is below 1e-12, or after [`MAX_CROSSINGS`].
 fn passage(occ: &Occluder, m: &Passage, p: DVec3, n: DVec3, dir: DVec3, dist: f64) -> DVec3 {
@@ -230,6 +229,9 @@ pub fn illum(
                         if a.e == DVec3::ZERO {
                             continue;
                         }
+                        // What of it gets here: all, none, or (a medium's
+                        // shadow) what crosses the medium.
+                        let mut got = a.e;
                         if let Some(occ) = occluder {
                             rays += 1;
                             let blocked_here = match cols {
@@ -238,22 +240,17 @@ pub fn illum(
                             };
                             if blocked_here {
                                 blocked += 1;
-                                let through = match medium {
+                                got *= match medium {
                                     Some(m) => passage(occ, m, p, n, a.dir, a.dist),
                                     None => DVec3::ZERO,
                                 };
-                                if through == DVec3::ZERO {
-                                    continue;
-                                }
-                                e += a.e * through;
-                                let s = (a.e * through).element_sum();
-                                w += s;
-                                wc += s * n.dot(a.dir).clamp(0.0, 1.0);
-                                continue;
                             }
                         }
-                        e += a.e;
-                        let s = a.e.element_sum();
+                        if got == DVec3::ZERO {
+                            continue;
+                        }
+                        e += got;
+                        let s = got.element_sum();
                         w += s;
                         wc += s * n.dot(a.dir).clamp(0.0, 1.0);
                     }
@@ -406,21 +403,21 @@ pub struct IndirectReport {
 const INDIRECT_KEY: u64 = 0xD1B5_4A32_D192_ED03;
 
 /// Adds to `illum` the light the rest of the surface sends each point
-/// (one bounce of light between surfaces): the radiance `ssM / pi` of the
-/// physical model's last run (the cloud's own `ssM`, with the medium
-/// `medium` it ran with), and the single scattering of the direct light
-/// (`rs(illum_cos) illum / pi`: taken as leaving evenly), gathered by `rays`
-/// cosine-weighted rays a point against `mesh` (`occluder` its BVH):
-/// about the point's `N`, and those below the plane of the mesh's
-/// triangle under the point bring nothing (as a path tracer's shading
-/// normals: with smooth normals they would meet the facets beside it). A ray that meets the mesh from outside takes the `ssM` of the
-/// cloud point nearest where it meets it (that point's exitance); one that leaves the scene or
-/// meets a face from behind brings nothing. With cosine-weighted rays the
-/// irradiance is `pi` times the mean radiance, so the mean of the `ssM`
-/// met. `illum_cos` becomes the mean cosine of all the light, direct and
-/// indirect, and `illum_indirect` holds the indirect part
-/// (`docs/DESIGN.md#light-between-surfaces`). The rays a point takes are
-/// a rank-1 lattice shifted by a random offset from `seed` and the
+/// (one bounce of light between surfaces), gathered by `rays`
+/// cosine-weighted rays a point about its `N` against `mesh` (`occluder`
+/// its BVH). A ray that meets the mesh from outside brings the radiance
+/// `M / pi` of the cloud point nearest where it meets it, its exitance
+/// `M = ssM + rs(illum_cos) illum`: the physical model's last `ssM` (run
+/// with `medium`, which the cloud's record must agree with) and the single
+/// scattering of its direct light, taken as leaving evenly. A ray that
+/// leaves the scene, meets a face from behind, or starts below the plane
+/// of the mesh's triangle under the point (smooth normals tilt the
+/// hemisphere into the facets beside it, as a path tracer's shading
+/// normals do) brings nothing. With cosine-weighted rays the irradiance is
+/// `pi` times the mean radiance: the mean `M` met. `illum_cos` becomes the
+/// mean cosine of all the light, and `illum_indirect` holds the indirect
+/// part (`docs/DESIGN.md#light-between-surfaces`). The rays a point takes
+/// are a rank-1 lattice shifted by a random offset from `seed` and the
 /// point's index: the same bits for any thread count.
 pub fn indirect(
     cloud: &mut Cloud,

@@ -329,7 +329,11 @@ pub(super) fn weigh_light(
     };
     let (cos, thick) = (column("illum_cos")?, column("thickness")?);
     if cos.is_none() && thick.is_none() {
-        return Ok((false, false, indirect_single(cloud, medium, inp)?));
+        let indirect = indirect_single(cloud, medium, inp)?;
+        if indirect {
+            inp.grey = is_grey(inp);
+        }
+        return Ok((false, false, indirect));
     }
     let inc = cos.map(|c| (c, medium.incidence()));
     let thin = thick.map(|c| (c, medium.thinness()));
@@ -356,11 +360,15 @@ pub(super) fn weigh_light(
     // After the weights: the single scattering of light from every side
     // needs neither.
     let indirect = indirect_single(cloud, medium, inp)?;
-    inp.grey = inp
-        .pts
-        .par_iter()
-        .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
+    inp.grey = is_grey(inp);
     Ok((inc.is_some(), thin.is_some(), indirect))
+}
+
+/// Whether every point's light is grey (one channel's sums serve all).
+fn is_grey(inp: &Inputs) -> bool {
+    inp.pts
+        .par_iter()
+        .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2])
 }
 
 /// Light between surfaces arrives from every side, and the single
@@ -401,10 +409,6 @@ fn indirect_single(
             pt.illum[c] = (pt.illum[c] as f64 + e[c] * k[c]) as f32;
         }
     });
-    inp.grey = inp
-        .pts
-        .par_iter()
-        .all(|p| p.illum[0] == p.illum[1] && p.illum[1] == p.illum[2]);
     Ok(true)
 }
 
