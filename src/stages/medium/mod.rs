@@ -337,37 +337,46 @@ impl Medium {
     /// light between surfaces (`docs/DESIGN.md#light-between-surfaces`).
     pub fn rs_diffuse(&self) -> [f64; 3] {
         // mu = s^2: 2 mu dmu = 4 s^3 ds.
-        [0, 1, 2].map(|c| simpson(|s| 4.0 * s * s * s * self.rs_at(s * s)[c], 0.0, 1.0, 32))
+        [0, 1, 2].map(|c| {
+            simpson(
+                |s| 4.0 * s * s * s * self.rs_channel(c, s * s),
+                0.0,
+                1.0,
+                32,
+            )
+        })
+    }
+
+    /// [`Medium::rs_at`] of channel `c` alone.
+    fn rs_channel(&self, c: usize, mu_i: f64) -> f64 {
+        let mu = mu_i.clamp(0.0, 1.0);
+        let m = Unit {
+            alpha: self.albedo[c],
+            eta: self.eta,
+            g: self.g,
+        };
+        t_in(self.eta, mu) * ss_reflectance(m, walk::refracted(mu, self.eta))
     }
 
     /// The single-scattering reflectance per channel for light arriving
     /// at cosine `mu_i` with the normal (`rs` at 1): the exact quadrature,
     /// with the Fresnel transmittance in.
     pub fn rs_at(&self, mu_i: f64) -> [f64; 3] {
-        let mu = mu_i.clamp(0.0, 1.0);
-        let ti = t_in(self.eta, mu);
-        [0, 1, 2].map(|c| {
-            let m = Unit {
-                alpha: self.albedo[c],
-                eta: self.eta,
-                g: self.g,
-            };
-            ti * ss_reflectance(m, walk::refracted(mu, self.eta))
-        })
+        [0, 1, 2].map(|c| self.rs_channel(c, mu_i))
     }
 
     /// [`Medium::rs_at`] itself (not a ratio), tabulated for
     /// [`Incidence::factor`].
     pub fn single_by_cosine(&self) -> Incidence {
-        let ratios = (0..INCIDENCE_NODES)
+        let values = (0..INCIDENCE_NODES)
             .map(|k| self.rs_at((k as f64 / (INCIDENCE_NODES - 1) as f64).powi(2)))
             .collect();
-        Incidence { ratios }
+        Incidence { values }
     }
 
     /// [`Medium::rm_at`] over `rm`, tabulated for [`Incidence::factor`].
     pub fn incidence(&self) -> Incidence {
-        let ratios = (0..INCIDENCE_NODES)
+        let values = (0..INCIDENCE_NODES)
             .map(|k| {
                 let r = self.rm_at((k as f64 / (INCIDENCE_NODES - 1) as f64).powi(2));
                 [0, 1, 2].map(|c| {
@@ -379,11 +388,11 @@ impl Medium {
                 })
             })
             .collect();
-        Incidence { ratios }
+        Incidence { values }
     }
 }
 
-/// Cosines at which [`Incidence`] holds the ratio, evenly spaced in the
+/// Cosines at which [`Incidence`] holds its values, evenly spaced in the
 /// cosine's square root on `[0, 1]` (the ratio is smooth in the cosine
 /// but near grazing, where it rises like `mu ln mu` at eta 1 and
 /// Fresnel's transmittance falls under a dielectric: there the nodes
@@ -396,17 +405,17 @@ const INCIDENCE_NODES: usize = 33;
 /// ([`Medium::single_by_cosine`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Incidence {
-    ratios: Vec<[f64; 3]>,
+    values: Vec<[f64; 3]>,
 }
 
 impl Incidence {
-    /// The ratio per channel at cosine `mu` (clamped to `[0, 1]`),
+    /// The value per channel at cosine `mu` (clamped to `[0, 1]`),
     /// linearly in its square root between the nodes.
     pub fn factor(&self, mu: f64) -> [f64; 3] {
         let x = mu.clamp(0.0, 1.0).sqrt() * (INCIDENCE_NODES - 1) as f64;
         let i = (x.floor() as usize).min(INCIDENCE_NODES - 2);
         let t = x - i as f64;
-        let (a, b) = (self.ratios[i], self.ratios[i + 1]);
+        let (a, b) = (self.values[i], self.values[i + 1]);
         [0, 1, 2].map(|c| a[c] + t * (b[c] - a[c]))
     }
 }
