@@ -19,9 +19,18 @@ alone (the pixels above EAR_Y of the image's height), lit from behind.
 
     python mitsuba_bunny.py [REF] [COUNTS] [SPPS]
     python mitsuba_bunny.py --split [REF] [COUNT]
+    python mitsuba_bunny.py --where [REF] [COUNT]
 
 `--split`: the bake's `ssS` and `ssM` pictures apart against Mitsuba's
 single scattering (the path cut after one event) and the rest.
+
+`--where`: where the bake with light between surfaces (`INDIRECT=16`)
+is off: in the pixels of a crop where no light arrives directly (the
+back of the head, facing the body; found with a diffuse bunny's direct
+light), beside a diffuse bunny of the medium's surface colour (Mitsuba's
+`path`: its light between surfaces); on the picture's rim (covered
+pixels with a neighbour not covered whole) and inside it; and on the
+ears by light, each light alone in both tools.
 """
 import json
 import os
@@ -117,7 +126,69 @@ def split(ref_spp, count):
               f"Mitsuba {(ref - single)[m].mean():.4f}")
 
 
+def diffuse(spp, max_depth, colour):
+    """A diffuse bunny of the surface colour `colour` in Mitsuba's `path`."""
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth},
+             "bunny": {"type": "obj", "filename": str(MESH), "face_normals": True,
+                       "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}}},
+             "camera": camera(CAMERA, spp)}
+    for l in LIGHTS:
+        e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
+        scene[l["name"]] = {"type": "directional", "direction": l["direction"],
+                            "irradiance": {"type": "rgb", "value": e}}
+    return np.array(mi.render(mi.load_dict(scene), spp=spp))[:, :, :3]
+
+
+def where(ref_spp, count):
+    ref, _ = mitsuba(ref_spp)
+    single, _ = mitsuba(ref_spp, max_depth=2)
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        img, a, _ = bake(count, d, 16)
+        out = d / f"out{count}_16"
+        part = {}
+        for attr in ["ssM", "ssS"]:
+            exr = d / f"{attr}.exr"
+            render_attr(out, "bunny", d / "cam.json", attr, exr)
+            part[attr] = read_image(exr, d, SIZE)[0]
+        colour = subprocess.run([ROOT / "target/release/pcinfo", out / "bunny_ss.ply"], check=True,
+                                capture_output=True, text=True).stdout
+        colour = [float(x) for x in colour.split("ssmulti_colour")[1].split("(")[1].split(")")[0].split(",")]
+    whole, ears = masks(a, ref)
+    # The crop: the back of the head, where a diffuse bunny gets no direct light.
+    direct, everything = diffuse(256, 2, colour), diffuse(256, -1, colour)
+    crop = np.zeros(whole.shape, bool)
+    crop[31:44, 27:38] = True
+    crop &= whole & (direct.sum(axis=2) == 0)
+    print(f"no direct light ({int(crop.sum())} pixels), red: bake {img[crop][:, 0].mean():.4f}, "
+          f"Mitsuba {ref[crop][:, 0].mean():.4f}, diffuse bunny of colour {np.round(colour, 3)} "
+          f"{everything[crop][:, 0].mean():.4f}")
+    inner = whole.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            inner &= np.roll(np.roll(whole, dy, 0), dx, 1)
+    rim = whole & ~inner
+    rel = (img - ref) / np.maximum(ref, 1e-6)
+    for name, m in [("rim", rim), ("inside", inner)]:
+        print(f"{name} ({int(m.sum())} pixels): mean {rel[m].mean():+.3f}, RMS {np.sqrt((rel[m] ** 2).mean()):.3f}, "
+              f"10% quantile {np.quantile(rel[m], 0.1):+.3f}; multiple bake/Mitsuba "
+              f"{part['ssM'][m].mean() / (ref - single)[m].mean():.3f}")
+    every = list(LIGHTS)
+    for l in every:
+        LIGHTS[:] = [l]
+        EXTRA[:] = [f"LMASK={l['name']}"]
+        alone, _ = mitsuba(ref_spp)
+        with tempfile.TemporaryDirectory() as dd:
+            b, _, _ = bake(count, pathlib.Path(dd), 16)
+        print(f"ears, {l['name']} light alone: bake / Mitsuba {np.round(b[ears].mean(0) / alone[ears].mean(0), 3)}")
+    LIGHTS[:] = every
+
+
 if __name__ == "__main__":
+    if "--where" in sys.argv:
+        args = [x for x in sys.argv[1:] if x != "--where"]
+        where(int(args[0]) if args else 1024, int(args[1]) if len(args) > 1 else 200000)
+        sys.exit()
     if "--split" in sys.argv:
         args = [x for x in sys.argv[1:] if x != "--split"]
         split(int(args[0]) if args else 1024, int(args[1]) if len(args) > 1 else 200000)

@@ -16,11 +16,16 @@ meter sees).
 
     python mitsuba_thin.py [SPP] [T,..] [ALPHA,..] [COUNT]
     python mitsuba_thin.py --angles [SPP] [T,..] [ALPHA,..]
+    python mitsuba_thin.py --slant [SPP] [T,..] [ALPHA]
 
 `--angles`: Mitsuba's multiple scattering out of the front face at exit
 cosines 1, 0.7, 0.4, 0.15, and its exitance over pi, `2 int L mu dmu` by
 the trapezoid rule (L taken as the 0.15 value down to grazing): what the
 bake's Lambertian `ssM / pi` is to be held against.
+
+`--slant`: the light at cosine 1 and 0.5 with the normal, from behind
+and from the front (the meter's side), multiple scattering along the
+normal, bake over Mitsuba (not cached).
 
 Mitsuba's figures are kept in benches/results/mitsuba_thin.json (by case
 and sample count) and read from there when present.
@@ -51,11 +56,11 @@ def cached(key, compute):
     return data[key]["value"]
 
 
-def mitsuba(alpha, t, spp, max_depth=-1, mu=1.0):
+def mitsuba(alpha, t, spp, max_depth=-1, mu=1.0, light=(0.0, 0.0, 1.0)):
     scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": 1_000_000},
-        "light": {"type": "directional", "direction": [0, 0, 1],
+        "light": {"type": "directional", "direction": list(light),
                   "irradiance": {"type": "rgb", "value": 1.0}},
         "slab": {
             "type": "cube",
@@ -86,10 +91,10 @@ def slab_obj(path, t):
                     + "".join("f " + " ".join(map(str, q)) + "\n" for q in quads))
 
 
-def bake(alpha, t, count, d):
+def bake(alpha, t, count, d, light=(0.0, 0.0, 1.0)):
     mesh, lights, cam = d / "slab.obj", d / "lights.json", d / "cam.json"
     slab_obj(mesh, t)
-    lights.write_text(json.dumps({"lights": [{"name": "back", "type": "distant", "direction": [0, 0, 1]}]}))
+    lights.write_text(json.dumps({"lights": [{"name": "back", "type": "distant", "direction": list(light)}]}))
     cam.write_text(json.dumps({"position": [0, 0, 1e4], "look_at": [0, 0, 0], "up": [0, 1, 0],
                                "fov": 1, "width": 8, "height": 8}))
     out = d / "out"
@@ -121,7 +126,25 @@ def angles(spp, ts, alphas):
                   f"{[round(m, 4) for m in multiple]}; exitance / pi {exit_over_pi:.4f}", flush=True)
 
 
+def slant(spp, ts, alpha, count=300000):
+    for t in ts:
+        for side, z in [("behind", 1.0), ("front", -1.0)]:
+            for mu in [1.0, 0.5]:
+                light = ((1 - mu * mu) ** 0.5 * z, 0.0, mu * z)
+                m = mitsuba(alpha, t, spp, -1, 1.0, light)[0] - mitsuba(alpha, t, spp, 2, 1.0, light)[0]
+                with tempfile.TemporaryDirectory() as dd:
+                    b, _, _ = bake(alpha, t, count, pathlib.Path(dd), light)
+                print(f"thickness {t}, lit from {side} at cosine {mu}: multiple along the normal: "
+                      f"Mitsuba {m:.4f}, bake {b:.4f}, bake / Mitsuba {b / m:.3f}", flush=True)
+
+
 if __name__ == "__main__":
+    if "--slant" in sys.argv:
+        args = [x for x in sys.argv[1:] if x != "--slant"]
+        slant(int(args[0]) if args else 65536,
+              [float(x) for x in (args[1] if len(args) > 1 else "0.5,2,30").split(",")],
+              float(args[2]) if len(args) > 2 else 0.95)
+        sys.exit()
     if "--angles" in sys.argv:
         args = [x for x in sys.argv[1:] if x != "--angles"]
         angles(int(args[0]) if args else 65536,
