@@ -255,6 +255,7 @@ pub fn points_on(mesh: &pcsss::Cloud, n: usize) -> pcsss::Cloud {
             mode: pcsss::stages::facet::Mode::Smooth,
             weight: pcsss::stages::facet::Weight::Angle,
             cusp: 60.0,
+            weld: true,
         },
     )
     .unwrap();

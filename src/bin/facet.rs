@@ -33,6 +33,10 @@ struct Args {
     /// Weighting of faces around a vertex.
     #[arg(long, value_enum, default_value = "angle")]
     weight: Weight,
+    /// Do not weld vertices at the same position: each copy of a vertex
+    /// split at a UV seam averages only its own faces.
+    #[arg(long)]
+    no_weld: bool,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -54,6 +58,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                     mode,
                     weight,
                     cusp: args.cusp,
+                    weld: !args.no_weld,
                 },
             )
             .map_err(cli::at(&name))?
@@ -65,7 +70,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             if matches!(mode, Mode::Flat) {
                 anyhow::bail!("{name}: --mode flat needs --mesh and a point cloud: a mesh's shared vertices have one normal each");
             }
-            facet::facet_mesh(&mut cloud, weight).map_err(cli::at(&name))?
+            facet::facet_mesh(&mut cloud, weight, !args.no_weld).map_err(cli::at(&name))?
         }
     };
     if rep.projected > 0 {

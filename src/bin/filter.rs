@@ -138,7 +138,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());
     if is_mesh && !shade.points().has("N") {
-        facet::facet_mesh(&mut shade, Weight::Angle).map_err(cli::at(&name))?;
+        facet::facet_mesh(&mut shade, Weight::Angle, true).map_err(cli::at(&name))?;
     }
     let progress = msg.progress();
     let rep = filter::filter(

@@ -11,6 +11,10 @@
 //! - On a mesh's own vertices (no point cloud given) every vertex gets the
 //!   weighted average of all its faces (no cusp: a shared vertex has one
 //!   normal).
+//! - Vertices at the same position are welded first (`weld`): a mesh with
+//!   UVs has its vertices split along the UV seams, and the copies would
+//!   otherwise each average only the faces on their side of the seam.
+//!   Edges meant to be hard stay hard through the cusp angle.
 //!
 //! Face normals are Newell's (exact for planar polygons). A normal that
 //! comes out zero (a point on a degenerate face, a vertex whose faces
@@ -50,6 +54,8 @@ pub struct Params {
     pub weight: Weight,
     /// Cusp angle in degrees: faces meeting at a sharper angle do not blend.
     pub cusp: f64,
+    /// Vertices at the same position share their faces (UV seams).
+    pub weld: bool,
 }
 
 /// What `facet` did.
@@ -90,12 +96,32 @@ fn corner_weights(m: &TriMesh, weight: Weight) -> Vec<f64> {
     w
 }
 
-/// For every vertex, the (face, corner) pairs around it.
-fn vertex_corners(m: &TriMesh) -> (Vec<usize>, Vec<(u32, u32)>) {
+/// For every vertex, the vertex that stands for all those at its
+/// position (the first in file order) when `weld`, else itself. Positions
+/// are compared bit for bit (with -0 as 0): a seam's copies are written
+/// from one value.
+pub fn weld_ids(m: &TriMesh, weld: bool) -> Vec<u32> {
+    if !weld {
+        return (0..m.positions.len() as u32).collect();
+    }
+    let mut first: std::collections::HashMap<[u64; 3], u32> =
+        std::collections::HashMap::with_capacity(m.positions.len());
+    m.positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = (*p + DVec3::ZERO).to_array().map(f64::to_bits);
+            *first.entry(key).or_insert(i as u32)
+        })
+        .collect()
+}
+
+/// For every (welded) vertex, the (face, corner) pairs around it.
+fn vertex_corners(m: &TriMesh, weld: &[u32]) -> (Vec<usize>, Vec<(u32, u32)>) {
     let nv = m.positions.len();
     let mut count = vec![0usize; nv + 1];
     for &v in &m.polys.indices {
-        count[v as usize + 1] += 1;
+        count[weld[v as usize] as usize + 1] += 1;
     }
     for i in 0..nv {
         count[i + 1] += count[i];
@@ -104,7 +130,7 @@ fn vertex_corners(m: &TriMesh) -> (Vec<usize>, Vec<(u32, u32)>) {
     let mut out = vec![(0u32, 0u32); m.polys.indices.len()];
     for f in 0..m.face_count() {
         for c in m.polys.offsets[f]..m.polys.offsets[f + 1] {
-            let v = m.polys.indices[c] as usize;
+            let v = weld[m.polys.indices[c] as usize] as usize;
             out[fill[v]] = (f as u32, c as u32);
             fill[v] += 1;
         }
@@ -112,18 +138,26 @@ fn vertex_corners(m: &TriMesh) -> (Vec<usize>, Vec<(u32, u32)>) {
     (count, out)
 }
 
-/// Smooth normals at every corner of every face, split at the cusp angle.
-pub fn corner_normals(m: &TriMesh, face_n: &[DVec3], weight: Weight, cusp_deg: f64) -> Vec<DVec3> {
+/// Smooth normals at every corner of every face, split at the cusp angle,
+/// vertices at one position welded when `weld`.
+pub fn corner_normals(
+    m: &TriMesh,
+    face_n: &[DVec3],
+    weight: Weight,
+    cusp_deg: f64,
+    weld: bool,
+) -> Vec<DVec3> {
     let w = corner_weights(m, weight);
-    let (start, around) = vertex_corners(m);
+    let ids = weld_ids(m, weld);
+    let (start, around) = vertex_corners(m, &ids);
     let cos_cusp = cusp_deg.to_radians().cos();
     (0..m.face_count())
         .into_par_iter()
         .flat_map_iter(|f| {
             let nf = face_n[f];
-            let (w, start, around) = (&w, &start, &around);
+            let (w, start, around, ids) = (&w, &start, &around, &ids);
             (m.polys.offsets[f]..m.polys.offsets[f + 1]).map(move |c| {
-                let v = m.polys.indices[c] as usize;
+                let v = ids[m.polys.indices[c] as usize] as usize;
                 let mut n = DVec3::ZERO;
                 for &(g, cg) in &around[start[v]..start[v + 1]] {
                     let ng = face_n[g as usize];
@@ -159,7 +193,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
     }
     let face_n = mesh.face_normals();
     let corner_n = match p.mode {
-        Mode::Smooth => corner_normals(mesh, &face_n, p.weight, p.cusp),
+        Mode::Smooth => corner_normals(mesh, &face_n, p.weight, p.cusp, p.weld),
         Mode::Flat => Vec::new(),
     };
     let nf = mesh.face_count();
@@ -260,26 +294,29 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
                 DetailValue::Str(format!("{:?}", p.weight).to_lowercase()),
             ),
             ("facet_cusp", DetailValue::F64(p.cusp)),
+            ("facet_weld", DetailValue::I32(p.weld as i32)),
             ("facet_mesh_digest", DetailValue::Str(mesh.digest())),
         ],
     );
     Ok(report)
 }
 
-/// Adds `N` to a mesh's own vertices (weighted average of all their faces).
-pub fn facet_mesh(cloud: &mut Cloud, weight: Weight) -> Result<Report> {
+/// Adds `N` to a mesh's own vertices (weighted average of all their faces,
+/// and of the faces of the vertices at the same position when `weld`).
+pub fn facet_mesh(cloud: &mut Cloud, weight: Weight, weld: bool) -> Result<Report> {
     let m = TriMesh::from_cloud(cloud)?;
     let face_n = m.face_normals();
     let w = corner_weights(&m, weight);
+    let ids = weld_ids(&m, weld);
     let mut acc = vec![DVec3::ZERO; m.positions.len()];
     for (f, nf) in face_n.iter().enumerate() {
         for c in m.polys.offsets[f]..m.polys.offsets[f + 1] {
-            acc[m.polys.indices[c] as usize] += *nf * w[c];
+            acc[ids[m.polys.indices[c] as usize] as usize] += *nf * w[c];
         }
     }
-    let normals: Vec<[f32; 3]> = acc
+    let normals: Vec<[f32; 3]> = ids
         .iter()
-        .map(|&n| unit_or_zero(n).as_vec3().to_array())
+        .map(|&v| unit_or_zero(acc[v as usize]).as_vec3().to_array())
         .collect();
     let report = Report {
         projected: 0,
@@ -287,6 +324,12 @@ pub fn facet_mesh(cloud: &mut Cloud, weight: Weight) -> Result<Report> {
     };
     cloud.points_mut().set_vec3("N", Role::Normal, &normals)?;
     let weight = DetailValue::Str(format!("{weight:?}").to_lowercase());
-    cloud.record("facet_", vec![("facet_weight", weight)]);
+    cloud.record(
+        "facet_",
+        vec![
+            ("facet_weight", weight),
+            ("facet_weld", DetailValue::I32(weld as i32)),
+        ],
+    );
     Ok(report)
 }

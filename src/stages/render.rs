@@ -326,7 +326,7 @@ impl Caster {
         m.require_area()?;
         // Vertex normals (angle-weighted), as facet gives a mesh's vertices.
         let mut with_n = mesh.clone();
-        facet::facet_mesh(&mut with_n, Weight::Angle)?;
+        facet::facet_mesh(&mut with_n, Weight::Angle, true)?;
         let vn: Vec<DVec3> = with_n
             .points()
             .vec3_f64("N")?

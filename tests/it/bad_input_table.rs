@@ -22,6 +22,7 @@ fn lit_cloud() -> Cloud {
         mode: facet::Mode::Flat,
         weight: facet::Weight::Angle,
         cusp: 60.0,
+        weld: true,
     };
     facet::facet_points(&mut c, &m, &p).unwrap();
     let n = c.len();

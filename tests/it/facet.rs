@@ -15,6 +15,7 @@ fn facet_flat_on_the_cube_gives_axis_normals() {
         mode: Mode::Flat,
         weight: Weight::Angle,
         cusp: 60.0,
+        weld: true,
     };
     facet::facet_points(&mut c, &m, &params).unwrap();
     let p = c.points().vec3_f64("P").unwrap();
@@ -51,6 +52,7 @@ fn facet_flat_on_the_cube_gives_axis_normals() {
         &facet::Params {
             mode: Mode::Smooth,
             cusp: 180.0,
+            weld: true,
             ..params
         },
     )
@@ -68,6 +70,7 @@ fn facet_smooth_on_a_sphere_is_radial() {
         mode: Mode::Smooth,
         weight: Weight::Angle,
         cusp: 60.0,
+        weld: true,
     };
     facet::facet_points(&mut c, &m, &params).unwrap();
     let p = c.points().vec3_f64("P").unwrap();
@@ -99,7 +102,7 @@ fn facet_smooth_on_a_sphere_is_radial() {
 #[test]
 fn facet_on_a_mesh_gives_vertex_normals() {
     let mut s = uv_sphere(32, 64, 1.0, [0.0; 3]);
-    facet::facet_mesh(&mut s, Weight::Angle).unwrap();
+    facet::facet_mesh(&mut s, Weight::Angle, true).unwrap();
     let p = s.points().vec3_f64("P").unwrap();
     let n = s.points().vec3_f64("N").unwrap();
     for (q, nn) in p.iter().zip(&n) {
@@ -159,7 +162,7 @@ fn facet_on_icosphere_vertices_is_radial_and_converges() {
     let mut last = f64::INFINITY;
     for level in [1, 2, 3] {
         let mut s = icosphere(level);
-        facet::facet_mesh(&mut s, Weight::Angle).unwrap();
+        facet::facet_mesh(&mut s, Weight::Angle, true).unwrap();
         let p = s.points().vec3_f64("P").unwrap();
         let n = s.points().vec3_f64("N").unwrap();
         let worst = p
@@ -183,4 +186,120 @@ fn facet_on_icosphere_vertices_is_radial_and_converges() {
             last = worst;
         }
     }
+}
+
+/// A UV sphere as an OBJ with texture coordinates: the seam at longitude 0
+/// and the poles have several `vt` per `v`, so the reader splits their
+/// vertices (as Blender's exports do).
+fn seamed_sphere_obj(rings: usize, segs: usize) -> String {
+    use std::f64::consts::PI;
+    use std::fmt::Write;
+    let mut s = String::new();
+    let v = |i: usize, j: usize| -> usize {
+        match i {
+            0 => 1,
+            i if i == rings => 2 + (rings - 1) * segs,
+            i => 2 + (i - 1) * segs + j % segs,
+        }
+    };
+    writeln!(s, "v 0 0 1").unwrap();
+    for i in 1..rings {
+        let th = PI * i as f64 / rings as f64;
+        for j in 0..segs {
+            let ph = 2.0 * PI * j as f64 / segs as f64;
+            writeln!(
+                s,
+                "v {} {} {}",
+                th.sin() * ph.cos(),
+                th.sin() * ph.sin(),
+                th.cos()
+            )
+            .unwrap();
+        }
+    }
+    writeln!(s, "v 0 0 -1").unwrap();
+    // One vt per (ring, column), columns 0..=segs: the seam doubles.
+    for i in 0..=rings {
+        for j in 0..=segs {
+            writeln!(
+                s,
+                "vt {} {}",
+                j as f64 / segs as f64,
+                1.0 - i as f64 / rings as f64
+            )
+            .unwrap();
+        }
+    }
+    let t = |i: usize, j: usize| 1 + i * (segs + 1) + j;
+    for i in 0..rings {
+        for j in 0..segs {
+            // A pole's corners collapse: its faces are triangles.
+            let c: Vec<(usize, usize)> = if i == 0 {
+                vec![(0, j), (1, j), (1, j + 1)]
+            } else if i + 1 == rings {
+                vec![(i, j), (i + 1, j), (i, j + 1)]
+            } else {
+                vec![(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+            };
+            let corners: Vec<String> = c
+                .iter()
+                .map(|&(a, b)| format!("{}/{}", v(a, b), t(a, b)))
+                .collect();
+            writeln!(s, "f {}", corners.join(" ")).unwrap();
+        }
+    }
+    s
+}
+
+#[test]
+fn facet_welds_the_copies_of_a_vertex_split_at_a_uv_seam() {
+    let text = seamed_sphere_obj(16, 32);
+    let mesh = pcsss::formats::obj::read_obj(text.as_bytes()).unwrap();
+    // The reader split the seam: more vertices than positions.
+    assert!(mesh.points().len() > 2 + 15 * 32, "{}", mesh.points().len());
+    let worst = |weld: bool| {
+        let mut s = mesh.clone();
+        facet::facet_mesh(&mut s, Weight::Angle, weld).unwrap();
+        let p = s.points().vec3_f64("P").unwrap();
+        let n = s.points().vec3_f64("N").unwrap();
+        p.iter()
+            .zip(&n)
+            .map(|(p, n)| {
+                let r = glam::DVec3::from_array(*p).normalize();
+                r.angle_between(glam::DVec3::from_array(*n)).to_degrees()
+            })
+            .fold(0.0, f64::max)
+    };
+    // Away from the seam a vertex normal of this sphere is within a
+    // degree of the radius; the seam's copies without the weld see only
+    // half their faces (and the poles' copies one face each).
+    let (welded, split) = (worst(true), worst(false));
+    assert!(welded < 1.0, "welded: {welded} degrees");
+    assert!(split > 5.0, "split: {split} degrees");
+
+    // Points scattered on the mesh take the same welded corner normals.
+    let m = TriMesh::from_cloud(&mesh).unwrap();
+    let mut c = scatter_n(&mesh, 20000, 3, PtareaMode::Prim);
+    let p = facet::Params {
+        mode: Mode::Smooth,
+        weight: Weight::Angle,
+        cusp: 60.0,
+        weld: true,
+    };
+    facet::facet_points(&mut c, &m, &p).unwrap();
+    assert_eq!(
+        c.detail("facet_weld"),
+        Some(&pcsss::cloud::DetailValue::I32(1))
+    );
+    let pos = c.points().vec3_f64("P").unwrap();
+    let n = c.points().vec3_f64("N").unwrap();
+    let worst_pt = pos
+        .iter()
+        .zip(&n)
+        .map(|(p, n)| {
+            let r = glam::DVec3::from_array(*p).normalize();
+            r.angle_between(glam::DVec3::from_array(*n)).to_degrees()
+        })
+        .fold(0.0, f64::max);
+    assert!(worst_pt < 6.0, "points: {worst_pt} degrees");
 }

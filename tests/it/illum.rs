@@ -102,6 +102,7 @@ fn points_on(mesh: &Cloud, n: usize) -> Cloud {
             mode: Mode::Flat,
             weight: Weight::Angle,
             cusp: 60.0,
+            weld: true,
         },
     )
     .unwrap();

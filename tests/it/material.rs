@@ -14,6 +14,7 @@ fn lit(dir: &std::path::Path) -> String {
         mode: pcsss::stages::facet::Mode::Flat,
         weight: pcsss::stages::facet::Weight::Angle,
         cusp: 60.0,
+        weld: true,
     };
     pcsss::stages::facet::facet_points(&mut c, &m, &p).unwrap();
     let n = c.len();

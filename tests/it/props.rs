@@ -425,6 +425,7 @@ fn scattered(n: usize, seed: u64, mode: PtareaMode) -> Cloud {
         mode: facet::Mode::Flat,
         weight: facet::Weight::Angle,
         cusp: 60.0,
+        weld: true,
     };
     facet::facet_points(&mut c, &m, &p).unwrap();
     c

@@ -44,7 +44,7 @@ impl<'a> Interior<'a> {
     /// The queries on `mesh`, its normals smooth up to `cusp_deg`.
     pub fn new(mesh: &'a TriMesh, cusp_deg: f64) -> Interior<'a> {
         let face_n = mesh.face_normals();
-        let corner_n = corner_normals(mesh, &face_n, Weight::Angle, cusp_deg);
+        let corner_n = corner_normals(mesh, &face_n, Weight::Angle, cusp_deg, true);
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for p in &mesh.positions {
             lo = lo.min(*p);
