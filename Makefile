@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo pyenv exrtools slurm lint
+.PHONY: test bench demo bake blender-check pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -59,6 +59,26 @@ bench: pyenv $(PY).bench.stamp
 demo:
 	$(MAKE) -C pipelines info
 
+## Your own asset: make bake MESH=... LIGHTS=... CAMERA=... [MATERIAL=...]
+## [UP_AXIS=y|z] [OUT=dir] and any variable of pipelines/Makefile; paths
+## are taken from where make runs (the sub-make runs in pipelines/).
+absolute = $(if $(wildcard $(1)),$(abspath $(1)),$(1))
+bake:
+	$(MAKE) -C pipelines bake \
+	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT,$(if $($(v)),$(v)=$(call absolute,$($(v)))))
+
 lint:
 	cargo fmt --all -- --check
 	cargo clippy --all-targets -- -D warnings
+
+## Blender (bpy from PyPI, about 1 GB: outside `make test`) against the
+## toolkit: its light units on a white plane (formats/LIGHTS.md#light-units).
+BPYENV := target/bpyenv
+$(BPYENV)/bin/python.stamp: pipelines/blender/requirements.txt
+	python3 -m venv $(BPYENV)
+	$(BPYENV)/bin/python -m pip install --quiet --disable-pip-version-check -r $<
+	touch $@
+
+blender-check: $(BPYENV)/bin/python.stamp
+	cargo build --release
+	$(BPYENV)/bin/python pipelines/blender/light_units.py target/release target/blender-check

@@ -11,6 +11,7 @@
 
 use crate::column::{Column, Scalar, ScalarType, Values};
 use crate::error::{Error, Result};
+use crate::frame::{Frame, UpAxis, D_METERS_PER_UNIT, D_UP_AXIS};
 use rayon::prelude::*;
 
 /// What a 3-vector means (Houdini's attribute type info).
@@ -678,6 +679,78 @@ impl Cloud {
         for (name, value) in values {
             debug_assert!(name.starts_with(prefix), "{name}");
             self.set_detail(name, value);
+        }
+    }
+
+    /// The frame of the cloud's coordinates, as `scatter` recorded it
+    /// (details `up_axis` and `meters_per_unit`; a part not recorded is
+    /// unknown). A recorded value that is not one is an error naming it.
+    pub fn frame(&self) -> Result<Frame> {
+        let up = match self.detail(D_UP_AXIS) {
+            None => None,
+            Some(DetailValue::Str(s)) => Some(UpAxis::from_name(s).ok_or_else(|| {
+                Error::invalid(format!(
+                    "detail attribute '{D_UP_AXIS}' is '{s}', not y or z"
+                ))
+            })?),
+            Some(_) => {
+                return Err(Error::invalid(format!(
+                    "detail attribute '{D_UP_AXIS}' is not a string"
+                )))
+            }
+        };
+        let meters_per_unit = match self.detail(D_METERS_PER_UNIT) {
+            None => None,
+            Some(_) => Some(self.detail_f64(D_METERS_PER_UNIT)?),
+        };
+        let f = Frame {
+            up,
+            meters_per_unit,
+        };
+        f.check().map_err(|why| {
+            Error::invalid(format!("detail attribute '{D_METERS_PER_UNIT}': {why}"))
+        })?;
+        Ok(f)
+    }
+
+    /// The frame the cloud records, with what an option states: a part
+    /// stated by both must agree (an error names the option's parameter
+    /// and the recorded value).
+    pub fn frame_with(&self, stated: &Frame) -> Result<Frame> {
+        let recorded = self.frame()?;
+        if let (Some(a), Some(b)) = (recorded.up, stated.up) {
+            if a != b {
+                return Err(Error::param(
+                    "up_axis",
+                    format!(
+                        "{} differs from the up_axis {} the input records",
+                        b.name(),
+                        a.name()
+                    ),
+                ));
+            }
+        }
+        if let (Some(a), Some(b)) = (recorded.meters_per_unit, stated.meters_per_unit) {
+            if a != b {
+                return Err(Error::param(
+                    "meters_per_unit",
+                    format!("{b} differs from the meters_per_unit {a} the input records"),
+                ));
+            }
+        }
+        Ok(Frame {
+            up: stated.up.or(recorded.up),
+            meters_per_unit: stated.meters_per_unit.or(recorded.meters_per_unit),
+        })
+    }
+
+    /// Records the stated parts of a frame in the detail.
+    pub fn set_frame(&mut self, f: &Frame) {
+        if let Some(up) = f.up {
+            self.set_detail(D_UP_AXIS, DetailValue::Str(up.name().into()));
+        }
+        if let Some(m) = f.meters_per_unit {
+            self.set_detail(D_METERS_PER_UNIT, DetailValue::F64(m));
         }
     }
 

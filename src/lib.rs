@@ -41,6 +41,7 @@ pub(crate) mod disjoint;
 pub mod error;
 pub mod files;
 pub mod formats;
+pub mod frame;
 pub mod geom;
 pub mod halo;
 pub mod image;

@@ -16,6 +16,7 @@ use globset::{Glob, GlobMatcher};
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::frame::{Change, Frame, UpAxis};
 use crate::maths::smoothstep;
 
 /// Distance falloff of point, spot and area lights.
@@ -144,6 +145,29 @@ enum Spec {
 #[serde(deny_unknown_fields)]
 struct FileSpec {
     lights: Vec<Spec>,
+    #[serde(default)]
+    up_axis: Option<UpAxis>,
+    #[serde(default)]
+    meters_per_unit: Option<f64>,
+}
+
+/// A lights file: its lights and the frame it states they are in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightsFile {
+    pub lights: Vec<Light>,
+    pub frame: Frame,
+}
+
+impl LightsFile {
+    /// The lights moved into the frame `to` (a cloud's): positions
+    /// rotated between up axes and scaled between units, directions
+    /// rotated, and `Cl` of a light that falls off with distance scaled
+    /// by the square of the units' ratio, so that the irradiance at a
+    /// point of the scene stays what it was.
+    pub fn in_frame(&self, to: &Frame) -> Vec<Light> {
+        let c = self.frame.change_to(to);
+        self.lights.iter().map(|l| l.in_frame(&c)).collect()
+    }
 }
 
 /// A light's shape.
@@ -211,7 +235,19 @@ pub const MAX_SAMPLES: u32 = 1 << 16;
 
 /// Reads and validates a lights file's text; `file` names it in errors.
 pub fn parse(text: &str, file: &str) -> Result<Vec<Light>> {
+    Ok(parse_file(text, file)?.lights)
+}
+
+/// Reads and validates a lights file's text with the frame it states.
+pub fn parse_file(text: &str, file: &str) -> Result<LightsFile> {
     let spec: FileSpec = crate::error::from_json(text, file)?;
+    let frame = Frame {
+        up: spec.up_axis,
+        meters_per_unit: spec.meters_per_unit,
+    };
+    frame
+        .check()
+        .map_err(|why| Error::invalid(format!("{file} at meters_per_unit: {why}")))?;
     let mut out = Vec::with_capacity(spec.lights.len());
     for (i, s) in spec.lights.into_iter().enumerate() {
         let mut light = validate(s)
@@ -225,7 +261,7 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Light>> {
         }
         out.push(light);
     }
-    Ok(out)
+    Ok(LightsFile { lights: out, frame })
 }
 
 type Check<T> = std::result::Result<T, (&'static str, String)>;
@@ -559,6 +595,72 @@ pub fn lattice(k: u32, n: u32, r1: f64, r2: f64) -> (f64, f64) {
 }
 
 impl Light {
+    /// This light after the change of frame `c` (see [`LightsFile::in_frame`]).
+    pub fn in_frame(&self, c: &Change) -> Light {
+        if c.is_identity() {
+            return self.clone();
+        }
+        let (p, v) = (|q: DVec3| c.point(q), |d: DVec3| c.vector(d));
+        let shape = match &self.shape {
+            Shape::Distant { to_light } => Shape::Distant {
+                to_light: v(*to_light),
+            },
+            Shape::Point { position } => Shape::Point {
+                position: p(*position),
+            },
+            Shape::Spot {
+                position,
+                axis,
+                cos_outside,
+                cos_inside,
+                beam,
+            } => Shape::Spot {
+                position: p(*position),
+                axis: v(*axis),
+                cos_outside: *cos_outside,
+                cos_inside: *cos_inside,
+                beam: *beam,
+            },
+            Shape::Rect {
+                centre,
+                u,
+                v: dv,
+                normal,
+                two_sided,
+            } => Shape::Rect {
+                centre: p(*centre),
+                u: p(*u),
+                v: p(*dv),
+                normal: v(*normal),
+                two_sided: *two_sided,
+            },
+            Shape::Disk {
+                centre,
+                normal,
+                radius,
+                two_sided,
+            } => Shape::Disk {
+                centre: p(*centre),
+                normal: v(*normal),
+                radius: c.length(*radius),
+                two_sided: *two_sided,
+            },
+            Shape::Sphere { centre, radius } => Shape::Sphere {
+                centre: p(*centre),
+                radius: c.length(*radius),
+            },
+        };
+        let cl = match self.falloff {
+            Falloff::InverseSquare => self.cl * (c.scale * c.scale),
+            Falloff::None => self.cl,
+        };
+        Light {
+            shape,
+            cl,
+            ..self.clone()
+        }
+    }
+
     fn falloff_at(&self, d2: f64) -> f64 {
         match self.falloff {
             Falloff::None => 1.0,

@@ -91,13 +91,16 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     let cloud_name = cli::display_name(Some(&args.cloud));
     let multi = args.ss.params(&args.material)?;
-    // Lazy single scattering: its parameters, lights and mesh first.
+    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
+    // The camera's eye and the lights are moved into the cloud's frame.
+    let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
+    // Lazy single scattering: its parameters, lights and mesh.
     let single = match &args.single_lights {
         None => None,
         Some(lights) => {
             let eye = match (&args.eye, &args.camera) {
                 (Some(e), _) => cli::parse_xyz("--eye", e)?,
-                (None, Some(cam)) => cli::read_camera(cam)?.position,
+                (None, Some(cam)) => cli::read_camera(cam)?.in_frame(&frame).position,
                 (None, None) => {
                     let why = "lazy ssS needs the eye: --eye X,Y,Z or --camera FILE";
                     return Err(Error::param("single_lights", why).into());
@@ -107,7 +110,8 @@ fn run(args: Args) -> anyhow::Result<()> {
                 args.single
                     .params(&args.material, &args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
             let lights = cli::read_lights(lights, &args.single_lmask)
-                .map_err(|e| cli::as_param(e, "single_lmask"))?;
+                .map_err(|e| cli::as_param(e, "single_lmask"))?
+                .in_frame(&frame);
             let mesh_path = args.single_mesh.as_ref().expect("clap requires it");
             let mesh = cli::read_mesh(mesh_path)?;
             let mesh_name = mesh_path.display().to_string();
@@ -120,7 +124,6 @@ fn run(args: Args) -> anyhow::Result<()> {
         lights,
         params,
     });
-    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     let setup = filter::Setup::new(
         &cloud,
         &args.attrs,

@@ -12,7 +12,7 @@ pcsss::global_allocator!();
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("illum");
     let name = args.io.input_name();
-    let used = cli::read_lights(&args.lights, &args.lmask)?;
+    let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
     if args.thickness && args.mesh.is_none() {
         let why = "needs --mesh (the mesh the points lie on)";
         return Err(pcsss::Error::param("thickness", why).into());
@@ -41,6 +41,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         Some(_) => args.io.read(&Select::only(&["P", "N", "ssM"]))?,
         None => args.io.read(&Select::only(&["P", "N"]))?,
     };
+    // The lights are moved into the cloud's frame.
+    let used = lights_file.in_frame(&cloud.frame().map_err(cli::at(&name))?);
     let progress = msg.progress();
     let passage = medium.as_ref().map(|m| illum::Passage {
         sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),

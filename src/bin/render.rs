@@ -132,19 +132,32 @@ fn run(args: Args) -> anyhow::Result<()> {
         seed: 0,
     }
     .validate()?;
-    let cam = cli::read_camera(&args.camera)?;
+    let cam_file = cli::read_camera(&args.camera)?;
     let lazy = args.ss.params(&args.material)?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
         return Err(Error::param("kd", format!("{kd:?}: must be finite and >= 0")).into());
     }
-    let lights_used = match &args.direct {
+    let lights_file = match &args.direct {
         Some(path) => Some(cli::read_lights(path, &args.lmask)?),
         None => None,
     };
-    let single = match &args.single_lights {
-        Some(path) => {
+    let single_file = match &args.single_lights {
+        Some(path) => Some(
+            cli::read_lights(path, &args.single_lmask)
+                .map_err(|e| cli::as_param(e, "single_lmask"))?,
+        ),
+        None => None,
+    };
+    let cloud_name = args.cloud.display().to_string();
+    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
+    // The camera and the lights are moved into the cloud's frame.
+    let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
+    let cam = cam_file.in_frame(&frame);
+    let lights_used = lights_file.map(|f| f.in_frame(&frame));
+    let single = match &single_file {
+        Some(file) => {
             let params = args.single.params(
                 &args.material,
                 &args.ss.rd,
@@ -152,9 +165,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 args.ss.rgb,
                 cam.position,
             )?;
-            let lights = cli::read_lights(path, &args.single_lmask)
-                .map_err(|e| cli::as_param(e, "single_lmask"))?;
-            Some((params, lights))
+            Some((params, file.in_frame(&frame)))
         }
         None => None,
     };
@@ -172,8 +183,6 @@ fn run(args: Args) -> anyhow::Result<()> {
             lights,
             params,
         });
-    let cloud_name = args.cloud.display().to_string();
-    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     let setup = filter::Setup::new(
         &cloud,
         &args.attrs,

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::Parser;
 use pcsss::cli::{self, IoArgs};
 use pcsss::formats::Select;
+use pcsss::frame::{Frame, UpAxis};
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode};
 
 pcsss::global_allocator!();
@@ -44,6 +45,16 @@ struct Args {
     /// even set, slower.
     #[arg(long, default_value_t = scatter::CANDIDATES, value_name = "RATIO")]
     candidates: f64,
+    /// The mesh's up axis, recorded in the cloud's detail (`up_axis`): a
+    /// lights or camera file that states another is turned into it
+    /// (Blender's OBJ export is y, its PLY export z).
+    #[arg(long, value_enum, value_name = "AXIS")]
+    up_axis: Option<UpAxis>,
+    /// Metres per unit of the mesh's coordinates, recorded in the cloud's
+    /// detail (`meters_per_unit`): lights and cameras in other units are
+    /// scaled into it.
+    #[arg(long, value_name = "M")]
+    meters_per_unit: Option<f64>,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -51,14 +62,22 @@ fn run(args: Args) -> anyhow::Result<()> {
     let name = args.io.input_name();
     let progress = msg.progress();
     let mut ph = progress.phases("scatter io");
+    let stated = Frame {
+        up: args.up_axis,
+        meters_per_unit: args.meters_per_unit,
+    };
+    stated
+        .check()
+        .map_err(|why| pcsss::Error::param("meters_per_unit", why))?;
     let mesh = args.io.read(&Select::only(&["P"]))?;
     ph.mark("read");
+    let frame = mesh.frame_with(&stated).map_err(cli::at(&name))?;
     let amount = match (args.count, args.density) {
         (Some(n), _) => Amount::Count(n),
         (None, Some(d)) => Amount::Density(d),
         (None, None) => unreachable!("clap requires one"),
     };
-    let cloud = scatter::scatter_with(
+    let mut cloud = scatter::scatter_with(
         &mesh,
         &Params {
             amount,
@@ -71,6 +90,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         &progress,
     )
     .map_err(cli::at(&name))?;
+    cloud.set_frame(&frame);
     ph.mark("scatter");
     msg.info(format!("{} points", cloud.len()));
     args.io.write(&cloud)?;

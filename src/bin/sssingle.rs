@@ -11,19 +11,30 @@ pcsss::global_allocator!();
 fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("sssingle");
     let name = args.io.input_name();
-    let eye = match (&args.eye, &args.camera) {
-        (Some(e), _) => cli::parse_xyz("--eye", e)?,
-        (None, Some(cam)) => cli::read_camera(cam)?.position,
-        (None, None) => unreachable!("clap requires one"),
+    let given_eye = match &args.eye {
+        Some(e) => Some(cli::parse_xyz("--eye", e)?),
+        None => None,
+    };
+    let camera = match (&args.eye, &args.camera) {
+        (None, Some(cam)) => Some(cli::read_camera(cam)?),
+        _ => None,
     };
     // The material options alone first (a bad one fails fast); then the
     // cloud, whose record of ssmulti's run fills in what is not given.
     args.material.merged()?;
-    let lights = cli::read_lights(&args.lights, &args.lmask)?;
+    let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
     let mesh = cli::read_mesh(&args.mesh)?;
     let mesh_name = args.mesh.display().to_string();
     sssingle::check_mesh(&mesh).map_err(cli::at(&mesh_name))?;
     let mut cloud = args.io.read(&Select::only(&["P", "N"]))?;
+    // The lights and the camera are moved into the cloud's frame.
+    let frame = cloud.frame().map_err(cli::at(&name))?;
+    let lights = lights_file.in_frame(&frame);
+    let eye = match (given_eye, camera) {
+        (Some(e), _) => e,
+        (None, Some(cam)) => cam.in_frame(&frame).position,
+        (None, None) => unreachable!("clap requires one"),
+    };
     let params = args.single.params_for(
         &args.material,
         args.rd.as_deref(),

@@ -192,15 +192,18 @@ fn read_json_text(path: &Path) -> anyhow::Result<String> {
 }
 
 /// Reads a lights file (`formats/LIGHTS.md`) and keeps the lights the
-/// mask selects (an error names the file, or the mask that selects none).
-pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<Vec<crate::lights::Light>> {
+/// mask selects (an error names the file, or the mask that selects none);
+/// [`crate::lights::LightsFile::in_frame`] then moves them into a cloud's
+/// frame.
+pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::LightsFile> {
     let name = path.display().to_string();
     let text = read_json_text(path)?;
-    let all = crate::lights::parse(&text, &name)?;
-    Ok(crate::lights::mask(&all, mask)?
+    let mut file = crate::lights::parse_file(&text, &name)?;
+    file.lights = crate::lights::mask(&file.lights, mask)?
         .into_iter()
-        .map(|i| all[i].clone())
-        .collect())
+        .map(|i| file.lights[i].clone())
+        .collect();
+    Ok(file)
 }
 
 /// Reads a camera file (`formats/CAMERA.md`).

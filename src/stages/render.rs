@@ -14,6 +14,7 @@ use serde::Deserialize;
 use crate::cloud::{AttrData, Attribute, Cloud, DetailValue, Role};
 use crate::column::Column;
 use crate::error::{Error, Result};
+use crate::frame::{Frame, UpAxis};
 use crate::geom;
 use crate::geom::bvh::Occluder;
 use crate::geom::mesh::TriMesh;
@@ -32,9 +33,9 @@ pub struct Camera {
     pub position: [f64; 3],
     /// The point the camera looks at (the image centre).
     pub look_at: [f64; 3],
-    /// Up direction (default +y).
-    #[serde(default = "default_up")]
-    pub up: [f64; 3],
+    /// Up direction (default: the `up_axis`, else +y).
+    #[serde(default)]
+    pub up: Option<[f64; 3]>,
     /// Vertical field of view in degrees (default 40).
     #[serde(default = "default_fov")]
     pub fov: f64,
@@ -43,10 +44,11 @@ pub struct Camera {
     pub width: u32,
     #[serde(default = "default_size")]
     pub height: u32,
-}
-
-fn default_up() -> [f64; 3] {
-    [0.0, 1.0, 0.0]
+    /// The frame the file's coordinates are in (`formats/CAMERA.md`).
+    #[serde(default)]
+    pub up_axis: Option<UpAxis>,
+    #[serde(default)]
+    pub meters_per_unit: Option<f64>,
 }
 fn default_fov() -> f64 {
     40.0
@@ -66,7 +68,7 @@ impl Camera {
         for (key, v) in [
             ("position", cam.position),
             ("look_at", cam.look_at),
-            ("up", cam.up),
+            ("up", cam.up().to_array()),
         ] {
             if !v.iter().all(|x| x.is_finite()) {
                 return Err(bad(key, format!("{v:?} is not finite")));
@@ -87,13 +89,49 @@ impl Camera {
         if f.length() == 0.0 {
             return Err(bad("look_at", "equals position".into()));
         }
-        if f.normalize().cross(DVec3::from_array(cam.up)).length() < 1e-9 {
+        cam.frame()
+            .check()
+            .map_err(|why| bad("meters_per_unit", why))?;
+        if f.normalize().cross(cam.up()).length() < 1e-9 {
             return Err(bad(
                 "up",
                 "is parallel to the view direction (or zero)".into(),
             ));
         }
         Ok(cam)
+    }
+
+    /// The up direction: `up`, else the up axis, else +y.
+    pub fn up(&self) -> DVec3 {
+        match (self.up, self.up_axis) {
+            (Some(u), _) => DVec3::from_array(u),
+            (None, Some(a)) => a.vector(),
+            (None, None) => DVec3::Y,
+        }
+    }
+
+    /// The frame the file states.
+    pub fn frame(&self) -> Frame {
+        Frame {
+            up: self.up_axis,
+            meters_per_unit: self.meters_per_unit,
+        }
+    }
+
+    /// The camera moved into the frame `to` (a cloud's): its position,
+    /// target and up turned between up axes, positions scaled between
+    /// units. The field of view and the picture do not change.
+    pub fn in_frame(&self, to: &Frame) -> Camera {
+        let c = self.frame().change_to(to);
+        let p = |q: [f64; 3]| c.point(DVec3::from_array(q)).to_array();
+        Camera {
+            position: p(self.position),
+            look_at: p(self.look_at),
+            up: Some(c.vector(self.up()).to_array()),
+            up_axis: to.up.or(self.up_axis),
+            meters_per_unit: to.meters_per_unit.or(self.meters_per_unit),
+            ..self.clone()
+        }
     }
 
     /// The ray direction (unit) through the centre of pixel (x, y), y down.
@@ -106,7 +144,7 @@ impl Camera {
     pub fn ray_at(&self, px: f64, py: f64) -> DVec3 {
         let eye = DVec3::from_array(self.position);
         let fwd = (DVec3::from_array(self.look_at) - eye).normalize();
-        let right = fwd.cross(DVec3::from_array(self.up)).normalize();
+        let right = fwd.cross(self.up()).normalize();
         let up = right.cross(fwd);
         let h = (self.fov.to_radians() * 0.5).tan();
         let aspect = self.width as f64 / self.height as f64;

@@ -11,6 +11,7 @@ mod cli;
 mod exr_format;
 mod facet;
 mod filter_render;
+mod frames;
 mod fuzz_replay;
 mod hostile;
 mod illum;
