@@ -198,7 +198,15 @@ fn read_json_text(path: &Path) -> anyhow::Result<String> {
 pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::LightsFile> {
     let name = path.display().to_string();
     let text = read_json_text(path)?;
-    let mut file = crate::lights::parse_file(&text, &name)?;
+    // A dome's map is read beside the lights file.
+    let dir = path.parent().map(|d| {
+        if d.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            d
+        }
+    });
+    let mut file = crate::lights::parse_file_in(&text, &name, dir)?;
     file.lights = crate::lights::mask(&file.lights, mask)?
         .into_iter()
         .map(|i| file.lights[i].clone())

@@ -8,6 +8,7 @@ mod blue_noise;
 mod bvh;
 mod chain;
 mod cli;
+mod dome;
 mod exr_format;
 mod facet;
 mod filter_render;

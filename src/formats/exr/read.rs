@@ -104,8 +104,9 @@ fn column_of(
 /// The most decoded sample bytes a file may hold per byte of it.
 const MAX_RATIO: u64 = 4096;
 
-/// Reads an OpenEXR point cloud or shade-point image from its bytes.
-pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
+/// The image in `bytes`, every layer and channel at full resolution,
+/// after checking the header's claims against the bytes there are.
+fn decode(bytes: &[u8]) -> Result<FlatImage> {
     // The header first: its claims are checked before pixels are decoded.
     let meta =
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(exr_error)?;
@@ -155,6 +156,62 @@ pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
         .all_attributes()
         .from_buffered(Cursor::new(bytes))
         .map_err(exr_error)?;
+    Ok(img)
+}
+
+type FlatImage = exr::prelude::Image<exr::prelude::Layers<exr::prelude::AnyChannels<FlatSamples>>>;
+
+/// An RGB picture (a dome light's lat-long map): width, height and the
+/// pixels row by row from the top, from the first layer's `R G B`
+/// channels (or `r g b`, `red green blue`, with or without a layer
+/// prefix); half and uint channels widen to f32.
+pub fn read_rgb_image(bytes: &[u8]) -> Result<(usize, usize, Vec<[f32; 3]>)> {
+    let img = decode(bytes)?;
+    let layer = img
+        .layer_data
+        .first()
+        .ok_or_else(|| Error::invalid("OpenEXR: no layers"))?;
+    let list = &layer.channel_data.list;
+    let find = |names: &[&str]| {
+        list.iter().find(|c| {
+            let n = from_text(&c.name);
+            let last = n.rsplit('.').next().unwrap_or(&n).to_string();
+            names.contains(&last.as_str())
+        })
+    };
+    let chan = |names: &[&str], which: &str| {
+        find(names).ok_or_else(|| {
+            let have: Vec<String> = list.iter().map(|c| from_text(&c.name)).collect();
+            Error::invalid(format!(
+                "OpenEXR: no {which} channel (the channels are: {})",
+                have.join(", ")
+            ))
+        })
+    };
+    let r = chan(&["R", "r", "red"], "R")?;
+    let g = chan(&["G", "g", "green"], "G")?;
+    let b = chan(&["B", "b", "blue"], "B")?;
+    let f = |d: &FlatSamples, i: usize| match d {
+        FlatSamples::F16(v) => v[i].to_f32(),
+        FlatSamples::F32(v) => v[i],
+        FlatSamples::U32(v) => v[i] as f32,
+    };
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let px = (0..w * h)
+        .map(|i| {
+            [
+                f(&r.sample_data, i),
+                f(&g.sample_data, i),
+                f(&b.sample_data, i),
+            ]
+        })
+        .collect();
+    Ok((w, h, px))
+}
+
+/// Reads an OpenEXR point cloud or shade-point image from its bytes.
+pub fn read_exr(bytes: &[u8]) -> Result<Cloud> {
+    let img = decode(bytes)?;
     let layer = img
         .layer_data
         .iter()

@@ -449,7 +449,7 @@ fn diagnose(
         .iter()
         .filter(|l| {
             let place = match l.shape {
-                Shape::Distant { .. } => None,
+                Shape::Distant { .. } | Shape::Dome(_) => None,
                 Shape::Point { position } | Shape::Spot { position, .. } => Some(position),
                 Shape::Rect { centre, .. }
                 | Shape::Disk { centre, .. }

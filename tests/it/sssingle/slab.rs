@@ -244,3 +244,42 @@ fn the_view_exit_within_a_distance_equals_the_closed_form() {
         }
     }
 }
+
+/// Under a constant dome of radiance `L` (eta 1, g 0, semi-infinite),
+/// first-order scattering integrates the distant light's closed form over
+/// the upper hemisphere: `albedo L / 2 (1 - mu_o ln((1 + mu_o) / mu_o))`
+/// (Chandrasekhar's single-scattering term for diffuse incidence).
+#[test]
+fn the_physical_model_under_a_constant_dome_equals_the_closed_form() {
+    let cloud = top_points(4, 0.05, DVec3::ZERO);
+    let mesh = slab_mesh(20.0, 50.0, DVec3::ZERO);
+    let l = [1.0, 0.8, 0.6];
+    let dome = lights::parse(
+        r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 0.8, 0.6], "samples": 64}]}"#,
+        "test",
+    )
+    .unwrap();
+    let albedo = [0.9, 0.7, 0.5];
+    for to in [0.0f64, 60.0] {
+        let p = Params {
+            model: Model::Physical,
+            albedo,
+            mfp: [0.1; 3],
+            g: 0.0,
+            eta: 1.0,
+            samples: 64,
+            eye: eye(to, 0.0, DVec3::ZERO),
+            ..Params::default()
+        };
+        let got = run(&cloud, &mesh, &dome, &p);
+        let mu = to.to_radians().cos();
+        for c in 0..3 {
+            let mean = got.iter().map(|v| v[c]).sum::<f64>() / got.len() as f64;
+            let want = albedo[c] * l[c] / 2.0 * (1.0 - mu * ((1.0 + mu) / mu).ln());
+            assert!(
+                (mean / want - 1.0).abs() < 0.02,
+                "view {to}: channel {c}: {mean} vs {want}"
+            );
+        }
+    }
+}

@@ -9,7 +9,11 @@
 //! sphere: the hemisphere facing the receiver, Lambertian), so that far
 //! away every area light equals the point light at its centre.
 
+pub mod dome;
+
 use std::f64::consts::PI;
+use std::path::Path;
+use std::sync::Arc;
 
 use glam::DVec3;
 use globset::{Glob, GlobMatcher};
@@ -18,6 +22,7 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::frame::{Change, Frame, UpAxis};
 use crate::maths::smoothstep;
+use dome::{Dome, LatLong};
 
 /// Distance falloff of point, spot and area lights.
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -42,6 +47,9 @@ fn default_cone() -> f64 {
 }
 fn default_delta() -> f64 {
     5.0
+}
+fn default_dome_samples() -> u32 {
+    64
 }
 
 /// A light as the file writes it. Every variant repeats `name`, `color`
@@ -139,6 +147,21 @@ enum Spec {
         #[serde(default = "default_samples")]
         samples: u32,
     },
+    Dome {
+        name: String,
+        #[serde(default = "white")]
+        color: [f64; 3],
+        #[serde(default = "one")]
+        intensity: f64,
+        /// A lat-long OpenEXR map, relative to the lights file.
+        #[serde(default)]
+        map: Option<String>,
+        /// Degrees about the up axis.
+        #[serde(default)]
+        rotation: f64,
+        #[serde(default = "default_dome_samples")]
+        samples: u32,
+    },
 }
 
 #[derive(Debug, Deserialize)]
@@ -204,6 +227,8 @@ pub enum Shape {
         centre: DVec3,
         radius: f64,
     },
+    /// Radiance `Cl` (times the map's) from every direction.
+    Dome(Dome),
 }
 
 /// A validated light.
@@ -238,8 +263,16 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Light>> {
     Ok(parse_file(text, file)?.lights)
 }
 
-/// Reads and validates a lights file's text with the frame it states.
+/// Reads and validates a lights file's text with the frame it states. A
+/// dome's map is not read: a file with one is refused (see
+/// [`parse_file_in`]).
 pub fn parse_file(text: &str, file: &str) -> Result<LightsFile> {
+    parse_file_in(text, file, None)
+}
+
+/// Reads and validates a lights file's text, reading a dome's map from
+/// the file's folder `dir`.
+pub fn parse_file_in(text: &str, file: &str, dir: Option<&Path>) -> Result<LightsFile> {
     let spec: FileSpec = crate::error::from_json(text, file)?;
     let frame = Frame {
         up: spec.up_axis,
@@ -250,7 +283,7 @@ pub fn parse_file(text: &str, file: &str) -> Result<LightsFile> {
         .map_err(|why| Error::invalid(format!("{file} at meters_per_unit: {why}")))?;
     let mut out = Vec::with_capacity(spec.lights.len());
     for (i, s) in spec.lights.into_iter().enumerate() {
-        let mut light = validate(s)
+        let mut light = validate(s, dir)
             .map_err(|(key, why)| Error::invalid(format!("{file} at lights[{i}].{key}: {why}")))?;
         light.id = i as u32;
         if let Some(j) = out.iter().position(|l: &Light| l.name == light.name) {
@@ -258,6 +291,15 @@ pub fn parse_file(text: &str, file: &str) -> Result<LightsFile> {
                 "{file} at lights[{i}].name: '{}' is already the name of lights[{j}]",
                 light.name
             )));
+        }
+        // A dome's map has its top at the file's up axis.
+        if let (Shape::Dome(d), Some(UpAxis::Z)) = (&mut light.shape, frame.up) {
+            let c = Frame {
+                up: Some(UpAxis::Y),
+                meters_per_unit: None,
+            }
+            .change_to(&frame);
+            (d.up, d.zero, d.right) = (c.vector(d.up), c.vector(d.zero), c.vector(d.right));
         }
         out.push(light);
     }
@@ -327,7 +369,24 @@ fn common(name: String, color: [f64; 3], intensity: f64) -> Check<(String, DVec3
     Ok((name, col * intensity))
 }
 
-fn validate(s: Spec) -> Check<Light> {
+/// A dome's map, read from `dir` (none: the text came from no file).
+fn read_map(map: &str, dir: Option<&Path>) -> Check<Arc<LatLong>> {
+    let Some(dir) = dir else {
+        return Err((
+            "map",
+            format!("'{map}': a map is read beside a lights file on disk"),
+        ));
+    };
+    let path = dir.join(map);
+    let bytes = std::fs::read(&path).map_err(|e| ("map", format!("{}: {e}", path.display())))?;
+    let (w, h, texels) = crate::formats::exr::read::read_rgb_image(&bytes)
+        .map_err(|e| ("map", format!("{}: {e}", path.display())))?;
+    LatLong::new(w, h, texels, map)
+        .map(Arc::new)
+        .map_err(|why| ("map", format!("{}: {why}", path.display())))
+}
+
+fn validate(s: Spec, dir: Option<&Path>) -> Check<Light> {
     Ok(match s {
         Spec::Distant {
             name,
@@ -486,6 +545,32 @@ fn validate(s: Spec) -> Check<Light> {
                 },
                 falloff,
                 samples: samples_ok(samples)?,
+            }
+        }
+        Spec::Dome {
+            name,
+            color,
+            intensity,
+            map,
+            rotation,
+            samples,
+        } => {
+            let (name, cl) = common(name, color, intensity)?;
+            if !rotation.is_finite() {
+                return Err(("rotation", format!("{rotation} is not finite")));
+            }
+            let samples = samples_ok(samples)?;
+            let map = match map {
+                Some(m) => Some(read_map(&m, dir)?),
+                None => None,
+            };
+            Light {
+                name,
+                id: 0,
+                cl,
+                shape: Shape::Dome(Dome::new(map, rotation)),
+                falloff: Falloff::None,
+                samples,
             }
         }
     })
@@ -649,6 +734,12 @@ impl Light {
                 centre: p(*centre),
                 radius: c.length(*radius),
             },
+            Shape::Dome(d) => Shape::Dome(Dome {
+                map: d.map.clone(),
+                up: v(d.up),
+                zero: v(d.zero),
+                right: v(d.right),
+            }),
         };
         let cl = match self.falloff {
             Falloff::InverseSquare => self.cl * (c.scale * c.scale),
@@ -696,6 +787,22 @@ impl Light {
     pub fn arrivals(&self, p: DVec3, n: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
         out.clear();
         let share = 1.0 / self.samples as f64;
+        if let Shape::Dome(dome) = &self.shape {
+            for k in 0..self.samples {
+                let (a, b) = lattice(k, self.samples, r1, r2);
+                if let Some(d) = dome.draw(a, b, Some(n)) {
+                    let cos = n.dot(d.dir);
+                    if cos > 0.0 {
+                        out.push(Arrival {
+                            dir: d.dir,
+                            dist: f64::INFINITY,
+                            e: self.cl * d.weight * (cos * share),
+                        });
+                    }
+                }
+            }
+            return;
+        }
         self.points(p, r1, r2, |at| match at {
             LightPoint::Towards(to_light) => {
                 let cos = n.dot(to_light);
@@ -721,6 +828,19 @@ impl Light {
     /// facing away). `r1, r2` shift the area light's lattice.
     pub fn emissions(&self, p: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
         out.clear();
+        if let Shape::Dome(dome) = &self.shape {
+            for k in 0..self.samples {
+                let (a, b) = lattice(k, self.samples, r1, r2);
+                if let Some(d) = dome.draw(a, b, None) {
+                    out.push(Arrival {
+                        dir: d.dir,
+                        dist: f64::INFINITY,
+                        e: self.cl * d.weight,
+                    });
+                }
+            }
+            return;
+        }
         self.points(p, r1, r2, |at| match at {
             LightPoint::Towards(to_light) => out.push(Arrival {
                 dir: to_light,
@@ -831,6 +951,8 @@ impl Light {
                     f(LightPoint::At { q, w, area: true });
                 }
             }
+            // Drawn in `arrivals` and `emissions`, which need the normal.
+            Shape::Dome(_) => {}
         }
     }
 }
