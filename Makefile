@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake blender-check pyenv exrtools slurm lint
+.PHONY: test bench demo bake blender-check llvm pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -50,7 +50,13 @@ $(PY).bench.stamp: $(PY).stamp benches/requirements.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check -r benches/requirements.txt
 	touch $@
 
-bench: pyenv $(PY).bench.stamp
+## Debian's LLVM 19, for Mitsuba's vectorised (llvm_ad_rgb) variant in
+## benches/py/mitsuba_dome.py (Debian 12's default LLVM 14 is too old).
+llvm:
+	test -e /usr/lib/x86_64-linux-gnu/libLLVM-19.so || { export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get install -y -q libllvm19 || { apt-get update -q && apt-get install -y -q libllvm19; }; }
+
+bench: pyenv $(PY).bench.stamp llvm
 	$(MAKE) -C pipelines fetch-dragon
 	cargo bench
 
