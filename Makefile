@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake blender-check llvm pyenv exrtools slurm lint
+.PHONY: test bench demo bake frames blender-check llvm pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -72,6 +72,13 @@ absolute = $(if $(wildcard $(1)),$(abspath $(1)),$(1))
 bake:
 	$(MAKE) -C pipelines bake \
 	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT,$(if $($(v)),$(v)=$(call absolute,$($(v)))))
+
+## An animation: make frames FRAMES=anim/frame.####.obj LIGHTS=... CAMERA=...
+## (one cloud scattered on the first frame, or REST=, followed through all).
+frames:
+	$(MAKE) -C pipelines frames \
+	  $(foreach v,LIGHTS CAMERA MATERIAL DIRECT OUT REST,$(if $($(v)),$(v)=$(call absolute,$($(v))))) \
+	  $(if $(FRAMES),FRAMES=$(abspath $(FRAMES)))
 
 lint:
 	cargo fmt --all -- --check

@@ -3,6 +3,7 @@
 
 pub mod facet;
 pub mod filter;
+pub mod follow;
 pub mod illum;
 pub mod measure;
 pub mod medium;

@@ -195,6 +195,12 @@ const TABLE: &[Row] = &[
     row("scatter", &["badindex.obj", "-n", "10", "-o", "@OUT"], 1, "badindex.obj"),
     row("scatter", &["huge.ply", "-n", "10", "-o", "@OUT"], 1, "huge.ply"),
     row("scatter", &["cloud.ply", "-n", "10", "-o", "@OUT"], 1, "cloud.ply"),
+    // follow
+    row("follow", &["cloud.ply", "--rest", "cube.obj", "--mesh", "text.ply", "-o", "@OUT"], 1, "text.ply"),
+    row("follow", &["cloud.ply", "--rest", "cube.obj", "--mesh", "degenerate.obj", "-o", "@OUT"], 1, "degenerate.obj"),
+    row("follow", &["cloud.ply", "--rest", "badindex.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "badindex.obj"),
+    row("follow", &["trunc.ply", "--rest", "cube.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "trunc.ply"),
+    row("follow", &["nan_bare.ply", "--rest", "cube.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "nan_bare.ply"),
     // facet
     row("facet", &["nan_bare.ply", "--mesh", "cube.obj", "-o", "@OUT"], 1, "nan_bare.ply"),
     row("facet", &["cloud.ply", "--mesh", "text.ply", "-o", "@OUT"], 1, "text.ply"),
@@ -406,6 +412,7 @@ fn every_binary_refuses_bad_input_with_one_line_and_leaves_nothing() {
     for b in [
         "scatter",
         "facet",
+        "follow",
         "measure",
         "promote",
         "illum",

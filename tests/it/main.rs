@@ -12,6 +12,7 @@ mod dome;
 mod exr_format;
 mod facet;
 mod filter_render;
+mod follow;
 mod frames;
 mod fuzz_replay;
 mod hostile;
