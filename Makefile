@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames blender-check llvm pyenv exrtools slurm lint
+.PHONY: test bench demo bake frames blender-check suzanne llvm pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -95,3 +95,9 @@ $(BPYENV)/bin/python.stamp: pipelines/blender/requirements.txt
 blender-check: $(BPYENV)/bin/python.stamp
 	cargo build --release
 	$(BPYENV)/bin/python pipelines/blender/light_units.py target/release target/blender-check
+
+## Blender's Suzanne, made and exported (Y-up OBJ, Z-up PLY) by Blender,
+## baked from each with `make bake`: the same picture (out/suzanne/).
+suzanne: $(BPYENV)/bin/python.stamp
+	cargo build --release
+	$(BPYENV)/bin/python pipelines/blender/suzanne.py $(CURDIR) $(CURDIR)/out/suzanne
