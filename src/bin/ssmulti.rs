@@ -32,16 +32,22 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
-    let mut cloud = args.io.read(&Select::only(&[
-        "P",
-        "N",
-        "ptarea",
-        "illum",
-        "illum_cos",
-        "thickness",
-    ]))?;
+    let per_point = args.material.per_point()?;
+    let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
+    wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
+    let mut cloud = args.io.read(&Select::only(&wanted))?;
     let progress = msg.progress();
-    let rep = ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?;
+    let rep = match args.material.recipe()? {
+        Some(recipe) if !per_point.attrs.is_empty() => {
+            let (rep, groups) = ssmulti::per_point::ssmulti_per_point(
+                &mut cloud, &params, &recipe, &per_point, &progress,
+            )
+            .map_err(cli::at(&name))?;
+            msg.info(format!("per-point material: {groups} groups of points"));
+            rep
+        }
+        _ => ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?,
+    };
     msg.info(format!(
         "{} points, {} sources, {} pairs{}",
         rep.points,

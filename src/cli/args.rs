@@ -99,6 +99,18 @@ pub struct MaterialArgs {
     pub eta: Option<f64>,
 }
 
+/// The recipe of merged options whose distance is `dist` (`diffuse`).
+fn recipe(m: &Material, dist: [f64; 3], diffuse: bool) -> medium::Recipe {
+    medium::Recipe {
+        albedo: m.albedo.0,
+        colour: m.albedo.1,
+        dist,
+        diffuse,
+        eta: m.eta,
+        g: m.g,
+    }
+}
+
 /// [`MaterialArgs`] with `--material` merged in and the defaults set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
@@ -288,6 +300,30 @@ impl MaterialArgs {
         })
     }
 
+    /// The material's per-point parameters (none without `--material`).
+    pub fn per_point(&self) -> anyhow::Result<ssmulti::per_point::PerPoint> {
+        Ok(match &self.material {
+            Some(m) => {
+                let m = medium::material::load(m)?;
+                ssmulti::per_point::PerPoint {
+                    attrs: m.per_point,
+                    levels: m.levels,
+                }
+            }
+            None => Default::default(),
+        })
+    }
+
+    /// How the physical model's medium is given; `None` for the seed
+    /// model.
+    pub fn recipe(&self) -> anyhow::Result<Option<medium::Recipe>> {
+        let m = self.merged()?;
+        Ok(match (m.model, m.mfp) {
+            (Model::Physical, Some((dist, diffuse))) => Some(recipe(&m, dist, diffuse)),
+            _ => None,
+        })
+    }
+
     /// The physical model's medium; `None` for the seed model.
     pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
         self.medium_of(&self.merged()?)
@@ -305,17 +341,7 @@ impl MaterialArgs {
             )
             .into());
         };
-        let medium = match m.albedo {
-            (c, true) => Medium::from_colour(c, dist, diffuse, m.eta, m.g),
-            (albedo, false) => {
-                let mfp = if diffuse {
-                    Medium::mfp_of_dmfp(albedo, dist, m.eta, m.g)?
-                } else {
-                    dist
-                };
-                Medium::new(albedo, mfp, m.eta, m.g)
-            }
-        };
+        let medium = self::recipe(m, dist, diffuse).medium();
         Ok(Some(medium?))
     }
 }

@@ -23,6 +23,7 @@ mod material;
 mod measure;
 mod mesh_input;
 mod pcdiff;
+mod per_point;
 mod ply_bad_input;
 mod ply_roundtrip;
 mod promote;

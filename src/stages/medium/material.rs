@@ -31,7 +31,16 @@ pub struct Material {
     pub dmfp: Option<[f64; 3]>,
     pub eta: Option<f64>,
     pub g: Option<f64>,
+    /// Parameters taken per point from the cloud's attributes: (`albedo`,
+    /// `color`, `mfp` or `dmfp`, the attribute's name).
+    pub per_point: Vec<(String, String)>,
+    /// Per-point values rounded to this many levels between their least
+    /// and greatest (a texture's many values into few groups).
+    pub levels: Option<u32>,
 }
+
+/// The most levels a per-point value may be rounded to.
+pub const MAX_LEVELS: u32 = 64;
 
 /// Jensen et al. 2001, table 2: name, reduced scattering and absorption
 /// coefficients (R, G, B) per millimetre.
@@ -153,6 +162,10 @@ struct File {
     eta: Option<f64>,
     #[serde(default)]
     g: Option<f64>,
+    #[serde(default)]
+    per_point: Option<std::collections::BTreeMap<String, String>>,
+    #[serde(default)]
+    levels: Option<u32>,
 }
 
 /// The bytes a material file may have: a few keys, not megabytes.
@@ -256,6 +269,47 @@ pub fn parse(text: &str, name: &str) -> Result<Material> {
     }
     m.eta = f.eta.or(m.eta);
     m.g = f.g.or(m.g);
+    for (key, attr) in f.per_point.unwrap_or_default() {
+        let at = format!("per_point.{key}");
+        // The per-point value is of the kind the material gives (a colour
+        // per point where the material gives a colour).
+        let (pair, kinds) = match key.as_str() {
+            "albedo" | "color" => ([m.albedo.is_some(), m.color.is_some()], ["albedo", "color"]),
+            "mfp" | "dmfp" => ([m.mfp.is_some(), m.dmfp.is_some()], ["mfp", "dmfp"]),
+            _ => {
+                return Err(bad(
+                    &at,
+                    "a per-point parameter is one of albedo, color, mfp, dmfp".into(),
+                ))
+            }
+        };
+        let mine = kinds.iter().position(|k| *k == key).expect("listed");
+        if pair[1 - mine] {
+            return Err(bad(
+                &at,
+                format!(
+                    "the material gives {}: a per-point value replaces it in the same kind",
+                    kinds[1 - mine]
+                ),
+            ));
+        }
+        if attr.is_empty() {
+            return Err(bad(&at, "names no attribute".into()));
+        }
+        m.per_point.push((key, attr));
+    }
+    if let Some(l) = f.levels {
+        if !(2..=MAX_LEVELS).contains(&l) {
+            return Err(bad("levels", format!("{l}: not in 2..={MAX_LEVELS}")));
+        }
+        if m.per_point.is_empty() {
+            return Err(bad(
+                "levels",
+                "rounds per-point values: give per_point".into(),
+            ));
+        }
+        m.levels = Some(l);
+    }
     if m.mfp.is_none() && m.dmfp.is_none() {
         return Err(bad(
             "mfp",

@@ -199,6 +199,35 @@ pub struct Medium {
     pub dmfp: [f64; 3],
 }
 
+/// How a medium is given: a single-scattering albedo or the surface
+/// colour it shows (`colour`), a mean free path or the diffuse one
+/// (`diffuse`), the index and the asymmetry. Per-point materials build one
+/// a group of points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Recipe {
+    pub albedo: [f64; 3],
+    pub colour: bool,
+    pub dist: [f64; 3],
+    pub diffuse: bool,
+    pub eta: f64,
+    pub g: f64,
+}
+
+impl Recipe {
+    /// The medium it gives; errors name the parameter as the options do.
+    pub fn medium(&self) -> Result<Medium> {
+        if self.colour {
+            return Medium::from_colour(self.albedo, self.dist, self.diffuse, self.eta, self.g);
+        }
+        let mfp = if self.diffuse {
+            Medium::mfp_of_dmfp(self.albedo, self.dist, self.eta, self.g)?
+        } else {
+            self.dist
+        };
+        Medium::new(self.albedo, mfp, self.eta, self.g)
+    }
+}
+
 impl Medium {
     /// The medium of single-scattering `albedo` and mean free path `mfp`
     /// per channel; parameters named in errors as the command line's.

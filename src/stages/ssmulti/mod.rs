@@ -52,6 +52,7 @@ pub mod kernel;
 mod lanes;
 mod normalise;
 mod pairs;
+pub mod per_point;
 mod simd;
 mod tree;
 
@@ -467,6 +468,13 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
     }
     let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
+    cloud.record("ssmulti_", record(p, &report));
+    Ok(report)
+}
+
+/// What a run records: its parameters, and with the physical model how
+/// it weighed each point's light.
+fn record(p: &Params, report: &Report) -> Vec<(&'static str, DetailValue)> {
     let mut details = p.details();
     if p.medium.is_some() {
         let how = if report.by_incidence {
@@ -486,8 +494,7 @@ pub fn ssmulti(cloud: &mut Cloud, p: &Params, progress: &Progress) -> Result<Rep
             details.push(("ssmulti_indirect", DetailValue::Str(how.into())));
         }
     }
-    cloud.record("ssmulti_", details);
-    Ok(report)
+    details
 }
 
 /// `ssM` of `cloud`'s points, without changing the cloud: of every point,

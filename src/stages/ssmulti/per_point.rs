@@ -1,0 +1,225 @@
+//! Per-point materials (formats/MATERIAL.md#per-point): a material's
+//! albedo (or colour) and mean free path (or diffuse one) taken at each
+//! point from the cloud's attributes.
+//!
+//! A pair uses the receiver's material: the points are grouped by their
+//! values, and each group is summed as a run of its own over every source
+//! (`ssmulti_values` with the group wanted), with the medium its values
+//! make. Where the attributes are constant there is one group, and the
+//! run is the constant material's, bit for bit. A texture's many values
+//! are rounded to a material's `levels` first; without it, more than
+//! [`MAX_GROUPS`] distinct values is an error.
+
+use std::collections::HashMap;
+
+use super::{record, ssmulti, ssmulti_values, Params, Report};
+use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::column::Scalar;
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::stages::medium::Recipe;
+
+/// The most groups of distinct per-point values a run takes.
+pub const MAX_GROUPS: usize = 256;
+
+/// Which parameters come from which attributes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PerPoint {
+    /// (`albedo`, `color`, `mfp` or `dmfp`, attribute name).
+    pub attrs: Vec<(String, String)>,
+    pub levels: Option<u32>,
+}
+
+/// A point's values: albedo (or colour) then distance, per channel.
+type Values = [f64; 6];
+
+/// Reads the attributes the cloud has (a scalar gives its value to every
+/// channel); those it lacks leave the constant. Returns per point values
+/// and the recipe's kinds.
+fn values(
+    cloud: &Cloud,
+    base: &Recipe,
+    pp: &PerPoint,
+) -> Result<(Vec<Values>, Recipe, Vec<String>)> {
+    let pts = cloud.points();
+    let n = pts.len();
+    let mut vals = vec![
+        [
+            base.albedo[0],
+            base.albedo[1],
+            base.albedo[2],
+            base.dist[0],
+            base.dist[1],
+            base.dist[2]
+        ];
+        n
+    ];
+    let mut recipe = *base;
+    let mut used = Vec::new();
+    for (key, attr) in &pp.attrs {
+        if !pts.has(attr) {
+            continue;
+        }
+        let rows: Vec<[f64; 3]> = match pts.vec3_f64(attr) {
+            Ok(v) => v,
+            Err(_) => pts
+                .scalar_f64(attr)
+                .map_err(|_| {
+                    Error::invalid(format!(
+                        "attribute '{attr}' (the material's per-point {key}) is neither a scalar nor a 3-vector"
+                    ))
+                })?
+                .into_iter()
+                .map(|x| [x; 3])
+                .collect(),
+        };
+        let off = match key.as_str() {
+            "albedo" | "color" => {
+                recipe.colour = key == "color";
+                0
+            }
+            _ => {
+                recipe.diffuse = key == "dmfp";
+                3
+            }
+        };
+        if let Some(i) = rows.iter().position(|r| !r.iter().all(|x| x.is_finite())) {
+            return Err(Error::invalid(format!(
+                "point {i}: attribute '{attr}' (the material's per-point {key}) is {:?}, not finite",
+                rows[i]
+            )));
+        }
+        for (v, r) in vals.iter_mut().zip(&rows) {
+            v[off..off + 3].copy_from_slice(r);
+        }
+        used.push(format!("{key} from {attr}"));
+    }
+    Ok((vals, recipe, used))
+}
+
+/// Rounds every component to `levels` steps between its least and
+/// greatest value.
+fn round_to_levels(vals: &mut [Values], levels: u32) {
+    for k in 0..6 {
+        let (lo, hi) = vals
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v[k]), h.max(v[k]))
+            });
+        if !(hi > lo) {
+            continue;
+        }
+        let step = (hi - lo) / (levels - 1) as f64;
+        for v in vals.iter_mut() {
+            v[k] = lo + ((v[k] - lo) / step).round() * step;
+        }
+    }
+}
+
+/// `ssmulti` with per-point materials: `base` the run's parameters (its
+/// medium the constant material's), `recipe` how that medium was given.
+/// Returns the report and the number of groups.
+pub fn ssmulti_per_point(
+    cloud: &mut Cloud,
+    base: &Params,
+    recipe: &Recipe,
+    pp: &PerPoint,
+    progress: &Progress,
+) -> Result<(Report, usize)> {
+    let (mut vals, kinds, used) = values(cloud, recipe, pp)?;
+    if used.is_empty() {
+        return Ok((ssmulti(cloud, base, progress)?, 1));
+    }
+    if let Some(l) = pp.levels {
+        round_to_levels(&mut vals, l);
+    }
+    // Groups in order of their first point (the same on every run).
+    let mut index: HashMap<[u64; 6], usize> = HashMap::new();
+    let mut groups: Vec<(Values, Vec<usize>)> = Vec::new();
+    for (i, v) in vals.iter().enumerate() {
+        let key = v.map(|x| (x + 0.0).to_bits());
+        let g = *index.entry(key).or_insert_with(|| {
+            groups.push((*v, Vec::new()));
+            groups.len() - 1
+        });
+        groups[g].1.push(i);
+        if groups.len() > MAX_GROUPS {
+            let how = match pp.levels {
+                None => "give the material \"levels\" to round them",
+                Some(_) => "give the material fewer \"levels\"",
+            };
+            return Err(Error::invalid(format!(
+                "the per-point material ({}) has more than {MAX_GROUPS} distinct values: {how}",
+                used.join(", ")
+            )));
+        }
+    }
+    let params_of = |v: &Values, first: usize| -> Result<Params> {
+        let r = Recipe {
+            albedo: [v[0], v[1], v[2]],
+            dist: [v[3], v[4], v[5]],
+            ..kinds
+        };
+        let medium = r.medium().map_err(|e| {
+            Error::invalid(format!(
+                "point {first}: its per-point material ({}): {e}",
+                used.join(", ")
+            ))
+        })?;
+        Ok(Params {
+            medium: Some(medium),
+            ..base.clone()
+        })
+    };
+    let detail = format!(
+        "{}; {} groups{}",
+        used.join(", "),
+        groups.len(),
+        pp.levels
+            .map(|l| format!(", {l} levels"))
+            .unwrap_or_default()
+    );
+    if groups.len() == 1 {
+        let p = params_of(&groups[0].0, groups[0].1[0])?;
+        let rep = ssmulti(cloud, &p, progress)?;
+        cloud.set_detail("ssmulti_per_point", DetailValue::Str(detail));
+        // (The recorded medium is the group's, not the constant's.)
+        return Ok((rep, 1));
+    }
+    let params: Vec<Params> = groups
+        .iter()
+        .map(|(v, pts)| params_of(v, pts[0]))
+        .collect::<Result<_>>()?;
+    let reach = params.iter().map(|p| p.reach()).fold(0.0, f64::max);
+    let own = crate::halo::halo_mask(cloud, Some(reach), "ssmulti's reach")?;
+    let n = cloud.len();
+    let mut out = vec![[0f32; 3]; n];
+    let mut report = Report::default();
+    for ((_, pts), p) in groups.iter().zip(&params) {
+        let mut want = vec![false; n];
+        for &i in pts {
+            want[i] = own.as_ref().is_none_or(|o| o[i]);
+        }
+        let (rows, rep) = ssmulti_values(cloud, p, Some(&want), progress)?;
+        for &i in pts {
+            if want[i] {
+                out[i] = rows[i];
+            }
+        }
+        report = Report {
+            computed: report.computed + pts.len(),
+            isolated: report.isolated + rep.isolated,
+            pairs: report.pairs + rep.pairs,
+            ..rep
+        };
+    }
+    let cols = [0, 1, 2].map(|c| out.iter().map(|r| r[c]).collect::<Vec<f32>>());
+    cloud
+        .points_mut()
+        .set(Attribute::vec3("ssM", Role::Color, cols.map(f32::wrap)))?;
+    // The constant material's record, and what varied.
+    let mut details = record(base, &report);
+    details.push(("ssmulti_per_point", DetailValue::Str(detail)));
+    cloud.record("ssmulti_", details);
+    Ok((report, groups.len()))
+}
