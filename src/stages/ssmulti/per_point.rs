@@ -106,7 +106,7 @@ fn round_to_levels(vals: &mut [Values], levels: u32) {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
                 (l.min(v[k]), h.max(v[k]))
             });
-        if !(hi > lo) {
+        if hi <= lo || !hi.is_finite() {
             continue;
         }
         let step = (hi - lo) / (levels - 1) as f64;
@@ -168,7 +168,7 @@ pub fn ssmulti_per_point(
         })?;
         Ok(Params {
             medium: Some(medium),
-            ..base.clone()
+            ..*base
         })
     };
     let detail = format!(
