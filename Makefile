@@ -71,7 +71,7 @@ demo:
 absolute = $(if $(wildcard $(1)),$(abspath $(1)),$(1))
 bake:
 	$(MAKE) -C pipelines bake \
-	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT,$(if $($(v)),$(v)=$(call absolute,$($(v)))))
+	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT TEXTURE,$(if $($(v)),$(v)=$(call absolute,$($(v)))))
 
 ## An animation: make frames FRAMES=anim/frame.####.obj LIGHTS=... CAMERA=...
 ## (one cloud scattered on the first frame, or REST=, followed through all).

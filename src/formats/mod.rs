@@ -7,6 +7,7 @@
 pub mod exr;
 pub mod obj;
 pub mod ply;
+pub mod texture;
 
 use std::io::{BufRead, Read, Write};
 use std::path::Path;

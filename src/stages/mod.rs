@@ -12,3 +12,4 @@ pub mod render;
 pub mod scatter;
 pub mod ssmulti;
 pub mod sssingle;
+pub mod texture;

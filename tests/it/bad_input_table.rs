@@ -201,6 +201,11 @@ const TABLE: &[Row] = &[
     row("follow", &["cloud.ply", "--rest", "badindex.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "badindex.obj"),
     row("follow", &["trunc.ply", "--rest", "cube.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "trunc.ply"),
     row("follow", &["nan_bare.ply", "--rest", "cube.obj", "--mesh", "cube.obj", "-o", "@OUT"], 1, "nan_bare.ply"),
+    // texture
+    row("texture", &["cloud.ply", "--mesh", "cube.obj", "--image", "text.ply", "--as", "Cd", "-o", "@OUT"], 1, "text.ply"),
+    row("texture", &["cloud.ply", "--mesh", "cube.obj", "--image", "missing.png", "--as", "Cd", "-o", "@OUT"], 1, "missing.png"),
+    row("texture", &["cloud.ply", "--mesh", "cube.obj", "--image", "trunc.ply", "--as", "Cd", "-o", "@OUT"], 1, "trunc.ply"),
+    row("texture", &["cloud.ply", "--mesh", "cube.obj", "--image", "text.ply", "--as", "Cd", "--wrap", "mirror", "-o", "@OUT"], 2, "--wrap"),
     // facet
     row("facet", &["nan_bare.ply", "--mesh", "cube.obj", "-o", "@OUT"], 1, "nan_bare.ply"),
     row("facet", &["cloud.ply", "--mesh", "text.ply", "-o", "@OUT"], 1, "text.ply"),
@@ -413,6 +418,7 @@ fn every_binary_refuses_bad_input_with_one_line_and_leaves_nothing() {
         "scatter",
         "facet",
         "follow",
+        "texture",
         "measure",
         "promote",
         "illum",

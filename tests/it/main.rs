@@ -33,6 +33,7 @@ mod render_pixels;
 mod scatter;
 mod ssmulti;
 mod sssingle;
+mod texture;
 mod tiled_bake;
 mod tiles;
 mod tiles_belong;
