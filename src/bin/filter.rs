@@ -106,9 +106,16 @@ fn run(args: Args) -> anyhow::Result<()> {
                     return Err(Error::param("single_lights", why).into());
                 }
             };
-            let params =
-                args.single
-                    .params(&args.material, &args.ss.rd, args.ss.sd, args.ss.rgb, eye)?;
+            // What the cloud records of ssmulti's run fills in what is
+            // not given, as for sssingle.
+            let params = args.single.params_for(
+                &args.material,
+                args.ss.rd.as_deref(),
+                args.ss.sd,
+                args.ss.rgb,
+                eye,
+                Some(&cloud),
+            )?;
             let lights = cli::read_lights(lights, &args.single_lmask)
                 .map_err(|e| cli::as_param(e, "single_lmask"))?
                 .in_frame(&frame);

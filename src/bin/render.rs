@@ -158,12 +158,15 @@ fn run(args: Args) -> anyhow::Result<()> {
     let lights_used = lights_file.map(|f| f.in_frame(&frame));
     let single = match &single_file {
         Some(file) => {
-            let params = args.single.params(
+            // What the cloud records of ssmulti's run fills in what is
+            // not given, as for sssingle.
+            let params = args.single.params_for(
                 &args.material,
-                &args.ss.rd,
+                args.ss.rd.as_deref(),
                 args.ss.sd,
                 args.ss.rgb,
                 cam.position,
+                Some(&cloud),
             )?;
             Some((params, file.in_frame(&frame)))
         }

@@ -16,9 +16,10 @@ use crate::stages::sssingle;
 /// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
 #[derive(clap::Args, Debug, Clone)]
 pub struct SsArgs {
-    /// Diffuse reflectance: R,G,B (or one value for all three).
-    #[arg(long, value_name = "R,G,B", default_value = "1,1,1")]
-    pub rd: String,
+    /// Diffuse reflectance: R,G,B (or one value for all three) [default:
+    /// 1,1,1; filter's and render's lazy ssS: the cloud's ssmulti_rd].
+    #[arg(long, value_name = "R,G,B")]
+    pub rd: Option<String>,
     /// Scattering distance (per channel: Rd * sd).
     #[arg(long)]
     pub sd: Option<f64>,
@@ -370,20 +371,8 @@ pub struct SingleArgs {
 
 impl SingleArgs {
     /// The parameters for the eye `eye`, with the material `mat` and the
-    /// seed model's `rd`, `sd` and `rgb`; checked. An error names the
-    /// option at fault.
-    pub fn params(
-        &self,
-        mat: &MaterialArgs,
-        rd: &str,
-        sd: Option<f64>,
-        rgb: bool,
-        eye: [f64; 3],
-    ) -> anyhow::Result<sssingle::Params> {
-        self.params_for(mat, Some(rd), sd, rgb, eye, None)
-    }
-
-    /// [`SingleArgs::params`] for the cloud `record` (its detail): what
+    /// seed model's `rd`, `sd` and `rgb`, checked (an error names the
+    /// option at fault), for the cloud `record` (its detail): what
     /// it records of ssmulti's run is taken where nothing is given (the
     /// physical medium, or the seed model's Rd, sd and t_rgb), and an
     /// option that gives another value is an error naming both.
@@ -494,7 +483,7 @@ impl SsArgs {
             (None, None) => return Ok(None),
         };
         let params = Params {
-            rd: parse_rgb("--rd", &self.rd)?,
+            rd: parse_rgb("--rd", self.rd.as_deref().unwrap_or("1,1,1"))?,
             sd,
             bounce: self.bounce,
             rgb: self.rgb,

@@ -250,3 +250,75 @@ fn sssingle_takes_the_medium_ssmulti_recorded() {
         }
     }
 }
+
+/// Lazy ssS in render takes the medium ssmulti recorded in the cloud when
+/// given none: the same picture as with the medium given, and an option
+/// that says otherwise is refused naming both.
+#[test]
+fn render_s_lazy_single_scattering_takes_the_recorded_medium() {
+    let d = tempdir();
+    let at = |n: &str| d.path().join(n).display().to_string();
+    let torus = fixtures().join("mesh/torus.obj").display().to_string();
+    let lights = fixtures().join("lights/torus.json").display().to_string();
+    std::fs::write(
+        d.path().join("cam.json"),
+        r#"{ "position": [0.0, -3.4, 2.0], "look_at": [0.0, 0.0, -0.1], "up": [0, 0, 1], "fov": 35, "width": 24, "height": 18 }"#,
+    )
+    .unwrap();
+    let b = |n: &str| bin(n).display().to_string();
+    let medium = "--model physical --albedo 0.95,0.8,0.6 --mfp 0.05 --eta 1.3 --g 0.2";
+    shell(
+        d.path(),
+        &format!(
+            "{m} {torus} | {p} --class face --attr area --method sum --as Tarea > mesh.ply && \
+             {s} mesh.ply -n 3000 --seed 3 | {f} --mesh mesh.ply | {p} --normalize | \
+             {i} --lights {lights} --mesh mesh.ply | {ss} {medium} -o ss.ply",
+            m = b("measure"),
+            p = b("promote"),
+            s = b("scatter"),
+            f = b("facet"),
+            i = b("illum"),
+            ss = b("ssmulti"),
+        ),
+    );
+    let render = |extra: &str, out: &str| {
+        let mut args: Vec<String> = [
+            "--mesh",
+            "mesh.ply",
+            "--camera",
+            "cam.json",
+            "--cloud",
+            "ss.ply",
+            "--single-lights",
+            &lights,
+            "--samples",
+            "4",
+            "-o",
+            out,
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        args.extend(extra.split_whitespace().map(String::from));
+        let refs: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        run_in(Some(d.path()), "render", &refs, b"")
+    };
+    let o = render(medium, "given.exr");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render("", "recorded.exr");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |n: &str| {
+        pcsss::formats::read_cloud_file(std::path::Path::new(&at(n)), &pcsss::formats::Select::All)
+            .unwrap()
+            .points()
+            .vec3_f64("beauty")
+            .unwrap()
+    };
+    let (given, recorded) = (read("given.exr"), read("recorded.exr"));
+    assert!(given.iter().any(|v| v[0] > 0.0));
+    assert_eq!(given, recorded);
+    let o = render("--eta 1.5", "clash.exr");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--eta"), "{}", stderr(&o));
+    assert!(!d.path().join("clash.exr").exists());
+}
