@@ -21,6 +21,15 @@ struct Args {
     ss: SsArgs,
     #[command(flatten)]
     material: MaterialArgs,
+    /// Seed model: Rd or sd taken at each point from an attribute:
+    /// rd=ATTR, sd=ATTR (comma-separated). The physical model's are in
+    /// the material file (per_point).
+    #[arg(long, value_name = "PARAM=ATTR,..")]
+    per_point: Option<String>,
+    /// With --per-point: round each per-point value to this many levels
+    /// between its least and greatest (2 to 64).
+    #[arg(long, value_name = "N", requires = "per_point")]
+    levels: Option<u32>,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -32,21 +41,31 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
-    let per_point = args.material.per_point()?;
+    let per_point = match &args.per_point {
+        None => args.material.per_point()?,
+        Some(_) if params.medium.is_some() => {
+            let why = "is the seed model's: the physical model's per-point parameters are in the material file (per_point)";
+            return Err(pcsss::Error::param("per_point", why).into());
+        }
+        Some(list) => ssmulti::per_point::PerPoint::parse(list, args.levels)?,
+    };
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
     wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
     let mut cloud = args.io.read(&Select::only(&wanted))?;
     let progress = msg.progress();
-    let rep = match args.material.recipe()? {
-        Some(recipe) if !per_point.attrs.is_empty() => {
-            let (rep, groups) = ssmulti::per_point::ssmulti_per_point(
-                &mut cloud, &params, &recipe, &per_point, &progress,
-            )
-            .map_err(cli::at(&name))?;
-            msg.info(format!("per-point material: {groups} groups of points"));
-            rep
-        }
-        _ => ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?,
+    let base = match args.material.recipe()? {
+        Some(recipe) => ssmulti::per_point::Base::Physical(recipe),
+        None => ssmulti::per_point::Base::Seed,
+    };
+    let rep = if per_point.attrs.is_empty() {
+        ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?
+    } else {
+        let (rep, groups) = ssmulti::per_point::ssmulti_per_point(
+            &mut cloud, &params, &base, &per_point, &progress,
+        )
+        .map_err(cli::at(&name))?;
+        msg.info(format!("per-point parameters: {groups} groups of points"));
+        rep
     };
     msg.info(format!(
         "{} points, {} sources, {} pairs{}",

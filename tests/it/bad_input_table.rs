@@ -241,6 +241,8 @@ const TABLE: &[Row] = &[
     row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "-1", "-o", "@OUT"], 2, "--mfp"),
     // ssmulti
     row("ssmulti", &["cloud.ply", "--sd", "0", "-o", "@OUT"], 2, "--sd"),
+    row("ssmulti", &["cloud.ply", "--sd", "1", "--per-point", "gloss=Cd", "-o", "@OUT"], 2, "--per-point"),
+    row("ssmulti", &["cloud.ply", "--sd", "1", "--per-point", "rd=Cd", "--levels", "1", "-o", "@OUT"], 2, "--levels"),
     row("ssmulti", &["cloud.ply", "--sd", "nan", "-o", "@OUT"], 2, "--sd"),
     row("ssmulti", &["cloud.ply", "--sd", "1e-300", "-o", "@OUT"], 2, "--sd"),
     row("ssmulti", &["cloud.ply", "--sd", "1", "--tolerance", "2", "-o", "@OUT"], 2, "--tolerance"),

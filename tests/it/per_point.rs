@@ -151,3 +151,87 @@ fn many_values_need_levels_and_levels_group_them() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("per_point.color"), "{}", stderr(&o));
 }
+
+/// ssmulti on `c` with `args`.
+fn run_args(dir: &std::path::Path, c: &Cloud, args: &[&str]) -> Vec<[f64; 3]> {
+    std::fs::write(
+        dir.join("lit.ply"),
+        to_bytes(c, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let mut all = vec!["lit.ply", "-o", "out.ply"];
+    all.extend(args);
+    let o = run_in(Some(dir), "ssmulti", &all, b"");
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    from_bytes(&std::fs::read(dir.join("out.ply")).unwrap())
+        .points()
+        .vec3_f64("ssM")
+        .unwrap()
+}
+
+#[test]
+fn the_seed_model_takes_rd_per_point_and_the_approximate_method_too() {
+    let d = tempdir();
+    // A constant Rd attribute: the constant's bits.
+    let c = plane(3000, |_| 0.5);
+    let constant = run_args(d.path(), &c, &["--rd", "0.5", "--sd", "0.3"]);
+    let per = run_args(
+        d.path(),
+        &c,
+        &["--rd", "0.9", "--sd", "0.3", "--per-point", "rd=alb"],
+    );
+    assert_eq!(constant, per);
+    // Two halves: each returns its own Rd far from the border (the
+    // source normalisation returns Rd times the light on an even
+    // surface, whatever its sampling).
+    let c = plane(20000, |x| if x < 0.0 { 0.3 } else { 0.9 });
+    let p = c.points().vec3_f64("P").unwrap();
+    for tol in ["0", "0.2"] {
+        let v = run_args(
+            d.path(),
+            &c,
+            &[
+                "--sd",
+                "1",
+                "--norm",
+                "source",
+                "--per-point",
+                "rd=alb",
+                "--tolerance",
+                tol,
+            ],
+        );
+        for (rd, side) in [(0.3, -1.0), (0.9, 1.0)] {
+            let got: Vec<f64> = p
+                .iter()
+                .zip(&v)
+                .filter(|(q, _)| q[0] * side > 1.0 && q[0].abs() < 3.0 && q[1].abs() < 3.0)
+                .map(|(_, s)| s[0])
+                .collect();
+            let mean = got.iter().sum::<f64>() / got.len() as f64;
+            assert!(
+                (mean / rd - 1.0).abs() < 0.02,
+                "tolerance {tol}: Rd {rd}: {mean}"
+            );
+        }
+    }
+    // --per-point with the physical model is refused, naming it.
+    let o = run_in(
+        Some(d.path()),
+        "ssmulti",
+        &[
+            "lit.ply",
+            "--model",
+            "physical",
+            "--mfp",
+            "0.1",
+            "--per-point",
+            "rd=alb",
+            "-o",
+            "x.ply",
+        ],
+        b"",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--per-point"), "{}", stderr(&o));
+}

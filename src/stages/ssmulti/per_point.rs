@@ -30,33 +30,84 @@ pub struct PerPoint {
     pub levels: Option<u32>,
 }
 
+impl PerPoint {
+    /// `PARAM=ATTR` pairs separated by commas (the seed model's
+    /// `--per-point rd=Cd,sd=dist`), with `levels`.
+    pub fn parse(list: &str, levels: Option<u32>) -> Result<PerPoint> {
+        let mut attrs = Vec::new();
+        for item in list.split(',').filter(|s| !s.trim().is_empty()) {
+            let Some((k, a)) = item.split_once('=') else {
+                return Err(Error::param(
+                    "per_point",
+                    format!("'{item}' is not PARAM=ATTR"),
+                ));
+            };
+            let (k, a) = (k.trim(), a.trim());
+            if !SEED_KEYS.contains(&k) || a.is_empty() {
+                return Err(Error::param(
+                    "per_point",
+                    format!("'{item}': PARAM is rd or sd, ATTR an attribute's name"),
+                ));
+            }
+            attrs.push((k.to_string(), a.to_string()));
+        }
+        if attrs.is_empty() {
+            return Err(Error::param("per_point", "names no parameter"));
+        }
+        if let Some(l) = levels {
+            let max = crate::stages::medium::material::MAX_LEVELS;
+            if !(2..=max).contains(&l) {
+                return Err(Error::param("levels", format!("{l}: not in 2..={max}")));
+            }
+        }
+        Ok(PerPoint { attrs, levels })
+    }
+}
+
 /// A point's values: albedo (or colour) then distance, per channel.
 type Values = [f64; 6];
 
+/// The constant a run starts from: the physical medium's recipe, or the
+/// seed model's Rd and sd.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Base {
+    Physical(Recipe),
+    Seed,
+}
+
+/// The parameters each model takes per point.
+pub const PHYSICAL_KEYS: [&str; 4] = ["albedo", "color", "mfp", "dmfp"];
+pub const SEED_KEYS: [&str; 2] = ["rd", "sd"];
+
 /// Reads the attributes the cloud has (a scalar gives its value to every
 /// channel); those it lacks leave the constant. Returns per point values
-/// and the recipe's kinds.
+/// (albedo or colour, or Rd; then the distance, or sd in every slot), the
+/// recipe's kinds, and what came from where.
 fn values(
     cloud: &Cloud,
-    base: &Recipe,
+    params: &Params,
+    base: &Base,
     pp: &PerPoint,
-) -> Result<(Vec<Values>, Recipe, Vec<String>)> {
+) -> Result<(Vec<Values>, Base, Vec<String>)> {
     let pts = cloud.points();
     let n = pts.len();
-    let mut vals = vec![
-        [
-            base.albedo[0],
-            base.albedo[1],
-            base.albedo[2],
-            base.dist[0],
-            base.dist[1],
-            base.dist[2]
-        ];
-        n
-    ];
-    let mut recipe = *base;
+    let (first, second, keys): ([f64; 3], [f64; 3], &[&str]) = match base {
+        Base::Physical(r) => (r.albedo, r.dist, &PHYSICAL_KEYS),
+        Base::Seed => (params.rd, [params.sd; 3], &SEED_KEYS),
+    };
+    let mut vals = vec![[first[0], first[1], first[2], second[0], second[1], second[2]]; n];
+    let mut kinds = *base;
     let mut used = Vec::new();
     for (key, attr) in &pp.attrs {
+        if !keys.contains(&key.as_str()) {
+            return Err(Error::param(
+                "per_point",
+                format!(
+                    "'{key}' is not one of this model's per-point parameters ({})",
+                    keys.join(", ")
+                ),
+            ));
+        }
         if !pts.has(attr) {
             continue;
         }
@@ -66,35 +117,42 @@ fn values(
                 .scalar_f64(attr)
                 .map_err(|_| {
                     Error::invalid(format!(
-                        "attribute '{attr}' (the material's per-point {key}) is neither a scalar nor a 3-vector"
+                        "attribute '{attr}' (the per-point {key}) is neither a scalar nor a 3-vector"
                     ))
                 })?
                 .into_iter()
                 .map(|x| [x; 3])
                 .collect(),
         };
-        let off = match key.as_str() {
-            "albedo" | "color" => {
-                recipe.colour = key == "color";
-                0
-            }
-            _ => {
-                recipe.diffuse = key == "dmfp";
-                3
-            }
-        };
         if let Some(i) = rows.iter().position(|r| !r.iter().all(|x| x.is_finite())) {
             return Err(Error::invalid(format!(
-                "point {i}: attribute '{attr}' (the material's per-point {key}) is {:?}, not finite",
+                "point {i}: attribute '{attr}' (the per-point {key}) is {:?}, not finite",
                 rows[i]
             )));
         }
+        let off = match (key.as_str(), &mut kinds) {
+            ("albedo" | "color", Base::Physical(r)) => {
+                r.colour = key == "color";
+                0
+            }
+            ("mfp" | "dmfp", Base::Physical(r)) => {
+                r.diffuse = key == "dmfp";
+                3
+            }
+            ("rd", _) => 0,
+            _ => 3,
+        };
         for (v, r) in vals.iter_mut().zip(&rows) {
-            v[off..off + 3].copy_from_slice(r);
+            if key == "sd" {
+                // A scattering distance is one number: the first channel.
+                v[3..6].copy_from_slice(&[r[0]; 3]);
+            } else {
+                v[off..off + 3].copy_from_slice(r);
+            }
         }
         used.push(format!("{key} from {attr}"));
     }
-    Ok((vals, recipe, used))
+    Ok((vals, kinds, used))
 }
 
 /// Rounds every component to `levels` steps between its least and
@@ -116,17 +174,17 @@ fn round_to_levels(vals: &mut [Values], levels: u32) {
     }
 }
 
-/// `ssmulti` with per-point materials: `base` the run's parameters (its
-/// medium the constant material's), `recipe` how that medium was given.
-/// Returns the report and the number of groups.
+/// `ssmulti` with per-point parameters: `base` the run's parameters (its
+/// medium the constant material's), `model` how that medium was given
+/// (or the seed model). Returns the report and the number of groups.
 pub fn ssmulti_per_point(
     cloud: &mut Cloud,
     base: &Params,
-    recipe: &Recipe,
+    model: &Base,
     pp: &PerPoint,
     progress: &Progress,
 ) -> Result<(Report, usize)> {
-    let (mut vals, kinds, used) = values(cloud, recipe, pp)?;
+    let (mut vals, kinds, used) = values(cloud, base, model, pp)?;
     if used.is_empty() {
         return Ok((ssmulti(cloud, base, progress)?, 1));
     }
@@ -155,21 +213,32 @@ pub fn ssmulti_per_point(
         }
     }
     let params_of = |v: &Values, first: usize| -> Result<Params> {
-        let r = Recipe {
-            albedo: [v[0], v[1], v[2]],
-            dist: [v[3], v[4], v[5]],
-            ..kinds
-        };
-        let medium = r.medium().map_err(|e| {
+        let at = |e: Error| {
             Error::invalid(format!(
-                "point {first}: its per-point material ({}): {e}",
+                "point {first}: its per-point parameters ({}): {e}",
                 used.join(", ")
             ))
-        })?;
-        Ok(Params {
-            medium: Some(medium),
-            ..*base
-        })
+        };
+        let p = match kinds {
+            Base::Physical(r) => {
+                let r = Recipe {
+                    albedo: [v[0], v[1], v[2]],
+                    dist: [v[3], v[4], v[5]],
+                    ..r
+                };
+                Params {
+                    medium: Some(r.medium().map_err(at)?),
+                    ..*base
+                }
+            }
+            Base::Seed => Params {
+                rd: [v[0], v[1], v[2]],
+                sd: v[3],
+                ..*base
+            },
+        };
+        super::validate(&p).map_err(at)?;
+        Ok(p)
     };
     let detail = format!(
         "{}; {} groups{}",
