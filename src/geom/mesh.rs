@@ -287,6 +287,36 @@ impl TriMesh {
         ]
     }
 
+    /// The triangle of face `f` a point scattered on it lies on: the one
+    /// whose point at barycentric weights `w` is nearest `p` (`sourceuv`
+    /// is relative to one triangle of the face's triangulation, and the
+    /// face's other triangles put `w` elsewhere). `None` for a face with
+    /// no triangle.
+    pub fn triangle_at(&self, f: usize, w: [f64; 3], p: DVec3) -> Option<usize> {
+        (self.face_tris[f]..self.face_tris[f + 1])
+            .min_by(|&a, &b| {
+                let d = |t: u32| {
+                    let [x, y, z] = self.tri(t as usize);
+                    (geom::blend(w, x, y, z) - p).length_squared()
+                };
+                d(a).total_cmp(&d(b))
+            })
+            .map(|t| t as usize)
+    }
+
+    /// The faces of a cloud's `sourceprim` values, checked to be faces of
+    /// this mesh (an error names the first point that is not).
+    pub fn source_faces(&self, prim: &[f64]) -> Result<()> {
+        let nf = self.face_count();
+        match prim.iter().position(|&f| !(f >= 0.0 && f < nf as f64)) {
+            Some(i) => Err(Error::invalid(format!(
+                "point {i} has sourceprim {}, but the mesh has {nf} faces (is the mesh the one it was scattered on?)",
+                prim[i]
+            ))),
+            None => Ok(()),
+        }
+    }
+
     /// The face a triangle belongs to.
     pub fn tri_faces(&self) -> Vec<u32> {
         let mut out = vec![0u32; self.tris.len()];

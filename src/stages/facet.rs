@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::mesh::{ClosestPoint, TriMesh};
-use crate::geom::{self, unit_or_zero};
+use crate::geom::unit_or_zero;
 
 /// Flat or smooth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -196,15 +196,9 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
         Mode::Smooth => corner_normals(mesh, &face_n, p.weight, p.cusp, p.weld),
         Mode::Flat => Vec::new(),
     };
-    let nf = mesh.face_count();
     let source = if pts.has("sourceprim") {
         let prim = pts.scalar_f64("sourceprim")?;
-        if let Some(i) = prim.iter().position(|&f| !(f >= 0.0 && f < nf as f64)) {
-            return Err(Error::invalid(format!(
-                "point {i} has sourceprim {}, but the mesh has {nf} faces (is the mesh the one it was scattered on?)",
-                prim[i]
-            )));
-        }
+        mesh.source_faces(&prim)?;
         let uv = match (p.mode, pts.has("sourceuv")) {
             (Mode::Smooth, true) => Some(pts.vec3_f64("sourceuv")?),
             (Mode::Smooth, false) => {
@@ -241,14 +235,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
                         None => (f, None, [1.0, 0.0, 0.0]),
                         Some(uv) => {
                             let w = [1.0 - uv[i][0] - uv[i][1], uv[i][0], uv[i][1]];
-                            let t = (mesh.face_tris[f]..mesh.face_tris[f + 1]).min_by(|&a, &b| {
-                                let d = |t: u32| {
-                                    let [x, y, z] = mesh.tri(t as usize);
-                                    (geom::blend(w, x, y, z) - p3).length_squared()
-                                };
-                                d(a).total_cmp(&d(b))
-                            });
-                            (f, t.map(|t| t as usize), w)
+                            (f, mesh.triangle_at(f, w, p3), w)
                         }
                     }
                 }

@@ -72,13 +72,7 @@ pub fn follow(cloud: &mut Cloud, rest: &TriMesh, frame: &TriMesh) -> Result<Repo
     let pos = pts.vec3_f64("P")?;
     let prim = pts.scalar_f64("sourceprim")?;
     let uv = pts.vec3_f64("sourceuv")?;
-    let nf = rest.face_count();
-    if let Some(i) = prim.iter().position(|&f| !(f >= 0.0 && f < nf as f64)) {
-        return Err(Error::invalid(format!(
-            "point {i} has sourceprim {}, but the mesh has {nf} faces (is the rest mesh the one it was scattered on?)",
-            prim[i]
-        )));
-    }
+    rest.source_faces(&prim)?;
     if let Some(i) = uv
         .iter()
         .position(|w| !(w[0].is_finite() && w[1].is_finite()))
@@ -96,16 +90,7 @@ pub fn follow(cloud: &mut Cloud, rest: &TriMesh, frame: &TriMesh) -> Result<Repo
             let f = prim[i] as usize;
             let w = [1.0 - uv[i][0] - uv[i][1], uv[i][0], uv[i][1]];
             let p = DVec3::from_array(pos[i]);
-            let t = (rest.face_tris[f]..rest.face_tris[f + 1])
-                .min_by(|&a, &b| {
-                    let d = |t: u32| {
-                        let [x, y, z] = rest.tri(t as usize);
-                        (geom::blend(w, x, y, z) - p).length_squared()
-                    };
-                    d(a).total_cmp(&d(b))
-                })
-                .map(|t| t as usize);
-            match t {
+            match rest.triangle_at(f, w, p) {
                 Some(t) => {
                     let [a, b, c] = moved.tri(t);
                     let [ra, rb, rc] = rest.tri(t);

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::formats::texture::Texture;
-use crate::geom::{self, mesh::TriMesh};
+use crate::geom::mesh::TriMesh;
 
 /// The names a mesh's texture coordinates go by, in the order tried.
 pub const UV_NAMES: [(&str, &str); 4] = [
@@ -82,13 +82,7 @@ pub fn texture(
     let pos = pts.vec3_f64("P")?;
     let prim = pts.scalar_f64("sourceprim")?;
     let uv = pts.vec3_f64("sourceuv")?;
-    let nf = mesh.face_count();
-    if let Some(i) = prim.iter().position(|&f| !(f >= 0.0 && f < nf as f64)) {
-        return Err(Error::invalid(format!(
-            "point {i} has sourceprim {}, but the mesh has {nf} faces (is the mesh the one it was scattered on?)",
-            prim[i]
-        )));
-    }
+    mesh.source_faces(&prim)?;
     let repeat = wrap == Wrap::Repeat;
     let rows: Vec<[f32; 3]> = (0..pos.len())
         .into_par_iter()
@@ -96,17 +90,10 @@ pub fn texture(
             let f = prim[i] as usize;
             let w = [1.0 - uv[i][0] - uv[i][1], uv[i][0], uv[i][1]];
             let p = DVec3::from_array(pos[i]);
-            let t = (mesh.face_tris[f]..mesh.face_tris[f + 1]).min_by(|&a, &b| {
-                let d = |t: u32| {
-                    let [x, y, z] = mesh.tri(t as usize);
-                    (geom::blend(w, x, y, z) - p).length_squared()
-                };
-                d(a).total_cmp(&d(b))
-            });
-            let Some(t) = t else {
+            let Some(t) = mesh.triangle_at(f, w, p) else {
                 return [0.0; 3];
             };
-            let k = mesh.tris[t as usize];
+            let k = mesh.tris[t];
             let c = k.map(|corner| uvs[mesh.vertex(corner)]);
             let s = w[0] * c[0][0] + w[1] * c[1][0] + w[2] * c[2][0];
             let q = w[0] * c[0][1] + w[1] * c[1][1] + w[2] * c[2][1];
