@@ -41,8 +41,8 @@ struct Args {
     /// A PNG preview (beside the OpenEXR, or alone without -o).
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
-    /// Preview exposure: 1 - exp(-exposure * beauty).
-    #[arg(long, default_value_t = 1.5)]
+    /// Preview exposure: 1 - exp(-exposure * beauty) (the bake's EXPOSURE).
+    #[arg(long, default_value_t = 1.2)]
     exposure: f64,
     /// Use the N nearest cloud points.
     #[arg(long, value_name = "N", conflicts_with = "radius")]
