@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use pcsss::cli::{self, IoArgs, MaterialArgs, SsArgs};
+use pcsss::cli::{self, IoArgs, MaterialArgs, PerPointArgs, SsArgs};
 use pcsss::formats::Select;
 use pcsss::stages::ssmulti;
 
@@ -21,15 +21,8 @@ struct Args {
     ss: SsArgs,
     #[command(flatten)]
     material: MaterialArgs,
-    /// Seed model: Rd or sd taken at each point from an attribute:
-    /// rd=ATTR, sd=ATTR (comma-separated). The physical model's are in
-    /// the material file (per_point).
-    #[arg(long, value_name = "PARAM=ATTR,..")]
-    per_point: Option<String>,
-    /// With --per-point: round each per-point value to this many levels
-    /// between its least and greatest (2 to 64).
-    #[arg(long, value_name = "N", requires = "per_point")]
-    levels: Option<u32>,
+    #[command(flatten)]
+    per_point: PerPointArgs,
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -41,14 +34,9 @@ fn run(args: Args) -> anyhow::Result<()> {
     };
     // Parameters before reading: an absurd one fails fast.
     ssmulti::validate(&params)?;
-    let per_point = match &args.per_point {
-        None => args.material.per_point()?,
-        Some(_) if params.medium.is_some() => {
-            let why = "is the seed model's: the physical model's per-point parameters are in the material file (per_point)";
-            return Err(pcsss::Error::param("per_point", why).into());
-        }
-        Some(list) => ssmulti::per_point::PerPoint::parse(list, args.levels)?,
-    };
+    let per_point = args
+        .per_point
+        .resolve(&args.material, params.medium.is_some())?;
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
     wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
     let mut cloud = args.io.read(&Select::only(&wanted))?;

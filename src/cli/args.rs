@@ -112,6 +112,40 @@ fn recipe(m: &Material, dist: [f64; 3], diffuse: bool) -> medium::Recipe {
     }
 }
 
+/// `ssmulti`'s per-point options (also read by `pctile split --for
+/// ssmulti --stage-args`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct PerPointArgs {
+    /// Seed model: Rd or sd taken at each point from an attribute:
+    /// rd=ATTR, sd=ATTR (comma-separated). The physical model's are in
+    /// the material file (per_point).
+    #[arg(long, value_name = "PARAM=ATTR,..")]
+    pub per_point: Option<String>,
+    /// With --per-point: round each per-point value to this many levels
+    /// between its least and greatest (2 to 64).
+    #[arg(long, value_name = "N", requires = "per_point")]
+    pub levels: Option<u32>,
+}
+
+impl PerPointArgs {
+    /// The per-point parameters: the options' (seed model) or the
+    /// material's (physical model); `physical` says which model runs.
+    pub fn resolve(
+        &self,
+        material: &MaterialArgs,
+        physical: bool,
+    ) -> anyhow::Result<ssmulti::per_point::PerPoint> {
+        Ok(match &self.per_point {
+            None => material.per_point()?,
+            Some(_) if physical => {
+                let why = "is the seed model's: the physical model's per-point parameters are in the material file (per_point)";
+                return Err(crate::Error::param("per_point", why).into());
+            }
+            Some(list) => ssmulti::per_point::PerPoint::parse(list, self.levels)?,
+        })
+    }
+}
+
 /// [`MaterialArgs`] with `--material` merged in and the defaults set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {

@@ -19,7 +19,8 @@ pub mod args;
 pub mod stage_args;
 
 pub use args::{
-    parse_bytes, parse_rgb, parse_xyz, IllumArgs, MaterialArgs, SingleArgs, SsArgs, SssingleArgs,
+    parse_bytes, parse_rgb, parse_xyz, IllumArgs, MaterialArgs, PerPointArgs, SingleArgs, SsArgs,
+    SssingleArgs,
 };
 
 use std::io::{self, BufReader, IsTerminal, Read};

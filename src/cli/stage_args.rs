@@ -4,7 +4,7 @@
 
 use clap::{CommandFactory, Parser};
 
-use super::args::{MaterialArgs, SsArgs};
+use super::args::{MaterialArgs, PerPointArgs, SsArgs};
 use crate::error::Error;
 use crate::tiles::reach::{StageParams, STAGES};
 
@@ -18,6 +18,8 @@ struct Multi {
     ss: SsArgs,
     #[command(flatten)]
     mat: MaterialArgs,
+    #[command(flatten)]
+    per_point: PerPointArgs,
 }
 
 /// The options of `filter` that set its reach; the others are skipped.
@@ -51,7 +53,15 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
         "ssmulti" => {
             let a = Multi::try_parse_from(args).map_err(bad)?;
             match a.ss.params(&a.mat).map_err(|e| within(stage, e))? {
-                Some(p) => StageParams::Ssmulti(p),
+                Some(p) => {
+                    // (Checked as ssmulti checks them; a group's reach
+                    // beyond these parameters' is refused by the tile's
+                    // halo check, naming both.)
+                    a.per_point
+                        .resolve(&a.mat, p.medium.is_some())
+                        .map_err(|e| within(stage, e))?;
+                    StageParams::Ssmulti(p)
+                }
                 None => {
                     return Err(Error::param(
                         "stage_args",

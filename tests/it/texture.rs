@@ -130,7 +130,7 @@ fn a_texture_drives_a_per_point_material_through_the_binaries() {
     let c = from_bytes(&std::fs::read(d.path().join("sss.ply")).unwrap());
     assert!(matches!(
         c.detail("ssmulti_per_point"),
-        Some(pcsss::cloud::DetailValue::Str(s)) if s.contains("color from Cd") && s.contains("4 groups")
+        Some(pcsss::cloud::DetailValue::Str(s)) if s == "color from Cd; 4 levels"
     ));
     // Brighter where the texture is: the rightmost of each half against
     // the leftmost (away from the seam and the ends).

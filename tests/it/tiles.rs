@@ -787,3 +787,36 @@ fn tiled_thin_parts_move_their_light_as_the_untiled() {
         .sum();
     assert!(back > 0.0);
 }
+
+/// Per-point Rd (`ssmulti --per-point`) on tiles: each tile groups its
+/// own points, its halo points are sources of every group, and the merge
+/// equals the untiled run.
+#[test]
+fn tiled_per_point_ssmulti_equals_the_untiled() {
+    let d = tempdir();
+    let mut c = sheet(30000);
+    let p = c.points().vec3_f64("P").unwrap();
+    let rd: Vec<f32> = p
+        .iter()
+        .map(|q| if q[0] < 3.0 { 0.4 } else { 0.9 })
+        .collect();
+    c.points_mut().set_scalar("rd_map", rd).unwrap();
+    let input = d.path().join("in.ply");
+    write(&input, &c);
+    let ss = [
+        "--sd",
+        "0.3",
+        "--per-point",
+        "rd=rd_map",
+        "--norm",
+        "source",
+    ];
+    let (whole, tiled, _) = whole_and_tiled(d.path(), "pp", &input, &ss, 8);
+    let (w, t) = (read(&whole), read(&tiled));
+    assert!(matches!(
+        w.detail("ssmulti_per_point"),
+        Some(pcsss::cloud::DetailValue::Str(s)) if s == "rd from rd_map"
+    ));
+    let e = worst(&t, &w, "ssM");
+    assert!(e < 1e-6, "{e}");
+}

@@ -240,19 +240,22 @@ pub fn ssmulti_per_point(
         super::validate(&p).map_err(at)?;
         Ok(p)
     };
+    // What the run records is the same whatever groups a part of the
+    // cloud holds (tiles of one bake agree on it): the constant's
+    // parameters and what came from where, not the groups.
     let detail = format!(
-        "{}; {} groups{}",
+        "{}{}",
         used.join(", "),
-        groups.len(),
         pp.levels
-            .map(|l| format!(", {l} levels"))
+            .map(|l| format!("; {l} levels"))
             .unwrap_or_default()
     );
     if groups.len() == 1 {
         let p = params_of(&groups[0].0, groups[0].1[0])?;
         let rep = ssmulti(cloud, &p, progress)?;
-        cloud.set_detail("ssmulti_per_point", DetailValue::Str(detail));
-        // (The recorded medium is the group's, not the constant's.)
+        let mut details = record(base, &rep);
+        details.push(("ssmulti_per_point", DetailValue::Str(detail)));
+        cloud.record("ssmulti_", details);
         return Ok((rep, 1));
     }
     let params: Vec<Params> = groups
