@@ -121,8 +121,8 @@ pub struct PerPointArgs {
     /// the material file (per_point).
     #[arg(long, value_name = "PARAM=ATTR,..")]
     pub per_point: Option<String>,
-    /// With --per-point: round each per-point value to this many levels
-    /// between its least and greatest (2 to 64).
+    /// With --per-point: round Rd to steps of 1 / (N - 1) and sd to N
+    /// steps per doubling (2 to 64).
     #[arg(long, value_name = "N", requires = "per_point")]
     pub levels: Option<u32>,
 }

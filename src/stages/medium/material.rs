@@ -34,8 +34,8 @@ pub struct Material {
     /// Parameters taken per point from the cloud's attributes: (`albedo`,
     /// `color`, `mfp` or `dmfp`, the attribute's name).
     pub per_point: Vec<(String, String)>,
-    /// Per-point values rounded to this many levels between their least
-    /// and greatest (a texture's many values into few groups).
+    /// Per-point values rounded on a grid of this many levels (a
+    /// texture's many values into few groups; `ssmulti::per_point`).
     pub levels: Option<u32>,
 }
 

@@ -155,21 +155,19 @@ fn values(
     Ok((vals, kinds, used))
 }
 
-/// Rounds every component to `levels` steps between its least and
-/// greatest value.
+/// Rounds each value on a grid of its own, the same for every cloud (so
+/// tiles of one bake round alike): an albedo, colour or Rd to steps of
+/// `1 / (levels - 1)`, a distance to `levels` steps per doubling.
 fn round_to_levels(vals: &mut [Values], levels: u32) {
-    for k in 0..6 {
-        let (lo, hi) = vals
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                (l.min(v[k]), h.max(v[k]))
-            });
-        if hi <= lo || !hi.is_finite() {
-            continue;
+    let steps = (levels - 1) as f64;
+    for v in vals.iter_mut() {
+        for x in &mut v[0..3] {
+            *x = (*x * steps).round() / steps;
         }
-        let step = (hi - lo) / (levels - 1) as f64;
-        for v in vals.iter_mut() {
-            v[k] = lo + ((v[k] - lo) / step).round() * step;
+        for x in &mut v[3..6] {
+            if *x > 0.0 {
+                *x = ((x.log2() * levels as f64).round() / levels as f64).exp2();
+            }
         }
     }
 }
