@@ -819,4 +819,24 @@ fn tiled_per_point_ssmulti_equals_the_untiled() {
     ));
     let e = worst(&t, &w, "ssM");
     assert!(e < 1e-6, "{e}");
+    // A continuous map rounded by levels: every tile rounds alike.
+    let rd: Vec<f32> = p
+        .iter()
+        .map(|q| (0.3 + 0.1 * q[0]).clamp(0.1, 1.0) as f32)
+        .collect();
+    c.points_mut().set_scalar("rd_map", rd).unwrap();
+    write(&input, &c);
+    let ss = [
+        "--sd",
+        "0.3",
+        "--per-point",
+        "rd=rd_map",
+        "--levels",
+        "8",
+        "--norm",
+        "source",
+    ];
+    let (whole, tiled, _) = whole_and_tiled(d.path(), "pl", &input, &ss, 8);
+    let e = worst(&read(&tiled), &read(&whole), "ssM");
+    assert!(e < 1e-6, "levels: {e}");
 }
