@@ -8,6 +8,7 @@ pub mod exr;
 pub mod obj;
 pub mod ply;
 pub mod texture;
+pub mod usd;
 
 use std::io::{BufRead, Read, Write};
 use std::path::Path;
@@ -24,6 +25,8 @@ pub enum Format {
     Ply(Encoding),
     /// OpenEXR point cloud.
     Exr,
+    /// A USD text layer with one `UsdGeomPoints` (written only).
+    Usda,
 }
 
 impl Format {
@@ -36,12 +39,13 @@ impl Format {
         match ext.as_str() {
             "ply" => Some(Format::DEFAULT),
             "exr" => Some(Format::Exr),
+            "usda" => Some(Format::Usda),
             _ => None,
         }
     }
 
     /// The names accepted by `--format`.
-    pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr";
+    pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr, usda";
 }
 
 impl FromStr for Format {
@@ -52,6 +56,7 @@ impl FromStr for Format {
             "ply-be" => Format::Ply(Encoding::BinaryBe),
             "ply-ascii" | "ascii" => Format::Ply(Encoding::Ascii),
             "exr" => Format::Exr,
+            "usda" => Format::Usda,
             _ => return Err(format!("unknown format '{s}' (one of: {})", Format::NAMES)),
         })
     }
@@ -180,5 +185,6 @@ pub fn write_cloud_with<W: Write + ?Sized>(
     match format {
         Format::Ply(enc) => ply::write_ply(w, cloud, enc),
         Format::Exr => exr::write_exr(w, cloud, exr_opt),
+        Format::Usda => usd::write_usda(w, cloud),
     }
 }

@@ -14,7 +14,7 @@ use pcsss::{Cloud, Role};
 
 /// A lit cloud of 200 points on the cube with every attribute a stage
 /// reads (P, N, ptarea, sourceprim, sourceuv, illum, ssM, ssS).
-fn lit_cloud() -> Cloud {
+pub(crate) fn lit_cloud() -> Cloud {
     let mesh = cube();
     let mut c = scatter_n(&mesh, 200, 1, pcsss::stages::scatter::PtareaMode::Prim);
     let m = pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap();

@@ -1,6 +1,7 @@
 //! One integration-test binary: the real stage binaries and the library,
 //! against fixtures and independent truth. One module per area.
 
+mod usd;
 mod util;
 
 mod bad_input_table;

@@ -1,0 +1,186 @@
+//! USD out (formats/USD.md): a cloud written as `.usda` is opened by
+//! Pixar's own library (usd-core), which reads back every attribute as a
+//! vertex primvar with its values and type, the detail as custom
+//! attributes, the frame as the stage's up axis and units, and finds no
+//! validation error.
+
+use crate::bad_input_table::lit_cloud;
+use crate::util::*;
+use pcsss::cloud::{Attribute, DetailValue, Role};
+use pcsss::column::Column;
+
+#[test]
+#[ignore = "interop: needs Pixar's usd-core; `make test` runs it"]
+fn pixar_s_library_reads_what_we_write_as_usda() {
+    let py = python_with(&["pxr", "numpy"]);
+    let d = tempdir();
+    let mut c = lit_cloud();
+    let n = c.len();
+    // Every scalar type, an f64 vector, a detail of every type, a frame.
+    let pts = c.points_mut();
+    pts.set(Attribute::scalar(
+        "k_u8",
+        Column::U8((0..n).map(|i| (i % 251) as u8).collect()),
+    ))
+    .unwrap();
+    pts.set(Attribute::scalar(
+        "k_i16",
+        Column::I16((0..n).map(|i| -(i as i16)).collect()),
+    ))
+    .unwrap();
+    pts.set(Attribute::scalar(
+        "k_u32",
+        Column::U32((0..n).map(|i| 4_000_000_000 - i as u32).collect()),
+    ))
+    .unwrap();
+    pts.set(Attribute::scalar(
+        "k_f64",
+        Column::F64((0..n).map(|i| 1.0 / (i as f64 + 3.0)).collect()),
+    ))
+    .unwrap();
+    pts.set(Attribute::scalar(
+        "k_big",
+        Column::F32(
+            (0..n)
+                .map(|i| if i % 2 == 0 { f32::MAX } else { 1e-30 })
+                .collect(),
+        ),
+    ))
+    .unwrap();
+    let v: Vec<[f64; 3]> = (0..n).map(|i| [i as f64 / 7.0, -1.0 / 3.0, 1e20]).collect();
+    pts.set_vec3("k_vec", Role::Vector, &v).unwrap();
+    c.set_detail("d_i", DetailValue::I32(-7));
+    c.set_detail("d_f", DetailValue::F64(std::f64::consts::PI));
+    c.set_detail("d_s", DetailValue::Str("a \"quoted\"\nline".into()));
+    c.set_detail("d_v", DetailValue::V3D([1.0, 2.5, -1e-9]));
+    c.set_frame(&pcsss::frame::Frame {
+        up: Some(pcsss::frame::UpAxis::Z),
+        meters_per_unit: Some(0.01),
+    });
+    let ply = d.path().join("c.ply");
+    std::fs::write(&ply, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
+    let o = run_in(Some(d.path()), "pcconvert", &["c.ply", "-o", "c.usda"], b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    // What Pixar's library reads, as JSON: every primvar's type,
+    // interpolation and values, the custom attributes, the stage's frame,
+    // and the validators' errors.
+    let script = r#"
+import json, sys, math
+from pxr import Usd, UsdGeom
+st = Usd.Stage.Open(sys.argv[1])
+prim = st.GetDefaultPrim()
+out = {"type": prim.GetTypeName(), "up": UsdGeom.GetStageUpAxis(st),
+       "mpu": UsdGeom.GetStageMetersPerUnit(st), "primvars": {}, "detail": {}}
+def plain(x):
+    try:
+        return [plain(y) for y in x]
+    except TypeError:
+        if isinstance(x, float) and math.isinf(x): return "inf" if x > 0 else "-inf"
+        return x
+for pv in UsdGeom.PrimvarsAPI(prim).GetAuthoredPrimvars():
+    out["primvars"][pv.GetPrimvarName()] = [str(pv.GetTypeName()), pv.GetInterpolation(), plain(list(pv.Get()))]
+for a in prim.GetAttributes():
+    if a.GetName().startswith("pcsss:detail:"):
+        v = a.Get()
+        out["detail"][a.GetName()[13:]] = [str(a.GetTypeName()), plain(v) if not isinstance(v, str) else v]
+out["points"] = len(UsdGeom.Points(prim).GetPointsAttr().Get())
+out["widths"] = len(UsdGeom.Points(prim).GetWidthsAttr().Get())
+errors = []
+try:
+    from pxr import UsdValidation
+    reg = UsdValidation.ValidationRegistry()
+    ctx = UsdValidation.ValidationContext(reg.GetOrLoadAllValidators())
+    errors = [str(e.GetMessage()) for e in ctx.Validate(st) if e.GetType() == UsdValidation.ValidationErrorType.Error]
+except ImportError as e:
+    errors = ["no UsdValidation: " + str(e)]
+out["errors"] = errors
+print(json.dumps(out))
+"#;
+    let o = std::process::Command::new(&py)
+        .args(["-c", script, d.path().join("c.usda").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(got["type"], "Points");
+    assert_eq!(got["up"], "Z");
+    assert_eq!(got["mpu"], 0.01);
+    assert_eq!(got["points"], n);
+    assert_eq!(got["widths"], n);
+    assert_eq!(got["errors"], serde_json::json!([]), "{}", got["errors"]);
+    let pv = &got["primvars"];
+    let types = [
+        ("P", "point3f[]"),
+        ("N", "normal3f[]"),
+        ("illum", "color3f[]"),
+        ("ptarea", "float[]"),
+        ("k_u8", "uchar[]"),
+        ("k_i16", "int[]"),
+        ("k_u32", "uint[]"),
+        ("k_f64", "double[]"),
+        ("k_vec", "vector3d[]"),
+    ];
+    for (name, ty) in types {
+        assert_eq!(pv[name][0], ty, "{name}");
+        assert_eq!(pv[name][1], "vertex", "{name}");
+    }
+    // Values: bit for bit where the types allow.
+    let back = |name: &str, i: usize| pv[name][2][i].clone();
+    let cl = c.points();
+    for i in [0, 1, n / 2, n - 1] {
+        assert_eq!(back("k_u8", i), cl.scalar_f64("k_u8").unwrap()[i] as u64);
+        assert_eq!(back("k_i16", i), cl.scalar_f64("k_i16").unwrap()[i] as i64);
+        assert_eq!(back("k_u32", i), cl.scalar_f64("k_u32").unwrap()[i] as u64);
+        assert_eq!(
+            back("k_f64", i).as_f64().unwrap(),
+            cl.scalar_f64("k_f64").unwrap()[i]
+        );
+        let big = back("k_big", i).as_f64().unwrap() as f32;
+        assert_eq!(big, cl.scalar_f64("k_big").unwrap()[i] as f32);
+        let p = cl.vec3_f64("P").unwrap()[i];
+        for k in 0..3 {
+            assert_eq!(back("P", i)[k].as_f64().unwrap() as f32, p[k] as f32);
+            assert_eq!(back("k_vec", i)[k].as_f64().unwrap(), v[i][k]);
+        }
+    }
+    let det = &got["detail"];
+    assert_eq!(det["d_i"], serde_json::json!(["int", -7]));
+    assert_eq!(det["d_f"][1].as_f64().unwrap(), std::f64::consts::PI);
+    assert_eq!(
+        det["d_s"],
+        serde_json::json!(["string", "a \"quoted\"\nline"])
+    );
+    assert_eq!(
+        det["d_v"],
+        serde_json::json!(["double3", [1.0, 2.5, -1e-9]])
+    );
+}
+
+#[test]
+fn what_usd_output_cannot_hold_is_refused_naming_it() {
+    let d = tempdir();
+    // A mesh's faces, an attribute name USD cannot spell.
+    let mesh = cube();
+    std::fs::write(
+        d.path().join("m.ply"),
+        to_bytes(&mesh, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let o = run_in(Some(d.path()), "pcconvert", &["m.ply", "-o", "m.usda"], b"");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("'face'"), "{}", stderr(&o));
+    assert!(!d.path().join("m.usda").exists());
+    let mut c = lit_cloud();
+    let n = c.len();
+    c.points_mut()
+        .set(Attribute::scalar("a-b", Column::F32(vec![0.0; n])))
+        .unwrap();
+    std::fs::write(
+        d.path().join("c.ply"),
+        to_bytes(&c, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let o = run_in(Some(d.path()), "pcconvert", &["c.ply", "-o", "c.usda"], b"");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("'a-b'"), "{}", stderr(&o));
+}
