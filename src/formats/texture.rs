@@ -42,11 +42,15 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 
 /// Reads the texture at `path` (PNG or OpenEXR, by its first bytes).
 pub fn read(path: &Path, decode: Decode) -> Result<Texture> {
-    let bytes = std::fs::read(path)?;
+    read_bytes(&std::fs::read(path)?, decode)
+}
+
+/// A texture from a file's bytes (PNG or OpenEXR, by its first bytes).
+pub fn read_bytes(bytes: &[u8], decode: Decode) -> Result<Texture> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        read_png(&bytes, decode)
+        read_png(bytes, decode)
     } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        let (w, h, texels) = super::exr::read::read_rgb_image(&bytes)?;
+        let (w, h, texels) = super::exr::read::read_rgb_image(bytes)?;
         let texels = match decode {
             Decode::Srgb => texels.into_iter().map(|t| t.map(srgb_to_linear)).collect(),
             _ => texels,

@@ -19,6 +19,8 @@ pub fn ply(data: &[u8]) {
     };
     round_trip(&cloud, Format::DEFAULT);
     round_trip(&cloud, Format::Ply(formats::Encoding::Ascii));
+    // USD output is written only (there is no USD reader yet).
+    let _ = formats::write_cloud(&mut Vec::new(), &cloud, Format::Usda);
     mesh(&cloud);
 }
 
@@ -44,6 +46,15 @@ pub fn json(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
+    let _ = crate::stages::medium::material::parse(text, "fuzz");
+    if let Ok(file) = crate::lights::parse_file(text, "fuzz") {
+        for up in [crate::frame::UpAxis::Y, crate::frame::UpAxis::Z] {
+            let _ = file.in_frame(&crate::frame::Frame {
+                up: Some(up),
+                meters_per_unit: Some(0.01),
+            });
+        }
+    }
     if let Ok(lights) = crate::lights::parse(text, "fuzz") {
         for mask in ["*", "{a,b}", "^x", "\"a b\",c"] {
             let _ = crate::lights::mask(&lights, mask);
@@ -55,8 +66,27 @@ pub fn json(data: &[u8]) {
         }
     }
     if let Ok(cam) = crate::stages::render::Camera::parse(text, "fuzz") {
+        let moved = cam.in_frame(&crate::frame::Frame {
+            up: Some(crate::frame::UpAxis::Z),
+            meters_per_unit: Some(1e-3),
+        });
+        let _ = moved.ray(0, 0);
         let _ = cam.ray(0, 0);
         let _ = cam.ray(cam.width - 1, cam.height - 1);
+    }
+}
+
+/// A texture image (PNG or OpenEXR): read both ways, sampled in and past
+/// its edges.
+pub fn texture(data: &[u8]) {
+    use crate::formats::texture::{read_bytes, Decode};
+    for decode in [Decode::Auto, Decode::Linear] {
+        if let Ok(t) = read_bytes(data, decode) {
+            for (u, v) in [(0.0, 0.0), (0.5, 0.5), (1.0, 1.0), (-3.2, 7.9), (1e9, -1e9)] {
+                let _ = t.sample(u, v, true);
+                let _ = t.sample(u, v, false);
+            }
+        }
     }
 }
 
