@@ -97,7 +97,16 @@ fn read_png(bytes: &[u8], decode: Decode) -> Result<Texture> {
     let mut dec = png::Decoder::new_with_limits(Cursor::new(bytes), png::Limits { bytes: cap });
     dec.set_transformations(png::Transformations::EXPAND);
     let mut reader = dec.read_info().map_err(bad)?;
+    let (w, h) = (reader.info().width as usize, reader.info().height as usize);
     let size = reader.output_buffer_size();
+    // The header's claim against the bytes there are, before anything
+    // is allocated for it.
+    if w > MAX_SIDE || h > MAX_SIDE || size > cap {
+        return Err(Error::invalid(format!(
+            "PNG: the header claims {w} x {h} pixels ({size} bytes) in a file of {} bytes",
+            bytes.len()
+        )));
+    }
     crate::memory::check_available(size as u64, "image", "the texture")?;
     let mut buf = vec![0u8; size];
     let info = reader.next_frame(&mut buf).map_err(bad)?;
