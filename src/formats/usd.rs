@@ -157,19 +157,82 @@ fn array<W: Write + ?Sized>(
     Ok(())
 }
 
+/// Writes `attr` (`n` rows) as a primvar with interpolation `meta`;
+/// a list attribute (a mesh's vertex lists) is not one.
+fn primvar<W: Write + ?Sized>(
+    w: &mut W,
+    attr: &crate::cloud::Attribute,
+    n: usize,
+    meta: &str,
+) -> Result<()> {
+    match &attr.data {
+        AttrData::Scalar(v) => {
+            let col = v.column();
+            let decl = format!("{}[] primvars:{}", scalar_type(v.ty()), attr.name);
+            array(w, &decl, n, |s, i| value(s, col, i), meta)
+        }
+        AttrData::Vec3(role, cols) => {
+            let c = [cols[0].column(), cols[1].column(), cols[2].column()];
+            // Components of one type (the widest, if a file mixed them).
+            let t = if c.iter().any(|c| c.ty() == ScalarType::F64) {
+                ScalarType::F64
+            } else if c.iter().all(|c| !c.ty().is_float()) {
+                ScalarType::I32
+            } else {
+                ScalarType::F32
+            };
+            let decl = format!("{}[] primvars:{}", vec3_type(*role, t), attr.name);
+            array(w, &decl, n, vec3_row(c, t == ScalarType::F32), meta)
+        }
+        AttrData::List(_) => Ok(()),
+    }
+}
+
 /// Writes `cloud` as a `.usda` layer with one `Points` prim, `/cloud`.
 pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
+    use crate::cloud::{FACES, POINTS};
     if let Some(e) = cloud
         .elements
         .iter()
-        .find(|e| e.name != crate::cloud::POINTS && !e.is_empty())
+        .find(|e| e.name != POINTS && e.name != FACES && !e.is_empty())
     {
         return Err(Error::unsupported(format!(
-            "USD output holds a point cloud; the element '{}' ({} rows) would be lost (write PLY)",
+            "USD output holds points and faces; the element '{}' ({} rows) would be lost (write PLY)",
             e.name,
             e.len()
         )));
     }
+    // A mesh: its faces' vertex lists, and their other attributes (one
+    // value a face).
+    const LISTS: [&str; 2] = ["vertex_indices", "vertex_index"];
+    let polys = match cloud.faces().filter(|f| !f.is_empty()) {
+        None => None,
+        Some(f) => {
+            let mut list = None;
+            for a in f.attrs() {
+                match &a.data {
+                    AttrData::List(l) if LISTS.contains(&a.name.as_str()) && list.is_none() => {
+                        list = Some(l)
+                    }
+                    AttrData::List(_) => {
+                        return Err(Error::unsupported(format!(
+                            "face attribute '{}' is a list: USD output holds one value a face",
+                            a.name
+                        )))
+                    }
+                    _ if !identifier(&a.name) => {
+                        return Err(Error::unsupported(format!(
+                            "face attribute '{}': not a USD identifier",
+                            a.name
+                        )))
+                    }
+                    _ => {}
+                }
+            }
+            let list = list.ok_or_else(|| Error::invalid("faces without vertex_indices"))?;
+            Some((f, list))
+        }
+    };
     let pts = cloud.points();
     if !pts.has("P") {
         return Err(pts.missing("P"));
@@ -211,12 +274,64 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     if let Some(up) = frame.up {
         writeln!(w, "    upAxis = \"{}\"", up.name().to_ascii_uppercase())?;
     }
-    writeln!(w, ")\n\ndef Points \"cloud\"\n{{")?;
+    match polys {
+        None => writeln!(w, ")\n\ndef Points \"cloud\"\n{{")?,
+        Some(_) => writeln!(
+            w,
+            ")\n\ndef Mesh \"cloud\"\n{{\n        uniform token subdivisionScheme = \"none\""
+        )?,
+    }
     let n = pts.len();
     let vertex = " (\n            interpolation = \"vertex\"\n        )";
     let p = pts.vec3_columns("P")?;
     let pc = [p[0].column(), p[1].column(), p[2].column()];
     array(w, "point3f[] points", n, vec3_row(pc, true), "")?;
+    if let Some((f, list)) = polys {
+        let nf = list.len();
+        array(
+            w,
+            "int[] faceVertexCounts",
+            nf,
+            |s, i| {
+                let _ = write!(s, "{}", list.range(i).len());
+            },
+            "",
+        )?;
+        array(
+            w,
+            "int[] faceVertexIndices",
+            list.items.len(),
+            |s, i| value(s, &list.items, i),
+            "",
+        )?;
+        let uniform = " (\n            interpolation = \"uniform\"\n        )";
+        for attr in f.attrs() {
+            primvar(w, attr, nf, uniform)?;
+        }
+    }
+    // The vertex colours (filter's sRGB bytes) as USD's displayColor,
+    // linear.
+    if ["red", "green", "blue"].iter().all(|c| pts.has(c)) {
+        let c = ["red", "green", "blue"].map(|c| pts.scalar_f64(c));
+        if let [Ok(r), Ok(g), Ok(b)] = c {
+            let lin = |x: f64| crate::formats::texture::srgb_to_linear((x / 255.0) as f32) as f64;
+            array(
+                w,
+                "color3f[] primvars:displayColor",
+                n,
+                |s, i| {
+                    s.push('(');
+                    float(s, lin(r[i]), true);
+                    s.push_str(", ");
+                    float(s, lin(g[i]), true);
+                    s.push_str(", ");
+                    float(s, lin(b[i]), true);
+                    s.push(')');
+                },
+                vertex,
+            )?;
+        }
+    }
     if pts.has("N") {
         let nn = pts.vec3_columns("N")?;
         let nc = [nn[0].column(), nn[1].column(), nn[2].column()];
@@ -236,28 +351,7 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
         )?;
     }
     for attr in pts.attrs() {
-        match &attr.data {
-            AttrData::Scalar(v) => {
-                let col = v.column();
-                let decl = format!("{}[] primvars:{}", scalar_type(v.ty()), attr.name);
-                array(w, &decl, n, |s, i| value(s, col, i), vertex)?;
-            }
-            AttrData::Vec3(role, cols) => {
-                let c = [cols[0].column(), cols[1].column(), cols[2].column()];
-                // Components of one type (the widest, if a file mixed them).
-                let t = if c.iter().any(|c| c.ty() == ScalarType::F64) {
-                    ScalarType::F64
-                } else if c.iter().all(|c| !c.ty().is_float()) {
-                    ScalarType::I32
-                } else {
-                    ScalarType::F32
-                };
-                let decl = format!("{}[] primvars:{}", vec3_type(*role, t), attr.name);
-                let single = t == ScalarType::F32;
-                array(w, &decl, n, vec3_row(c, single), vertex)?;
-            }
-            AttrData::List(_) => unreachable!("refused above"),
-        }
+        primvar(w, attr, n, vertex)?;
     }
     for d in &cloud.detail {
         let (ty, val) = match &d.value {
