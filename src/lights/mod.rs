@@ -329,30 +329,14 @@ impl Light {
     pub fn arrivals(&self, p: DVec3, n: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
         out.clear();
         let share = 1.0 / self.samples as f64;
-        if let Shape::Dome(dome) = &self.shape {
-            for k in 0..self.samples {
-                let (a, b) = lattice(k, self.samples, r1, r2);
-                if let Some(d) = dome.draw(a, b, Some(n)) {
-                    let cos = n.dot(d.dir);
-                    if cos > 0.0 {
-                        out.push(Arrival {
-                            dir: d.dir,
-                            dist: f64::INFINITY,
-                            e: self.cl * d.weight * (cos * share),
-                        });
-                    }
-                }
-            }
-            return;
-        }
-        self.points(p, r1, r2, |at| match at {
-            LightPoint::Towards(to_light) => {
+        self.points(p, Some(n), r1, r2, |at| match at {
+            LightPoint::Towards(to_light, w) => {
                 let cos = n.dot(to_light);
                 if cos > 0.0 {
                     out.push(Arrival {
                         dir: to_light,
                         dist: f64::INFINITY,
-                        e: self.cl * cos,
+                        e: self.cl * w * (cos * share),
                     });
                 }
             }
@@ -370,24 +354,11 @@ impl Light {
     /// facing away). `r1, r2` shift the area light's lattice.
     pub fn emissions(&self, p: DVec3, r1: f64, r2: f64, out: &mut Vec<Arrival>) {
         out.clear();
-        if let Shape::Dome(dome) = &self.shape {
-            for k in 0..self.samples {
-                let (a, b) = lattice(k, self.samples, r1, r2);
-                if let Some(d) = dome.draw(a, b, None) {
-                    out.push(Arrival {
-                        dir: d.dir,
-                        dist: f64::INFINITY,
-                        e: self.cl * d.weight,
-                    });
-                }
-            }
-            return;
-        }
-        self.points(p, r1, r2, |at| match at {
-            LightPoint::Towards(to_light) => out.push(Arrival {
+        self.points(p, None, r1, r2, |at| match at {
+            LightPoint::Towards(to_light, w) => out.push(Arrival {
                 dir: to_light,
                 dist: f64::INFINITY,
-                e: self.cl,
+                e: self.cl * w,
             }),
             LightPoint::At { q, w, .. } => {
                 let to = q - p;
@@ -404,13 +375,15 @@ impl Light {
         });
     }
 
-    /// The points of this light as seen from `p`, in order: a distant
-    /// light's direction, a point or spot light's position, an area
-    /// light's lattice of `samples` points (shifted by `r1, r2`), each with
-    /// its emitter weight towards `p`.
-    fn points(&self, p: DVec3, r1: f64, r2: f64, mut f: impl FnMut(LightPoint)) {
+    /// The points of this light as seen from `p` (with normal `n`, or a
+    /// point inside a medium), in order: a distant light's direction, a
+    /// point or spot light's position, an area light's lattice of
+    /// `samples` points (shifted by `r1, r2`), each with its emitter
+    /// weight towards `p`, a dome's `samples` directions drawn from the
+    /// same lattice, each with its `L / pdf`.
+    fn points(&self, p: DVec3, n: Option<DVec3>, r1: f64, r2: f64, mut f: impl FnMut(LightPoint)) {
         match &self.shape {
-            Shape::Distant { to_light } => f(LightPoint::Towards(*to_light)),
+            Shape::Distant { to_light } => f(LightPoint::Towards(*to_light, DVec3::ONE)),
             Shape::Point { position } => f(LightPoint::At {
                 q: *position,
                 w: 1.0,
@@ -493,17 +466,24 @@ impl Light {
                     f(LightPoint::At { q, w, area: true });
                 }
             }
-            // Drawn in `arrivals` and `emissions`, which need the normal.
-            Shape::Dome(_) => {}
+            Shape::Dome(dome) => {
+                for k in 0..self.samples {
+                    let (a, b) = lattice(k, self.samples, r1, r2);
+                    if let Some(d) = dome.draw(a, b, n) {
+                        f(LightPoint::Towards(d.dir, d.weight));
+                    }
+                }
+            }
         }
     }
 }
 
-/// A point of a light as a receiver sees it: the direction to a distant
-/// light, or a point `q` of the light with its emitter weight `w` (`area`:
-/// one of an area light's samples).
+/// A point of a light as a receiver sees it: a direction to light at
+/// infinity with its weight (a distant light's 1, a dome direction's
+/// `L / pdf`), or a point `q` of the light with its emitter weight `w`
+/// (`area`: one of an area light's samples).
 enum LightPoint {
-    Towards(DVec3),
+    Towards(DVec3, DVec3),
     At { q: DVec3, w: f64, area: bool },
 }
 
