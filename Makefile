@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames blender-check suzanne llvm pyenv exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne llvm pyenv exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -83,6 +83,21 @@ frames:
 lint:
 	cargo fmt --all -- --check
 	cargo clippy --all-targets -- -D warnings
+
+## The per-frame bake time of an animation (HISTORY.md): ten frames of a
+## bending cylinder (benches/py/bend_frames.py) baked on one cloud of
+## 100,000 points, then again with nothing changed; each run prints a
+## time a frame (the last run's are also in target/frames-bench/out/frames.txt).
+frames-bench:
+	cargo build --release
+	rm -rf target/frames-bench
+	python3 benches/py/bend_frames.py target/frames-bench
+	$(MAKE) -s -C pipelines frames FRAMES=$(CURDIR)/target/frames-bench/bend.####.obj \
+	  LIGHTS=$(CURDIR)/target/frames-bench/lights.json CAMERA=$(CURDIR)/target/frames-bench/camera.json \
+	  OUT=$(CURDIR)/target/frames-bench/out COUNT=100000 SD=0.1 2>/dev/null
+	$(MAKE) -s -C pipelines frames FRAMES=$(CURDIR)/target/frames-bench/bend.####.obj \
+	  LIGHTS=$(CURDIR)/target/frames-bench/lights.json CAMERA=$(CURDIR)/target/frames-bench/camera.json \
+	  OUT=$(CURDIR)/target/frames-bench/out COUNT=100000 SD=0.1 2>/dev/null
 
 ## Blender (bpy from PyPI, about 1 GB: outside `make test`) against the
 ## toolkit: its light units on a white plane (formats/LIGHTS.md#light-units).

@@ -13,7 +13,9 @@ Then
     make bake MESH=suzanne.obj UP_AXIS=y LIGHTS=... CAMERA=... MATERIAL=...
     make bake MESH=suzanne.ply UP_AXIS=z LIGHTS=... CAMERA=... MATERIAL=...
 
-and the two pictures are compared. Run by `make suzanne` (outside
+and the two pictures are compared. It also prints how far apart facet
+puts the normals of the vertices the OBJ export split at its UV seams,
+with and without the weld. Run by `make suzanne` (outside
 `make test`); exits 1 when they differ by more than 1% of the picture's
 mean, and prints the two bakes' times.
 
@@ -118,6 +120,40 @@ def beauty(png):
     px = list(img.pixels)
     return [px[i] for i in range(len(px)) if i % 4 != 3], px[3::4]
 
+
+def seam_angles(weld):
+    """The angles (degrees) between the normals facet gives the copies of
+    a vertex the OBJ export split at a UV seam: the largest and the mean."""
+    out = os.path.join(OUT, "facet.ply")
+    args = [os.path.join(ROOT, "target", "release", "facet"), "-q", obj_path, "--format", "ascii", "-o", out]
+    subprocess.run(args + ([] if weld else ["--no-weld"]), check=True)
+    with open(out) as f:
+        head, body = f.read().split("end_header\n", 1)
+    names, nv = [], 0
+    for line in head.splitlines():
+        if line.startswith("element vertex"):
+            nv = int(line.split()[-1])
+        elif line.startswith("element"):
+            break
+        elif line.startswith("property"):
+            names.append(line.split()[-1])
+    at = {}
+    angles = []
+    for line in body.splitlines()[:nv]:
+        v = [float(x) for x in line.split()]
+        p = tuple(v[names.index(k)] for k in "xyz")
+        n = [v[names.index(k)] for k in ("nx", "ny", "nz")]
+        if p in at:
+            d = max(-1.0, min(1.0, sum(a * b for a, b in zip(at[p], n))))
+            angles.append(math.degrees(math.acos(d)))
+        else:
+            at[p] = n
+    return max(angles), sum(angles) / len(angles), len(angles)
+
+
+for weld in (False, True):
+    top, mean, count = seam_angles(weld)
+    print(f"facet {'welded' if weld else '--no-weld'}: {count} seam copies, normals up to {top:.2f} degrees apart (mean {mean:.2f})")
 
 (a, ta), (b, tb) = bake(obj_path, "y"), bake(ply_path, "z")
 (va, alpha), (vb, _) = beauty(a), beauty(b)
