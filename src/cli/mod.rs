@@ -141,8 +141,10 @@ pub fn read_input(path: Option<&Path>, select: &Select) -> anyhow::Result<Cloud>
     let result = match path {
         Some(p) if p != Path::new("-") => {
             // `PCSSS_STREAM`: read files as streams, not whole.
-            formats::read_cloud_file_with(p, select, !env_flag("PCSSS_STREAM"))
-                .map_err(anyhow::Error::from)
+            formats::read_cloud_file_noting(p, select, !env_flag("PCSSS_STREAM"), &mut |w| {
+                say(format_args!("{name}: warning: {w}"))
+            })
+            .map_err(anyhow::Error::from)
         }
         _ => {
             let stdin = io::stdin();
@@ -198,7 +200,11 @@ fn read_json_text(path: &Path) -> anyhow::Result<String> {
 /// frame.
 pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::LightsFile> {
     let name = path.display().to_string();
-    let text = read_json_text(path)?;
+    let text = match usd_stage(path) {
+        Some(_) => formats::usd::lights_json(path).with_context(|| name.clone())?,
+        None => read_json_text(path)?,
+    };
+    let path = usd_stage(path).unwrap_or(path);
     // A dome's map is read beside the lights file.
     let dir = path.parent().map(|d| {
         if d.as_os_str().is_empty() {
@@ -215,10 +221,31 @@ pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::Lig
     Ok(file)
 }
 
-/// Reads a camera file (`formats/CAMERA.md`).
+/// The height in pixels of a picture through a USD camera (its width
+/// follows the apertures): USD keeps resolution in render settings, not
+/// on the camera.
+pub const USD_CAMERA_HEIGHT: u32 = 512;
+
+/// The stage's file when `path` is a USD stage (`scene.usda`, or
+/// `scene.usda:/prim`), by its first bytes.
+fn usd_stage(path: &Path) -> Option<&Path> {
+    let (file, prim) = formats::usd::split_prim(path);
+    let mut head = [0u8; 8];
+    let n = std::fs::File::open(file)
+        .and_then(|mut f| f.read(&mut head))
+        .unwrap_or(0);
+    (prim.is_some() || formats::usd::is_usd(&head[..n])).then_some(file)
+}
+
+/// Reads a camera file (`formats/CAMERA.md`), or a USD stage's camera.
 pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera> {
     let name = path.display().to_string();
-    let text = read_json_text(path)?;
+    let text = match usd_stage(path) {
+        Some(_) => {
+            formats::usd::camera_json(path, USD_CAMERA_HEIGHT).with_context(|| name.clone())?
+        }
+        None => read_json_text(path)?,
+    };
     Ok(crate::stages::render::Camera::parse(&text, &name)?)
 }
 

@@ -100,6 +100,11 @@ pub fn read_cloud<R: BufRead>(mut r: R, select: &Select) -> Result<Cloud> {
     if head.is_empty() {
         return Err(Error::invalid("empty file"));
     }
+    if usd::is_usd(head) {
+        return Err(Error::unsupported(
+            "a USD stage is read from a file, not a stream (its layers may refer to files beside it)",
+        ));
+    }
     match sniff(head) {
         Some(Kind::Ply) => ply::read_ply(r, select),
         Some(Kind::Obj) => obj::read_obj(r),
@@ -131,6 +136,28 @@ pub fn read_cloud_file(path: &Path, select: &Select) -> Result<Cloud> {
 /// changed while it was read (its size or modification time differ
 /// after) is an error naming it.
 pub fn read_cloud_file_with(path: &Path, select: &Select, whole: bool) -> Result<Cloud> {
+    read_cloud_file_noting(path, select, whole, &mut |_| {})
+}
+
+/// [`read_cloud_file_with`], telling `note` what a reader chose to say
+/// (a USD stage's prims it skipped, a subdivision surface read as its
+/// cage). A USD stage is read from its path (`scene.usda`, or
+/// `scene.usda:/World/Bunny` for the meshes under one prim): its layers
+/// may refer to others beside it.
+pub fn read_cloud_file_noting(
+    path: &Path,
+    select: &Select,
+    whole: bool,
+    note: &mut dyn FnMut(&str),
+) -> Result<Cloud> {
+    let (file_path, prim) = usd::split_prim(path);
+    if prim.is_some() || usd_file(file_path)? {
+        let m = usd::read_mesh(file_path, prim)?;
+        for w in &m.warnings {
+            note(w);
+        }
+        return Ok(m.cloud);
+    }
     let mut file = crate::files::open_input(path)?;
     let meta = file.metadata()?;
     if meta.is_dir() {
@@ -153,6 +180,26 @@ pub fn read_cloud_file_with(path: &Path, select: &Select, whole: bool) -> Result
         Some(Kind::Exr) => exr::read_exr(&buf),
         _ => read_cloud(&buf[..], select),
     }
+}
+
+/// True when a regular file's first bytes are a USD layer's.
+fn usd_file(path: &Path) -> Result<bool> {
+    let Ok(mut f) = std::fs::File::open(path) else {
+        // The caller's own open names what is wrong.
+        return Ok(false);
+    };
+    if !f.metadata().is_ok_and(|m| m.is_file()) {
+        return Ok(false);
+    }
+    let mut head = [0u8; 8];
+    let mut n = 0;
+    while n < head.len() {
+        match f.read(&mut head[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(usd::is_usd(&head[..n]))
 }
 
 /// An error when `file` changed since `before` was taken (its size or its

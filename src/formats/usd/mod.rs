@@ -1,0 +1,12 @@
+//! USD (formats/USD.md): clouds and meshes out as text layers, and meshes,
+//! lights and cameras in from a stage (`.usda`, `.usdc`, `.usdz`).
+
+mod mesh;
+mod scene;
+pub mod stage;
+mod write;
+
+pub use mesh::{read_mesh, StageMesh};
+pub use scene::{camera_json, lights_json};
+pub use stage::{is_usd, split_prim};
+pub use write::write_usda;

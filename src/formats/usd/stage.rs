@@ -1,0 +1,359 @@
+//! What every USD reader here shares: opening a stage (`.usda`, `.usdc`,
+//! `.usdz`, through the `openusd` crate), its frame, a prim's world
+//! transform, and attribute values at the one time the toolkit reads.
+//!
+//! Transforms are composed here, not by the crate: an `xformOp` the crate
+//! does not know would be read as the identity, and a mesh moved by an
+//! op that was skipped is a silently wrong mesh. Every op is named, and
+//! one this reader does not know is an error naming the prim.
+
+use std::path::Path;
+
+use glam::{DMat3, DMat4, DQuat, DVec3};
+use openusd::{sdf, usd};
+
+use crate::error::{Error, Result};
+use crate::frame::{Frame, UpAxis};
+
+/// An error about `prim`.
+pub(super) fn at(prim: &str, why: impl std::fmt::Display) -> Error {
+    Error::invalid(format!("prim {prim}: {why}"))
+}
+
+/// The crate's error, as one line of ours.
+pub(super) fn usd_err(e: anyhow::Error) -> Error {
+    Error::invalid(format!("USD: {}", format!("{e:#}").replace('\n', " ")))
+}
+
+/// A USD file and, after `:`, a prim path in it: `scene.usda:/World/Bunny`
+/// (the path alone when it names an existing file).
+pub fn split_prim(path: &Path) -> (&Path, Option<&str>) {
+    if path.exists() {
+        return (path, None);
+    }
+    let Some(s) = path.to_str() else {
+        return (path, None);
+    };
+    for ext in [".usda:/", ".usdc:/", ".usdz:/", ".usd:/"] {
+        if let Some(i) = s.find(ext) {
+            let cut = i + ext.len() - 2;
+            return (Path::new(&s[..cut]), Some(&s[cut + 1..]));
+        }
+    }
+    (path, None)
+}
+
+/// True when a file's first bytes are a USD layer (text, crate or a
+/// package).
+pub fn is_usd(head: &[u8]) -> bool {
+    head.starts_with(b"#usda ") || head.starts_with(b"PXR-USDC") || head.starts_with(b"PK\x03\x04")
+}
+
+/// Opens a stage.
+pub fn open(path: &Path) -> Result<usd::Stage> {
+    let p = path
+        .to_str()
+        .ok_or_else(|| Error::invalid("a USD path must be UTF-8"))?;
+    // The crate resolves a relative root against the working directory,
+    // and its errors about a missing file are long: say it in our words.
+    if !path.is_file() {
+        return Err(Error::Io(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            "no such file",
+        )));
+    }
+    usd::Stage::open(p).map_err(usd_err)
+}
+
+/// The stage's frame, with USD's fallbacks where it states none: Y up,
+/// 0.01 metres per unit (centimetres), as Pixar's library reads it.
+pub fn frame(stage: &usd::Stage) -> Result<Frame> {
+    let up = match stage.stage_metadata("upAxis").map_err(usd_err)? {
+        None => UpAxis::Y,
+        Some(sdf::Value::Token(t)) => UpAxis::from_name(t.as_str())
+            .ok_or_else(|| Error::invalid(format!("upAxis is '{}', not Y or Z", t.as_str())))?,
+        Some(v) => return Err(Error::invalid(format!("upAxis is {v:?}, not a token"))),
+    };
+    let mpu = match stage.stage_metadata("metersPerUnit").map_err(usd_err)? {
+        None => 0.01,
+        Some(v) => scalar(&v).ok_or_else(|| Error::invalid("metersPerUnit is not a number"))?,
+    };
+    let f = Frame {
+        up: Some(up),
+        meters_per_unit: Some(mpu),
+    };
+    f.check()
+        .map_err(|why| Error::invalid(format!("metersPerUnit: {why}")))?;
+    Ok(f)
+}
+
+/// Every prim the stage composes (active, loaded, defined, not abstract),
+/// in order, stopping at instances.
+pub fn prims(stage: &usd::Stage) -> Result<Vec<sdf::Path>> {
+    let mut out = Vec::new();
+    stage
+        .traverse(usd::PrimPredicate::DEFAULT, |p| out.push(p.clone()))
+        .map_err(usd_err)?;
+    Ok(out)
+}
+
+/// The prims at or under `root` (every prim when `None`); a root the
+/// stage does not have is an error naming it.
+pub fn prims_under(stage: &usd::Stage, root: Option<&str>) -> Result<Vec<sdf::Path>> {
+    let all = prims(stage)?;
+    let Some(root) = root else { return Ok(all) };
+    let r = sdf::Path::new(root).map_err(|e| at(root, format!("not a prim path ({e})")))?;
+    let under: Vec<_> = all.into_iter().filter(|p| p.has_prefix(&r)).collect();
+    if under.is_empty() {
+        return Err(at(root, "not on the stage (or inactive)"));
+    }
+    Ok(under)
+}
+
+/// The prim's type name (`Mesh`, `SphereLight`), empty when untyped.
+pub fn type_name(stage: &usd::Stage, p: &sdf::Path) -> Result<String> {
+    Ok(stage
+        .prim(p.clone())
+        .type_name()
+        .map_err(usd_err)?
+        .map(|t| t.as_str().to_string())
+        .unwrap_or_default())
+}
+
+/// An attribute's value at the one time the toolkit reads: its default,
+/// or its time sample when it has exactly one. More than one sample is
+/// an animation, which this reader does not choose a frame of.
+pub fn value(stage: &usd::Stage, p: &sdf::Path, name: &str) -> Result<Option<sdf::Value>> {
+    let ap = p
+        .append_property(name)
+        .map_err(|e| at(p.as_str(), format!("{name}: {e}")))?;
+    let attr = stage.attribute(ap);
+    let times = attr.time_sample_times().map_err(usd_err)?;
+    match times.len() {
+        0 => attr.get::<sdf::Value>().map_err(usd_err),
+        1 => attr
+            .get_at::<sdf::Value>(usd::TimeCode::new(times[0]))
+            .map_err(usd_err),
+        n => Err(at(
+            p.as_str(),
+            format!(
+                "{name} has {n} time samples: the toolkit reads one frame (export that frame, or bake \
+                 frames with `follow`)"
+            ),
+        )),
+    }
+}
+
+/// A number of any of USD's numeric types.
+pub fn scalar(v: &sdf::Value) -> Option<f64> {
+    Some(match v {
+        sdf::Value::Double(d) => *d,
+        sdf::Value::Float(f) => *f as f64,
+        sdf::Value::Half(h) => h.to_f32() as f64,
+        sdf::Value::Int(i) => *i as f64,
+        sdf::Value::Int64(i) => *i as f64,
+        sdf::Value::Uint(i) => *i as f64,
+        _ => return None,
+    })
+}
+
+/// A 3-vector of any precision.
+pub fn vec3(v: &sdf::Value) -> Option<DVec3> {
+    Some(match v {
+        sdf::Value::Vec3d(a) => DVec3::new(a.x, a.y, a.z),
+        sdf::Value::Vec3f(a) => DVec3::new(a.x as f64, a.y as f64, a.z as f64),
+        sdf::Value::Vec3h(a) => DVec3::new(
+            a.x.to_f32() as f64,
+            a.y.to_f32() as f64,
+            a.z.to_f32() as f64,
+        ),
+        _ => return None,
+    })
+}
+
+/// An array of 3-vectors of any precision.
+pub fn vec3s(v: &sdf::Value) -> Option<Vec<DVec3>> {
+    Some(match v {
+        sdf::Value::Vec3fVec(a) => a
+            .iter()
+            .map(|a| DVec3::new(a.x as f64, a.y as f64, a.z as f64))
+            .collect(),
+        sdf::Value::Vec3dVec(a) => a.iter().map(|a| DVec3::new(a.x, a.y, a.z)).collect(),
+        sdf::Value::Vec3hVec(a) => a
+            .iter()
+            .map(|a| {
+                DVec3::new(
+                    a.x.to_f32() as f64,
+                    a.y.to_f32() as f64,
+                    a.z.to_f32() as f64,
+                )
+            })
+            .collect(),
+        _ => return None,
+    })
+}
+
+/// An array of 2-vectors of any precision.
+pub fn vec2s(v: &sdf::Value) -> Option<Vec<[f64; 2]>> {
+    Some(match v {
+        sdf::Value::Vec2fVec(a) => a.iter().map(|a| [a.x as f64, a.y as f64]).collect(),
+        sdf::Value::Vec2dVec(a) => a.iter().map(|a| [a.x, a.y]).collect(),
+        sdf::Value::Vec2hVec(a) => a
+            .iter()
+            .map(|a| [a.x.to_f32() as f64, a.y.to_f32() as f64])
+            .collect(),
+        _ => return None,
+    })
+}
+
+/// A token or string.
+pub fn token(v: &sdf::Value) -> Option<String> {
+    match v {
+        sdf::Value::Token(t) => Some(t.as_str().to_string()),
+        sdf::Value::String(s) => Some(s.clone()),
+        _ => None,
+    }
+}
+
+/// Tokens of an array (`xformOpOrder`).
+fn tokens(v: &sdf::Value) -> Option<Vec<String>> {
+    match v {
+        sdf::Value::TokenVec(t) => Some(t.iter().map(|t| t.as_str().to_string()).collect()),
+        sdf::Value::StringVec(s) => Some(s.clone()),
+        _ => None,
+    }
+}
+
+/// A prim's local-to-parent transform (column vectors) and whether it
+/// resets the stack (`!resetXformStack!`: its parents' transforms do not
+/// apply).
+fn local(stage: &usd::Stage, p: &sdf::Path) -> Result<(DMat4, bool)> {
+    let Some(order) = value(stage, p, "xformOpOrder")? else {
+        return Ok((DMat4::IDENTITY, false));
+    };
+    let order =
+        tokens(&order).ok_or_else(|| at(p.as_str(), "xformOpOrder is not a token array"))?;
+    let mut m = DMat4::IDENTITY;
+    let mut reset = false;
+    for (i, op) in order.iter().enumerate() {
+        if op == "!resetXformStack!" {
+            if i != 0 {
+                return Err(at(
+                    p.as_str(),
+                    "!resetXformStack! is not first in xformOpOrder",
+                ));
+            }
+            reset = true;
+            continue;
+        }
+        let (inverse, name) = match op.strip_prefix("!invert!") {
+            Some(n) => (true, n),
+            None => (false, op.as_str()),
+        };
+        let bad = |why: &str| at(p.as_str(), format!("{name}: {why}"));
+        let v = value(stage, p, name)?.ok_or_else(|| bad("in xformOpOrder but not authored"))?;
+        let kind = name
+            .strip_prefix("xformOp:")
+            .and_then(|k| k.split(':').next())
+            .ok_or_else(|| bad("not an xformOp"))?;
+        let s = || scalar(&v).ok_or_else(|| bad("not a number"));
+        let v3 = || vec3(&v).ok_or_else(|| bad("not a 3-vector"));
+        let rx = |d: f64| DMat4::from_rotation_x(d.to_radians());
+        let ry = |d: f64| DMat4::from_rotation_y(d.to_radians());
+        let rz = |d: f64| DMat4::from_rotation_z(d.to_radians());
+        let op_m = match kind {
+            "translate" => DMat4::from_translation(v3()?),
+            "translateX" => DMat4::from_translation(DVec3::X * s()?),
+            "translateY" => DMat4::from_translation(DVec3::Y * s()?),
+            "translateZ" => DMat4::from_translation(DVec3::Z * s()?),
+            "scale" => DMat4::from_scale(v3()?),
+            "scaleX" => DMat4::from_scale(DVec3::new(s()?, 1.0, 1.0)),
+            "scaleY" => DMat4::from_scale(DVec3::new(1.0, s()?, 1.0)),
+            "scaleZ" => DMat4::from_scale(DVec3::new(1.0, 1.0, s()?)),
+            "rotateX" => rx(s()?),
+            "rotateY" => ry(s()?),
+            "rotateZ" => rz(s()?),
+            // `rotateXYZ` turns about X first, then Y, then Z.
+            "rotateXYZ" | "rotateXZY" | "rotateYXZ" | "rotateYZX" | "rotateZXY" | "rotateZYX" => {
+                let a = v3()?;
+                let mut r = DMat4::IDENTITY;
+                for axis in kind["rotate".len()..].chars() {
+                    let turn = match axis {
+                        'X' => rx(a.x),
+                        'Y' => ry(a.y),
+                        _ => rz(a.z),
+                    };
+                    r = turn * r;
+                }
+                r
+            }
+            "orient" => {
+                let q = match &v {
+                    sdf::Value::Quatf(q) => {
+                        DQuat::from_xyzw(q.x as f64, q.y as f64, q.z as f64, q.w as f64)
+                    }
+                    sdf::Value::Quatd(q) => DQuat::from_xyzw(q.x, q.y, q.z, q.w),
+                    sdf::Value::Quath(q) => DQuat::from_xyzw(
+                        q.x.to_f32() as f64,
+                        q.y.to_f32() as f64,
+                        q.z.to_f32() as f64,
+                        q.w.to_f32() as f64,
+                    ),
+                    _ => return Err(bad("not a quaternion")),
+                };
+                if q.length().is_nan() || q.length() <= 0.0 {
+                    return Err(bad("a zero quaternion"));
+                }
+                DMat4::from_quat(q.normalize())
+            }
+            // USD's matrices act on row vectors: read as columns, the
+            // stored rows are the column-vector matrix.
+            "transform" => match &v {
+                sdf::Value::Matrix4d(t) => DMat4::from_cols_array(&t.0),
+                _ => return Err(bad("not a matrix4d")),
+            },
+            other => return Err(bad(&format!("the xformOp kind '{other}' is not read"))),
+        };
+        let op_m = if inverse {
+            if op_m.determinant().abs() < f64::MIN_POSITIVE {
+                return Err(bad("inverted, but not invertible"));
+            }
+            op_m.inverse()
+        } else {
+            op_m
+        };
+        // The first op in the order is the outermost.
+        m *= op_m;
+    }
+    if !m.is_finite() {
+        return Err(at(p.as_str(), "its transform is not finite"));
+    }
+    Ok((m, reset))
+}
+
+/// A prim's local-to-world transform: its own and its ancestors' ops, up
+/// to the root or a prim that resets the stack.
+pub fn world(stage: &usd::Stage, p: &sdf::Path) -> Result<DMat4> {
+    let mut m = DMat4::IDENTITY;
+    let mut cur = Some(p.clone());
+    while let Some(c) = cur {
+        if c.is_abs_root() {
+            break;
+        }
+        let (l, reset) = local(stage, &c)?;
+        m = l * m;
+        if reset {
+            break;
+        }
+        cur = c.parent();
+    }
+    Ok(m)
+}
+
+/// The matrix that carries normals: the inverse transpose of the upper
+/// 3x3 (a singular one gives `None`).
+pub fn normal_matrix(m: &DMat4) -> Option<DMat3> {
+    let a = DMat3::from_mat4(*m);
+    let d = a.determinant();
+    (d.abs() > 1e-300 && d.is_finite()).then(|| a.inverse().transpose())
+}
