@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames frames-bench blender-check suzanne llvm pyenv exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne llvm pyenv pywheel exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -15,6 +15,14 @@ $(PY).stamp: tests/requirements.txt
 	python3 -m venv $(PYENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -r tests/requirements.txt
 	touch $@
+
+## The Python module (python/): an abi3 wheel built by maturin beside the
+## library (the workspace shares its compiled crates with the tests'
+## build), installed into the project's Python environment.
+pywheel: pyenv
+	$(PYENV)/bin/maturin build --release --quiet -m python/Cargo.toml -o target/wheels
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
+	  target/wheels/pcsss-*-cp39-abi3-*.whl
 
 ## Debian's OpenEXR tools (exrheader), an independent reader for the tests.
 exrtools:
@@ -35,7 +43,7 @@ slurm:
 ## tests and `make demo` share one optimised build of the library and the
 ## stages. The Slurm cluster runs for the tests only: stopped at the end,
 ## whatever their outcome.
-test: pyenv exrtools slurm
+test: pyenv pywheel exrtools slurm
 	mkdir -p target
 	pipelines/slurm/cluster.sh start target/slurm >/dev/null
 	trap 'pipelines/slurm/cluster.sh stop target/slurm' EXIT; \

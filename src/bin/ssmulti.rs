@@ -2,84 +2,8 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
-use pcsss::cli::{self, IoArgs, MaterialArgs, PerPointArgs, SsArgs};
-use pcsss::formats::Select;
-use pcsss::stages::ssmulti;
-
 pcsss::global_allocator!();
 
-/// Multiple scattering at every point (Marengo's ssIntegMulti, or with
-/// --model physical a medium, its reflectance from random walks): reads P, N,
-/// ptarea, illum; adds ssM.
-#[derive(Parser, Debug)]
-#[command(version, allow_negative_numbers = true)]
-struct Args {
-    #[command(flatten)]
-    io: IoArgs,
-    #[command(flatten)]
-    ss: SsArgs,
-    #[command(flatten)]
-    material: MaterialArgs,
-    #[command(flatten)]
-    per_point: PerPointArgs,
-}
-
-fn run(args: Args) -> anyhow::Result<()> {
-    let msg = args.io.messages("ssmulti");
-    let name = args.io.input_name();
-    let Some(params) = args.ss.params(&args.material)? else {
-        let why = "required by --model seed (the scattering distance; or --model physical)";
-        return Err(pcsss::Error::param("sd", why).into());
-    };
-    // Parameters before reading: an absurd one fails fast.
-    ssmulti::validate(&params)?;
-    let per_point = args
-        .per_point
-        .resolve(&args.material, params.medium.is_some())?;
-    let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
-    wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
-    let mut cloud = args.io.read(&Select::only(&wanted))?;
-    let progress = msg.progress();
-    let base = match args.material.recipe()? {
-        Some(recipe) => ssmulti::per_point::Base::Physical(recipe),
-        None => ssmulti::per_point::Base::Seed,
-    };
-    let rep = if per_point.attrs.is_empty() {
-        ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?
-    } else {
-        let (rep, groups) = ssmulti::per_point::ssmulti_per_point(
-            &mut cloud, &params, &base, &per_point, &progress,
-        )
-        .map_err(cli::at(&name))?;
-        msg.info(format!("per-point parameters: {groups} groups of points"));
-        rep
-    };
-    msg.info(format!(
-        "{} points, {} sources, {} pairs{}",
-        rep.points,
-        rep.sources,
-        rep.pairs,
-        if rep.grey {
-            " (white light: one channel)"
-        } else {
-            ""
-        }
-    ));
-    if params.medium.is_some() && !rep.by_incidence {
-        msg.warn(
-            "the cloud has no illum_cos (illum makes it): the light is taken as arriving along the normal",
-        );
-    }
-    if rep.isolated > 0 {
-        msg.warn(format!(
-            "{} of {} points are farther apart than their kernel reaches (give more points, or longer distances): each returns its own light",
-            rep.isolated, rep.points
-        ));
-    }
-    args.io.write(&cloud)
-}
-
 fn main() -> ExitCode {
-    cli::main("ssmulti", run)
+    pcsss::cli::main("ssmulti", pcsss::cli::stages::ssmulti::run)
 }

@@ -17,6 +17,7 @@
 
 pub mod args;
 pub mod stage_args;
+pub mod stages;
 
 pub use args::{
     parse_bytes, parse_rgb, parse_xyz, IllumArgs, MaterialArgs, PerPointArgs, SingleArgs, SsArgs,
@@ -68,6 +69,42 @@ pub struct IoArgs {
     pub half: Vec<String>,
     #[command(flatten)]
     pub msg: MsgArgs,
+    /// The input and output in memory, not in files (the Python module's
+    /// way to run a stage on a cloud it holds); not an option.
+    #[arg(skip)]
+    pub memory: Option<Memory>,
+}
+
+/// A stage's input and output in memory: [`IoArgs::read`] takes `input`
+/// (as the stage selects nothing, every attribute is there already) and
+/// [`IoArgs::write`] leaves the result in `output`.
+#[derive(Clone, Debug, Default)]
+pub struct Memory(pub std::sync::Arc<std::sync::Mutex<MemoryIo>>);
+
+/// What [`Memory`] holds.
+#[derive(Debug, Default)]
+pub struct MemoryIo {
+    pub input: Option<Cloud>,
+    pub output: Option<Cloud>,
+}
+
+impl Memory {
+    /// A stage's input, for [`IoArgs::memory`].
+    pub fn with_input(cloud: Cloud) -> Memory {
+        Memory(std::sync::Arc::new(std::sync::Mutex::new(MemoryIo {
+            input: Some(cloud),
+            output: None,
+        })))
+    }
+
+    /// The output the stage wrote, if it did.
+    pub fn take_output(&self) -> Option<Cloud> {
+        self.0.lock().ok()?.output.take()
+    }
+
+    fn take_input(&self) -> Option<Cloud> {
+        self.0.lock().ok()?.input.take()
+    }
 }
 
 /// A path that stands for stdin/stdout.
@@ -92,6 +129,11 @@ impl IoArgs {
     /// Reads the main input, decoding `select`ed attributes now (the
     /// output was checked before, by [`main`]).
     pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
+        if let Some(m) = &self.memory {
+            return m
+                .take_input()
+                .ok_or_else(|| anyhow::anyhow!("no input cloud (it was read already)"));
+        }
         read_input(self.input.as_deref(), select)
     }
 
@@ -104,6 +146,12 @@ impl IoArgs {
 
     /// Writes `cloud` to the output in the chosen format.
     pub fn write(&self, cloud: &Cloud) -> anyhow::Result<()> {
+        if let Some(m) = &self.memory {
+            if let Ok(mut io) = m.0.lock() {
+                io.output = Some(cloud.clone());
+            }
+            return Ok(());
+        }
         let format = self.output_format();
         let out = if is_std(&self.output) {
             None
@@ -390,6 +438,86 @@ pub fn main<T: clap::Parser>(
     })
 }
 
+/// A stage's parser as its binary runs it.
+fn command_of<T: clap::Parser>(stage: &'static str) -> clap::Command {
+    // A negative number is a value (`--cusp -1` reaches the parameter's
+    // own check, not "unexpected argument"), and so is a vector that
+    // starts with one (`--eye -3,2,4`).
+    T::command()
+        .name(stage)
+        .bin_name(stage)
+        .next_line_help(true)
+        .mut_args(|a| {
+            let vector = a
+                .get_value_names()
+                .is_some_and(|v| v.iter().any(|n| n.as_str().contains(',')));
+            if vector {
+                a.allow_hyphen_values(true)
+            } else if a.get_action().takes_values() {
+                a.allow_negative_numbers(true)
+            } else {
+                a
+            }
+        })
+}
+
+/// A usage error as one line.
+fn usage_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let text = text.split("\n\nUsage:").next().unwrap_or(&text);
+    let text = text
+        .split("\n\nFor more information")
+        .next()
+        .unwrap_or(text);
+    let line: Vec<&str> = text.split_whitespace().collect();
+    format!("{} (see --help)", line.join(" "))
+}
+
+/// Why a stage called by [`call`] failed: its one-line message, as the
+/// binary prints it after `stage: `, and whether a parameter is at fault
+/// (the binary's exit status 2) rather than a file (1).
+#[derive(Debug)]
+pub struct Failure {
+    pub line: String,
+    pub param: bool,
+}
+
+/// Runs a stage as its binary would, on the command line `argv` (without
+/// the program's name), in this process: the Python module's way in. The
+/// command line is parsed by the binary's own parser (a usage error is a
+/// parameter's failure), outputs are checked against inputs before any
+/// work, and an error is the line the binary prints.
+pub fn call<T: clap::Parser>(
+    stage: &'static str,
+    argv: &[String],
+    run: impl FnOnce(T) -> anyhow::Result<()>,
+) -> Result<(), Failure> {
+    let cmd = command_of::<T>(stage);
+    let args = std::iter::once(stage.into())
+        .chain(argv.iter().map(Into::into))
+        .collect();
+    let args = join_negative_numbers(&cmd, args);
+    let usage = |e: clap::Error| Failure {
+        line: usage_line(&e),
+        param: true,
+    };
+    let matches = cmd.clone().try_get_matches_from(args).map_err(usage)?;
+    let args = T::from_arg_matches(&matches).map_err(usage)?;
+    let result = check_environment()
+        .map_err(anyhow::Error::from)
+        .and_then(|()| check_named_paths(&cmd, &matches, &[]))
+        .and_then(|()| run(args));
+    result.map_err(|mut e| {
+        if let Some(lib) = e.downcast_mut::<crate::Error>() {
+            lib.rename_params(&|name| flag_of(&cmd, name));
+        }
+        Failure {
+            line: format!("{e:#}").replace('\n', " "),
+            param: is_param_error(&e),
+        }
+    })
+}
+
 /// The outputs and the inputs a command line names: the values of the
 /// options `output` (a directory when its value is named `DIR`) and `png`
 /// are outputs (`-` is standard output); every other value that names an
@@ -536,25 +664,7 @@ pub fn parse<T: clap::Parser>(stage: &'static str) -> T {
 
 /// [`parse`], with clap's matches (what [`named_paths`] reads).
 pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatches) {
-    // A negative number is a value (`--cusp -1` reaches the parameter's
-    // own check, not "unexpected argument"), and so is a vector that
-    // starts with one (`--eye -3,2,4`).
-    let cmd = T::command()
-        .name(stage)
-        .bin_name(stage)
-        .next_line_help(true)
-        .mut_args(|a| {
-            let vector = a
-                .get_value_names()
-                .is_some_and(|v| v.iter().any(|n| n.as_str().contains(',')));
-            if vector {
-                a.allow_hyphen_values(true)
-            } else if a.get_action().takes_values() {
-                a.allow_negative_numbers(true)
-            } else {
-                a
-            }
-        });
+    let cmd = command_of::<T>(stage);
     let argv = join_negative_numbers(&cmd, std::env::args_os().collect());
     let parsed = cmd
         .try_get_matches_from(argv)
@@ -566,14 +676,7 @@ pub fn parse_matches<T: clap::Parser>(stage: &'static str) -> (T, clap::ArgMatch
             if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
                 e.exit();
             }
-            let text = e.render().to_string();
-            let text = text.split("\n\nUsage:").next().unwrap_or(&text);
-            let text = text
-                .split("\n\nFor more information")
-                .next()
-                .unwrap_or(text);
-            let line: Vec<&str> = text.split_whitespace().collect();
-            say(format_args!("{stage}: {} (see --help)", line.join(" ")));
+            say(format_args!("{stage}: {}", usage_line(&e)));
             std::process::exit(2);
         }
     }

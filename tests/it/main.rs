@@ -31,6 +31,7 @@ mod ply_roundtrip;
 mod promote;
 mod props;
 mod python_interop;
+mod python_module;
 mod render_pixels;
 mod scatter;
 mod ssmulti;

@@ -1,0 +1,145 @@
+"""The Python module against the binaries: same bits, same errors, arrays
+in and out, the GIL released. Run by tests/it/python_module.rs (make
+test), with PCSSS_BIN the folder of the release binaries."""
+
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pcsss
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("PCSSS_BIN", ROOT / "target" / "release"))
+MESH = str(ROOT / "fixtures" / "mesh" / "bunny.obj")
+LIGHTS = str(ROOT / "fixtures" / "lights" / "bunny.json")
+
+
+def binary(stage, *args):
+    r = subprocess.run([str(BIN / stage), *map(str, args)], capture_output=True, text=True)
+    return r.returncode, r.stderr.strip()
+
+
+def same(a, b):
+    assert a.keys() == b.keys()
+    for k in a.keys():
+        x, y = a[k], b[k]
+        assert x.dtype == y.dtype, k
+        assert np.array_equal(x, y), k
+    assert a.detail == b.detail
+    assert a.elements() == b.elements()
+
+
+@pytest.fixture(scope="module")
+def lit(tmp_path_factory):
+    d = tmp_path_factory.mktemp("lit")
+    for args in (
+        ("scatter", MESH, "--count", "4000", "--seed", "3", "-o", d / "s.ply"),
+        ("facet", d / "s.ply", "--mesh", MESH, "-o", d / "f.ply"),
+        ("illum", d / "f.ply", "--lights", LIGHTS, "--mesh", MESH, "-o", d / "i.ply"),
+    ):
+        code, err = binary(*args)
+        assert code == 0, err
+    return d
+
+
+def test_a_stage_from_python_gives_the_binary_s_bits(lit):
+    code, err = binary("ssmulti", lit / "i.ply", "--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb",
+                       "-o", lit / "bin.ply")
+    assert code == 0, err
+    cloud = pcsss.read(lit / "i.ply")
+    out = pcsss.ssmulti(cloud, rd=(0.9, 0.5, 0.3), sd=0.6, rgb=True)
+    same(out, pcsss.read(lit / "bin.ply"))
+    # The input is left as it was.
+    assert "ssM" not in cloud and "ssM" in out
+    # Through a file written by the module, too.
+    pcsss.write(out, lit / "py.ply")
+    same(pcsss.read(lit / "py.ply"), pcsss.read(lit / "bin.ply"))
+
+
+def test_the_whole_chain_from_python_equals_the_binaries(lit):
+    mesh = pcsss.read(MESH)
+    c = pcsss.scatter(mesh, count=4000, seed=3)
+    c = pcsss.facet(c, mesh=MESH)
+    c = pcsss.illum(c, lights=LIGHTS, mesh=MESH)
+    same(c, pcsss.read(lit / "i.ply"))
+
+
+def test_errors_are_the_binary_s_line(lit):
+    cloud = pcsss.read(lit / "i.ply")
+    code, err = binary("ssmulti", lit / "i.ply", "--sd", "-1", "-o", lit / "x.ply")
+    assert code == 2
+    with pytest.raises(pcsss.ParameterError) as e:
+        pcsss.ssmulti(cloud, sd=-1)
+    assert isinstance(e.value, ValueError)
+    assert err == "ssmulti: " + str(e.value)
+    code, err = binary("illum", lit / "i.ply", "--lights", lit / "none.json", "--no-shadows",
+                       "-o", lit / "x.ply")
+    assert code == 1
+    with pytest.raises(pcsss.Error) as e:
+        pcsss.illum(cloud, lights=lit / "none.json", no_shadows=True)
+    assert not isinstance(e.value, ValueError)
+    assert err == "illum: " + str(e.value)
+    with pytest.raises(pcsss.ParameterError, match="--mesh"):
+        pcsss.illum(cloud, lights=LIGHTS)
+    with pytest.raises(pcsss.ParameterError, match="unexpected argument"):
+        pcsss.ssmulti(cloud, no_such_option=1)
+    # A missing attribute names the stage that makes it.
+    with pytest.raises(pcsss.Error, match="illum"):
+        pcsss.ssmulti(pcsss.read(lit / "f.ply"), sd=0.6)
+    with pytest.raises(pcsss.Error, match="none.ply"):
+        pcsss.read(lit / "none.ply")
+
+
+def test_arrays_in_and_out():
+    rng = np.random.default_rng(1)
+    p = rng.random((1000, 3), dtype=np.float32)
+    area = rng.random(1000)
+    c = pcsss.Cloud.from_arrays({"P": p, "ptarea": area, "id": np.arange(1000, dtype=np.int32)})
+    assert len(c) == 1000 and c.keys() == ["P", "ptarea", "id"]
+    assert c["P"].shape == (1000, 3) and c["P"].dtype == np.float32
+    assert np.array_equal(c["P"], p)
+    assert c["ptarea"].dtype == np.float64 and np.array_equal(c["ptarea"], area)
+    # A scalar column is the toolkit's own memory, read-only, kept
+    # alive by the array.
+    v = c["ptarea"]
+    assert not v.flags.writeable and not v.flags.owndata
+    assert v.ctypes.data == c["ptarea"].ctypes.data
+    with pytest.raises(ValueError):
+        v[0] = 1.0
+    del c
+    assert v.sum() == area.sum()
+    c = pcsss.Cloud.from_arrays({"P": p})
+    c["Cd"] = np.ones((1000, 3), dtype=np.float32)
+    assert "Cd" in c
+    with pytest.raises(ValueError):
+        c["bad"] = np.ones(3)
+    with pytest.raises(KeyError):
+        c["none"]
+
+
+def test_the_gil_is_released_while_a_stage_runs(lit):
+    cloud = pcsss.read(lit / "i.ply")
+    calls, spins = [], []
+    done = threading.Event()
+
+    def work():
+        for _ in range(5):
+            t0 = time.perf_counter()
+            pcsss.ssmulti(cloud, rd=(0.9, 0.5, 0.3), sd=0.6, rgb=True)
+            calls.append((t0, time.perf_counter()))
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        spins.append(time.perf_counter())
+        time.sleep(0.0001)
+    t.join()
+    # Held, the GIL would keep this thread from running while a stage runs.
+    inside = sum(any(a < s < b for a, b in calls) for s in spins)
+    assert inside >= 5, (inside, len(spins), calls)

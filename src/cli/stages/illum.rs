@@ -1,0 +1,85 @@
+//! `illum`: direct irradiance at every point from a lights file, with
+//! shadows from a mesh.
+
+use crate::cli;
+pub use crate::cli::IllumArgs as Args;
+use crate::formats::Select;
+use crate::stages::illum;
+
+/// Runs the stage: reads its input, works, writes its output.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let msg = args.io.messages("illum");
+    let name = args.io.input_name();
+    let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
+    if args.thickness && args.mesh.is_none() {
+        let why = "needs --mesh (the mesh the points lie on)";
+        return Err(crate::Error::param("thickness", why).into());
+    }
+    if args.indirect.is_some() && args.mesh.is_none() {
+        let why = "needs --mesh (the surface the light travels between)";
+        return Err(crate::Error::param("indirect", why).into());
+    }
+    let medium = args.material.medium()?;
+    if args.indirect.is_some() && medium.is_none() {
+        let why = "needs the medium ssmulti ran with (--model physical and its options)";
+        return Err(crate::Error::param("indirect", why).into());
+    }
+    // The mesh first: a missing or broken mesh fails before the cloud is read.
+    let (occluder, mesh) = match &args.mesh {
+        Some(path) => {
+            let name = path.display().to_string();
+            let mesh = cli::read_mesh(path)?;
+            let occ = illum::occluder(&mesh).map_err(cli::at(&name))?;
+            (Some(occ), Some(mesh))
+        }
+        None => (None, None),
+    };
+    let mut cloud = match args.indirect {
+        // The indirect light needs the last run's ssM.
+        Some(_) => args.io.read(&Select::only(&["P", "N", "ssM"]))?,
+        None => args.io.read(&Select::only(&["P", "N"]))?,
+    };
+    // The lights are moved into the cloud's frame.
+    let used = lights_file.in_frame(&cloud.frame().map_err(cli::at(&name))?);
+    let progress = msg.progress();
+    let passage = medium.as_ref().map(|m| illum::Passage {
+        sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),
+        eta: m.eta,
+    });
+    let rep = illum::illum(
+        &mut cloud,
+        &used,
+        occluder.as_ref(),
+        passage.as_ref(),
+        args.seed,
+        &progress,
+    )
+    .map_err(cli::at(&name))?;
+    if let (true, Some(mesh)) = (args.thickness, &mesh) {
+        let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
+        if open > 0 {
+            msg.warn(format!(
+                "{open} points see no back to the mesh along -N (an open mesh?): their thickness is taken as infinite"
+            ));
+        }
+    }
+    if let (Some(rays), Some(occ), Some(mesh), Some(m)) = (args.indirect, &occluder, &mesh, &medium)
+    {
+        let rep = illum::indirect(&mut cloud, occ, mesh, m, rays, args.seed, &progress)
+            .map_err(cli::at(&name))?;
+        msg.info(format!(
+            "indirect light: {} rays, {} met the surface",
+            rep.rays, rep.hits
+        ));
+    }
+    let names: Vec<&str> = used.iter().map(|l| l.name.as_str()).collect();
+    msg.info(format!(
+        "{} points, lights {}: {} shadow rays, {} blocked; {} points unlit",
+        rep.points,
+        names.join(", "),
+        rep.rays,
+        rep.blocked,
+        rep.dark
+    ));
+    args.io.write(&cloud)
+}
