@@ -144,6 +144,18 @@ impl IoArgs {
             .unwrap_or(Format::DEFAULT)
     }
 
+    /// Writes `cloud`, which the stage is done with: in memory it is
+    /// handed over, not copied.
+    pub fn write_owned(&self, cloud: Cloud) -> anyhow::Result<()> {
+        if let Some(m) = &self.memory {
+            if let Ok(mut io) = m.0.lock() {
+                io.output = Some(cloud);
+            }
+            return Ok(());
+        }
+        self.write(&cloud)
+    }
+
     /// Writes `cloud` to the output in the chosen format.
     pub fn write(&self, cloud: &Cloud) -> anyhow::Result<()> {
         if let Some(m) = &self.memory {

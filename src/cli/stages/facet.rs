@@ -83,5 +83,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             rep.zero_normals
         ));
     }
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

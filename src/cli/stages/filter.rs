@@ -171,5 +171,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for w in warn {
         msg.warn(w);
     }
-    args.io.write(&shade)
+    args.io.write_owned(shade)
 }

@@ -42,5 +42,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rep.area_ratio,
         if rep.normals { "; N taken again" } else { "" }
     ));
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

@@ -81,5 +81,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rep.blocked,
         rep.dark
     ));
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

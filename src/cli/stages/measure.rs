@@ -22,5 +22,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "{} faces, total area {} ({} degenerate)",
         rep.faces, rep.total_area, rep.degenerate
     ));
-    args.io.write(&mesh)
+    args.io.write_owned(mesh)
 }

@@ -43,7 +43,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         msg.info(format!(
             "ptarea scaled by Tarea / Tptarea = {tarea} / {before}"
         ));
-        return args.io.write(&cloud);
+        return args.io.write_owned(cloud);
     }
     let attr = args.attr.expect("clap requires --attr");
     let mut cloud = args.io.read(&Select::only(&[&attr]))?;
@@ -53,5 +53,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "{as_name} = {}",
         crate::tools::info::detail_text(&v)
     ));
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

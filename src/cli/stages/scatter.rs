@@ -90,7 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cloud.set_frame(&frame);
     ph.mark("scatter");
     msg.info(format!("{} points", cloud.len()));
-    args.io.write(&cloud)?;
+    args.io.write_owned(cloud)?;
     ph.mark("write");
     Ok(())
 }

@@ -74,5 +74,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             rep.isolated, rep.points
         ));
     }
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

@@ -57,5 +57,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             rep.reflected
         ));
     }
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

@@ -58,5 +58,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tex.width,
         tex.height
     ));
-    args.io.write(&cloud)
+    args.io.write_owned(cloud)
 }

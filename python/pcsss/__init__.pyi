@@ -1,0 +1,60 @@
+"""Type stubs for pcsss (the module is compiled: python/src/lib.rs)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Mapping, Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Path = Union[str, PathLike[str]]
+_Value = Union[bool, int, float, str, PathLike[str], Tuple[float, ...], List[float], None]
+
+class Error(Exception):
+    """A stage or file failed (the binary's exit status 1)."""
+
+class ParameterError(ValueError):
+    """A bad parameter or option (the binary's exit status 2)."""
+
+class Cloud:
+    """A point cloud: points with typed attributes, other elements (faces),
+    and a detail of the parameters the stages recorded."""
+
+    @staticmethod
+    def from_arrays(arrays: Mapping[str, npt.ArrayLike]) -> Cloud:
+        """Points from arrays of N (a scalar) or N x 3 (a 3-vector; `P` a
+        point, `N` a normal, `Cd`, `illum`, `ssM`, `ssS` colours), each
+        copied into the toolkit's columns with its dtype."""
+    def __len__(self) -> int: ...
+    def __contains__(self, name: str) -> bool: ...
+    def __getitem__(self, name: str) -> np.ndarray:
+        """A scalar attribute as a read-only view of the toolkit's own
+        column (no copy); a 3-vector as an N x 3 array (gathered from its
+        three columns)."""
+    def __setitem__(self, name: str, value: npt.ArrayLike) -> None: ...
+    def keys(self) -> List[str]: ...
+    def elements(self) -> List[Tuple[str, int]]: ...
+    @property
+    def detail(self) -> Dict[str, Any]: ...
+
+def read(path: _Path) -> Cloud:
+    """A cloud or mesh: PLY, OBJ, OpenEXR, or a USD stage (`scene.usda`,
+    `scene.usda:/World/Bunny`)."""
+
+def write(cloud: Cloud, path: _Path, format: Optional[str] = None) -> None:
+    """Writes atomically; `format` one of ply, ply-ascii, ply-be, exr, usda
+    (default: from the extension, else binary PLY)."""
+
+# Each stage takes the keywords of its command line (`--sd 0.6` is
+# `sd=0.6`, a flag is `=True`, a vector a tuple) and returns a new cloud.
+def measure(cloud: Cloud, **options: _Value) -> Cloud: ...
+def scatter(cloud: Cloud, **options: _Value) -> Cloud: ...
+def facet(cloud: Cloud, **options: _Value) -> Cloud: ...
+def follow(cloud: Cloud, **options: _Value) -> Cloud: ...
+def texture(cloud: Cloud, **options: _Value) -> Cloud: ...
+def promote(cloud: Cloud, **options: _Value) -> Cloud: ...
+def illum(cloud: Cloud, **options: _Value) -> Cloud: ...
+def ssmulti(cloud: Cloud, **options: _Value) -> Cloud: ...
+def sssingle(cloud: Cloud, **options: _Value) -> Cloud: ...
+def filter(cloud: Cloud, **options: _Value) -> Cloud: ...
