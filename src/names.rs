@@ -23,6 +23,16 @@ pub const PIXEL_X: &str = "pixel_x";
 /// Point attribute of an image cloud: the point's pixel row.
 pub const PIXEL_Y: &str = "pixel_y";
 
+/// Point attribute of a mesh read from a USD stage (uint): the mesh
+/// prim's place in the detail [`D_USD_PRIMS`].
+pub const USD_PRIM: &str = "usd_prim";
+/// Point attribute of a mesh read from a USD stage (uint): the point of
+/// that prim's `points` the vertex is (or is a copy of, for a corner).
+pub const USD_POINT: &str = "usd_point";
+/// Detail of a mesh read from a USD stage (str): its mesh prims, a line
+/// each, `path count` (the prim's points).
+pub const D_USD_PRIMS: &str = "usd_prims";
+
 /// Which stage makes each well-known attribute (`docs/DESIGN.md#stages`):
 /// an error about a missing attribute names it.
 pub const MAKERS: &[(&str, &str)] = &[

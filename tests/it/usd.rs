@@ -254,3 +254,91 @@ print(json.dumps({"type": st.GetDefaultPrim().GetTypeName(),
         }
     }
 }
+
+/// filter onto a mesh read from a USD stage writes a layer of `over`s
+/// that Pixar's library composes over the stage: `primvars:ssM` and the
+/// rest on the stage's own prim, one value a point of its `points`.
+#[test]
+#[ignore = "interop: needs Pixar's usd-core; `make test` runs it"]
+fn filter_onto_a_usd_mesh_writes_a_layer_to_sublayer_over_the_stage() {
+    let py = python_with(&["pxr"]);
+    let d = tempdir();
+    let dir = d.path();
+    let stage = fixtures().join("usd/box.usda");
+    let stage = stage.to_str().unwrap();
+    std::fs::write(
+        dir.join("l.json"),
+        r#"{"lights":[{"name":"k","type":"distant","direction":[0.2,-1,-0.3]}]}"#,
+    )
+    .unwrap();
+    let steps: [&[&str]; 6] = [
+        &["scatter", stage, "--count", "3000", "-o", "s.ply"],
+        &["facet", "s.ply", "--mesh", stage, "-o", "f.ply"],
+        &[
+            "illum",
+            "f.ply",
+            "--lights",
+            "l.json",
+            "--no-shadows",
+            "-o",
+            "i.ply",
+        ],
+        &["ssmulti", "i.ply", "--sd", "0.5", "-o", "m.ply"],
+        &["filter", stage, "--cloud", "m.ply", "-o", "over.usda"],
+        &["filter", stage, "--cloud", "m.ply", "-o", "v.ply"],
+    ];
+    for s in steps {
+        let o = run_in(Some(dir), s[0], &s[1..], b"");
+        assert!(o.status.success(), "{s:?}: {}", stderr(&o));
+    }
+    let script = r#"
+import json, sys
+from pxr import Sdf, Usd, UsdGeom
+# A shot's layer, as a TD writes it: the asset's frame, the bake over it.
+root = Sdf.Layer.CreateAnonymous(".usda")
+root.subLayerPaths.append(sys.argv[1])
+root.subLayerPaths.append(sys.argv[2])
+st = Usd.Stage.Open(root)
+st.SetDefaultPrim(st.GetPrimAtPath("/World"))
+UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+UsdGeom.SetStageMetersPerUnit(st, 0.01)
+prim = st.GetPrimAtPath("/World/Box")
+pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar("ssM")
+out = {"type": str(pv.GetTypeName()), "interp": pv.GetInterpolation(),
+       "ssM": [list(v) for v in pv.Get()],
+       "points": len(UsdGeom.Mesh(prim).GetPointsAttr().Get()),
+       "display": len(UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor").Get())}
+from pxr import UsdValidation
+reg = UsdValidation.ValidationRegistry()
+ctx = UsdValidation.ValidationContext(reg.GetOrLoadAllValidators())
+out["errors"] = [str(e.GetMessage()) for e in ctx.Validate(st) if e.GetType() == UsdValidation.ValidationErrorType.Error]
+print(json.dumps(out))
+"#;
+    let o = std::process::Command::new(&py)
+        .args(["-c", script, dir.join("over.usda").to_str().unwrap(), stage])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(got["type"], "color3f[]");
+    assert_eq!(got["interp"], "vertex");
+    assert_eq!(got["points"], 8);
+    assert_eq!(got["display"], 8);
+    assert_eq!(got["errors"], serde_json::json!([]), "{}", got["errors"]);
+    // Each point's value is filter's at the first vertex that is it (the
+    // box's faceVarying normals split each point into three corners).
+    let v = from_bytes(&std::fs::read(dir.join("v.ply")).unwrap());
+    assert_eq!(v.len(), 24);
+    let point = v.points().scalar_f64("usd_point").unwrap();
+    let ssm = v.points().vec3_f64("ssM").unwrap();
+    let lit = ssm.iter().filter(|c| c[0] > 0.0).count();
+    assert!(lit > 4, "{lit} lit vertices");
+    for i in 0..8 {
+        let first = point.iter().position(|&p| p == i as f64).unwrap();
+        for k in 0..3 {
+            let want = ssm[first][k] as f32;
+            let back = got["ssM"][i][k].as_f64().unwrap() as f32;
+            assert_eq!(back, want, "point {i}");
+        }
+    }
+}

@@ -17,9 +17,10 @@ use glam::DVec3;
 use openusd::{sdf, usd};
 
 use super::stage::{self, at, value};
-use crate::cloud::{Attribute, Cloud, Element, ListColumn, Role, FACES};
+use crate::cloud::{Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
 use crate::column::{Column, ScalarType};
 use crate::error::{Error, Result};
+use crate::names;
 
 /// A mesh read from a stage, and what the reader chose to say about it
 /// (the callers print these as warnings).
@@ -108,6 +109,7 @@ fn primvar<T>(
 
 /// One mesh prim, in world space.
 struct Prim {
+    path: String,
     points: Vec<DVec3>,
     /// Each face's corner count and its place among the prim's faces.
     faces: Vec<(usize, usize)>,
@@ -208,6 +210,7 @@ fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> R
         pv
     });
     Ok(Prim {
+        path: name.to_string(),
         points,
         faces: out_counts,
         corners,
@@ -285,7 +288,9 @@ fn merge(prims: &[Prim]) -> Result<Cloud> {
     let mut uv: Vec<[f32; 2]> = Vec::new();
     let mut faces = ListColumn::new(ScalarType::U8, ScalarType::I32);
     let mut idx: Vec<i32> = Vec::new();
-    for prim in prims {
+    // Where each vertex comes from: the prim and its point.
+    let (mut from_prim, mut from_point): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
+    for (k, prim) in prims.iter().enumerate() {
         let split = (all_n && prim.normals.as_ref().is_some_and(Primvar::by_corner))
             || (all_st && prim.st.as_ref().is_some_and(Primvar::by_corner));
         let base = pos.len();
@@ -293,6 +298,8 @@ fn merge(prims: &[Prim]) -> Result<Cloud> {
         if !split {
             for (i, q) in prim.points.iter().enumerate() {
                 pos.push(q.as_vec3().to_array());
+                from_prim.push(k as u32);
+                from_point.push(i as u32);
                 if all_n {
                     let v = prim.normals.as_ref().and_then(|pv| pv.at(i, 0, 0));
                     nrm.push(v.unwrap_or(DVec3::ZERO).as_vec3().to_array());
@@ -328,6 +335,8 @@ fn merge(prims: &[Prim]) -> Result<Cloud> {
                 let key = (pt as u32, n.map(f32::to_bits), t.map(f32::to_bits));
                 let v = *seen.entry(key).or_insert_with(|| {
                     pos.push(prim.points[pt].as_vec3().to_array());
+                    from_prim.push(k as u32);
+                    from_point.push(pt as u32);
                     nrm.push(n);
                     uv.push(t);
                     (pos.len() - 1) as u32
@@ -349,6 +358,13 @@ fn merge(prims: &[Prim]) -> Result<Cloud> {
         pts.set_scalar("u", uv.iter().map(|t| t[0]).collect())?;
         pts.set_scalar("v", uv.iter().map(|t| t[1]).collect())?;
     }
+    pts.set_scalar(names::USD_PRIM, from_prim)?;
+    pts.set_scalar(names::USD_POINT, from_point)?;
+    let list: Vec<String> = prims
+        .iter()
+        .map(|p| format!("{} {}", p.path, p.points.len()))
+        .collect();
+    cloud.set_detail(names::D_USD_PRIMS, DetailValue::Str(list.join("\n")));
     let mut f = Element::new(FACES, faces.len());
     f.set(Attribute {
         name: "vertex_indices".into(),

@@ -18,6 +18,7 @@ use std::io::Write;
 use crate::cloud::{AttrData, Cloud, DetailValue, Role};
 use crate::column::{Column, ScalarType};
 use crate::error::{Error, Result};
+use crate::names;
 
 /// A USD identifier: letters, digits and `_`, not starting with a digit.
 fn identifier(name: &str) -> bool {
@@ -191,6 +192,9 @@ fn primvar<W: Write + ?Sized>(
 /// Writes `cloud` as a `.usda` layer with one `Points` prim, `/cloud`.
 pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     use crate::cloud::{FACES, POINTS};
+    if let Some(prims) = stage_prims(cloud)? {
+        return write_over(w, cloud, &prims);
+    }
     if let Some(e) = cloud
         .elements
         .iter()
@@ -309,29 +313,7 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
             primvar(w, attr, nf, uniform)?;
         }
     }
-    // The vertex colours (filter's sRGB bytes) as USD's displayColor,
-    // linear.
-    if ["red", "green", "blue"].iter().all(|c| pts.has(c)) {
-        let c = ["red", "green", "blue"].map(|c| pts.scalar_f64(c));
-        if let [Ok(r), Ok(g), Ok(b)] = c {
-            let lin = |x: f64| crate::formats::texture::srgb_to_linear((x / 255.0) as f32) as f64;
-            array(
-                w,
-                "color3f[] primvars:displayColor",
-                n,
-                |s, i| {
-                    s.push('(');
-                    float(s, lin(r[i]), true);
-                    s.push_str(", ");
-                    float(s, lin(g[i]), true);
-                    s.push_str(", ");
-                    float(s, lin(b[i]), true);
-                    s.push(')');
-                },
-                vertex,
-            )?;
-        }
-    }
+    display_color(w, pts, vertex)?;
     if pts.has("N") {
         let nn = pts.vec3_columns("N")?;
         let nc = [nn[0].column(), nn[1].column(), nn[2].column()];
@@ -353,6 +335,45 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     for attr in pts.attrs() {
         primvar(w, attr, n, vertex)?;
     }
+    details(w, cloud)?;
+    writeln!(w, "}}")?;
+    Ok(())
+}
+
+/// The vertex colours (filter's sRGB bytes) as USD's displayColor,
+/// linear.
+fn display_color<W: Write + ?Sized>(
+    w: &mut W,
+    pts: &crate::cloud::Element,
+    vertex: &str,
+) -> Result<()> {
+    let n = pts.len();
+    if ["red", "green", "blue"].iter().all(|c| pts.has(c)) {
+        let c = ["red", "green", "blue"].map(|c| pts.scalar_f64(c));
+        if let [Ok(r), Ok(g), Ok(b)] = c {
+            let lin = |x: f64| crate::formats::texture::srgb_to_linear((x / 255.0) as f32) as f64;
+            array(
+                w,
+                "color3f[] primvars:displayColor",
+                n,
+                |s, i| {
+                    s.push('(');
+                    float(s, lin(r[i]), true);
+                    s.push_str(", ");
+                    float(s, lin(g[i]), true);
+                    s.push_str(", ");
+                    float(s, lin(b[i]), true);
+                    s.push(')');
+                },
+                vertex,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The cloud's detail as custom attributes.
+fn details<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     for d in &cloud.detail {
         let (ty, val) = match &d.value {
             DetailValue::I32(x) => ("int", x.to_string()),
@@ -390,8 +411,140 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
         };
         writeln!(w, "        custom {ty} pcsss:detail:{} = {val}", d.name)?;
     }
-    writeln!(w, "}}")?;
     Ok(())
+}
+
+/// The mesh prims a cloud read from a USD stage came from (the detail
+/// `usd_prims`, with `usd_prim` and `usd_point` on every vertex), or
+/// `None` for any other cloud.
+fn stage_prims(cloud: &Cloud) -> Result<Option<Vec<(String, usize)>>> {
+    let pts = cloud.points();
+    let Some(DetailValue::Str(list)) = cloud.detail(names::D_USD_PRIMS) else {
+        return Ok(None);
+    };
+    if !(pts.has(names::USD_PRIM) && pts.has(names::USD_POINT)) || cloud.faces().is_none() {
+        return Ok(None);
+    }
+    let bad = || {
+        Error::invalid(format!(
+            "detail attribute '{}' is not 'path count' lines",
+            names::D_USD_PRIMS
+        ))
+    };
+    let mut out = Vec::new();
+    for line in list.lines() {
+        let (path, count) = line.rsplit_once(' ').ok_or_else(bad)?;
+        let count: usize = count.parse().map_err(|_| bad())?;
+        if !path.starts_with('/') || path[1..].split('/').any(|c| !identifier(c)) {
+            return Err(bad());
+        }
+        out.push((path.to_string(), count));
+    }
+    Ok(Some(out))
+}
+
+/// What the stage's own mesh already has, and where a vertex came from:
+/// not written over it.
+const FROM_STAGE: [&str; 6] = ["P", "N", "u", "v", names::USD_PRIM, names::USD_POINT];
+
+/// A layer to sublayer over the stage a mesh was read from: an `over` of
+/// each mesh prim with the cloud's attributes as vertex primvars (one
+/// value a point of the prim's own `points`: a point split into corners
+/// by faceVarying normals or st takes its first corner's values, and a
+/// point no face uses its prim's first point's).
+fn write_over<W: Write + ?Sized>(
+    w: &mut W,
+    cloud: &Cloud,
+    prims: &[(String, usize)],
+) -> Result<()> {
+    let pts = cloud.points();
+    let prim_of = pts.scalar_f64(names::USD_PRIM)?;
+    let point_of = pts.scalar_f64(names::USD_POINT)?;
+    for a in pts.attrs() {
+        if FROM_STAGE.contains(&a.name.as_str()) {
+            continue;
+        }
+        if !identifier(&a.name) || matches!(a.data, AttrData::List(_)) {
+            return Err(Error::unsupported(format!(
+                "attribute '{}': not a USD identifier or a list, so not a primvar",
+                a.name
+            )));
+        }
+    }
+    // Each prim's points, by the first vertex that is each.
+    let mut first: Vec<Vec<Option<usize>>> = prims.iter().map(|(_, n)| vec![None; *n]).collect();
+    for (v, (&k, &i)) in prim_of.iter().zip(&point_of).enumerate() {
+        let slot = first
+            .get_mut(k as usize)
+            .and_then(|f| f.get_mut(i as usize))
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "vertex {v} names prim {k}, point {i}: not in usd_prims"
+                ))
+            })?;
+        slot.get_or_insert(v);
+    }
+    writeln!(w, "#usda 1.0\n(")?;
+    writeln!(
+        w,
+        "    doc = \"Attributes written by pcsss over the meshes of a stage: sublayer it over the stage (formats/USD.md)\""
+    )?;
+    writeln!(w, ")")?;
+    // The prims as a tree of `over`s: a layer holds one spec a path.
+    let mut order: Vec<Vec<&str>> = prims
+        .iter()
+        .map(|(p, _)| p[1..].split('/').collect())
+        .collect();
+    let mut k_of: std::collections::HashMap<Vec<&str>, usize> = std::collections::HashMap::new();
+    for (k, parts) in order.iter().enumerate() {
+        k_of.insert(parts.clone(), k);
+    }
+    order.sort();
+    let mut open: Vec<&str> = Vec::new();
+    for parts in &order {
+        let common = open.iter().zip(parts).take_while(|(a, b)| a == b).count();
+        while open.len() > common {
+            open.pop();
+            writeln!(w, "{}}}", "    ".repeat(open.len()))?;
+        }
+        for name in &parts[common..] {
+            let pad = "    ".repeat(open.len());
+            writeln!(w, "{pad}over \"{name}\"\n{pad}{{")?;
+            open.push(name);
+        }
+        let k = k_of[parts];
+        let idx: Vec<usize> = first[k]
+            .iter()
+            .map(|v| v.or(first[k].iter().flatten().next().copied()).unwrap_or(0))
+            .collect();
+        let el = pts.gather(&idx);
+        let mut body = Vec::new();
+        over_body(&mut body, &el, cloud)?;
+        // The body is indented for a prim at the top: one level deeper
+        // a level.
+        let pad = "    ".repeat(open.len() - 1);
+        for line in String::from_utf8_lossy(&body).lines() {
+            writeln!(w, "{pad}{}", line.strip_prefix("    ").unwrap_or(line))?;
+        }
+    }
+    while open.pop().is_some() {
+        writeln!(w, "{}}}", "    ".repeat(open.len()))?;
+    }
+    Ok(())
+}
+
+/// The primvars of one prim's `over` (at the indentation of a prim's
+/// body in [`write_usda`]).
+fn over_body(w: &mut Vec<u8>, el: &crate::cloud::Element, cloud: &Cloud) -> Result<()> {
+    let n = el.len();
+    let vertex = " (\n            interpolation = \"vertex\"\n        )";
+    display_color(w, el, vertex)?;
+    for attr in el.attrs() {
+        if !FROM_STAGE.contains(&attr.name.as_str()) {
+            primvar(w, attr, n, vertex)?;
+        }
+    }
+    details(w, cloud)
 }
 
 #[cfg(test)]
