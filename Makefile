@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames frames-bench blender-check suzanne llvm pyenv pywheel exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny llvm pyenv pywheel exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -23,6 +23,13 @@ pywheel: pyenv
 	$(PYENV)/bin/maturin build --release --quiet -m python/Cargo.toml -o target/wheels
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
 	  target/wheels/pcsss-*-cp39-abi3-*.whl
+
+## The bunny baked from a USD stage (Y up, centimetres, transforms,
+## UsdLux lights, a UsdGeomCamera) against the same bake from OBJ and JSON,
+## its outputs opened by Pixar's library (pipelines/usd/bunny.py).
+usd-bunny: pywheel
+	cargo build --release --bins
+	$(PY) pipelines/usd/bunny.py
 
 ## Debian's OpenEXR tools (exrheader), an independent reader for the tests.
 exrtools:
