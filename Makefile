@@ -7,7 +7,7 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny llvm pyenv pywheel exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build pywheel exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -16,10 +16,16 @@ $(PY).stamp: tests/requirements.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -r tests/requirements.txt
 	touch $@
 
+## Everything the tests run, in one cargo invocation (the library, the
+## stages, the test harnesses and the Python module's library): one build
+## keeps both cores busy where two in a row leave one idle at each's end.
+build:
+	cargo build --release --workspace --lib --bins --tests
+
 ## The Python module (python/): an abi3 wheel built by maturin beside the
 ## library (the workspace shares its compiled crates with the tests'
 ## build), installed into the project's Python environment.
-pywheel: pyenv
+pywheel: pyenv build
 	$(PYENV)/bin/maturin build --release --quiet -m python/Cargo.toml -o target/wheels
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
 	  target/wheels/pcsss-*-cp39-abi3-*.whl
@@ -125,6 +131,14 @@ $(BPYENV)/bin/python.stamp: pipelines/blender/requirements.txt
 blender-check: $(BPYENV)/bin/python.stamp
 	cargo build --release
 	$(BPYENV)/bin/python pipelines/blender/light_units.py target/release target/blender-check
+
+## The Blender recipe (pipelines/blender/bake_selected.py) run in Blender
+## on a sphere, its colour attribute held against the binaries' bake.
+blender-bake: $(BPYENV)/bin/python.stamp pywheel
+	cargo build --release
+	$(BPYENV)/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
+	  target/wheels/pcsss-*-cp39-abi3-*.whl
+	$(BPYENV)/bin/python pipelines/blender/bake_selected_check.py target/release target/blender-bake
 
 ## Blender's Suzanne, made and exported (Y-up OBJ, Z-up PLY) by Blender,
 ## baked from each with `make bake`: the same picture (out/suzanne/).

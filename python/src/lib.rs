@@ -15,8 +15,8 @@ use std::path::PathBuf;
 use numpy::ndarray::ArrayView1;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pcsss::cli::{self, stages, Failure, Memory};
-use pcsss::cloud::{AttrData, Attribute, Cloud, DetailValue, Role};
-use pcsss::column::Column;
+use pcsss::cloud::{AttrData, Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
+use pcsss::column::{Column, ScalarType};
 use pcsss::formats::{self, Format, Select};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
@@ -132,9 +132,15 @@ fn detail_value(py: Python<'_>, v: &DetailValue) -> PyResult<Py<PyAny>> {
 impl PyCloud {
     /// A cloud of points from arrays: `{"P": N x 3, "N": N x 3, "ptarea": N}`.
     /// Each array is copied into the toolkit's columns (three columns of a
-    /// 3-vector, one of a scalar), keeping its dtype.
+    /// 3-vector, one of a scalar), keeping its dtype. `faces` makes it a
+    /// mesh: an F x k array of point indices, or a list of index lists
+    /// (polygons of any size).
     #[staticmethod]
-    fn from_arrays(arrays: &Bound<'_, PyDict>) -> PyResult<PyCloud> {
+    #[pyo3(signature = (arrays, faces=None))]
+    fn from_arrays(
+        arrays: &Bound<'_, PyDict>,
+        faces: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyCloud> {
         let mut attrs = Vec::new();
         for (k, v) in arrays.iter() {
             let name: String = k.extract()?;
@@ -146,6 +152,31 @@ impl PyCloud {
             c.points_mut()
                 .set(a)
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        }
+        if let Some(f) = faces {
+            let mut list = ListColumn::new(ScalarType::U8, ScalarType::I32);
+            let mut items: Vec<i32> = Vec::new();
+            for (k, face) in f.try_iter()?.enumerate() {
+                let face: Vec<i64> = face?.extract()?;
+                if face.len() < 3 || face.iter().any(|&i| i < 0 || i as usize >= n) {
+                    return Err(PyValueError::new_err(format!(
+                        "faces[{k}]: a face is 3 or more indices of the {n} points"
+                    )));
+                }
+                if face.len() > 255 {
+                    list.count_ty = ScalarType::I32;
+                }
+                items.extend(face.iter().map(|&i| i as i32));
+                list.offsets.push(items.len());
+            }
+            list.items = Column::I32(items);
+            let mut e = Element::new(FACES, list.len());
+            e.set(Attribute {
+                name: "vertex_indices".into(),
+                data: AttrData::List(list),
+            })
+            .map_err(lib_err)?;
+            c.elements.push(e);
         }
         Ok(PyCloud::new(c))
     }
@@ -353,9 +384,9 @@ macro_rules! stages {
         $(
             #[doc = $doc]
             #[pyfunction]
-            #[pyo3(signature = (cloud, **kwargs))]
-            fn $name(py: Python<'_>, cloud: &PyCloud, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<PyCloud> {
-                stage(py, stringify!($name), Some(cloud), kwargs, stages::$name::run, |a| &mut a.io)
+            #[pyo3(signature = (input, /, **kwargs))]
+            fn $name(py: Python<'_>, input: &PyCloud, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<PyCloud> {
+                stage(py, stringify!($name), Some(input), kwargs, stages::$name::run, |a| &mut a.io)
             }
         )*
         fn add_stages(m: &Bound<'_, PyModule>) -> PyResult<()> {
