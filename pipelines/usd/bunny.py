@@ -10,10 +10,15 @@
    moved; the two lights of fixtures/lights/bunny.json as UsdLux
    DistantLights and the camera of fixtures/cameras/bunny.json as a
    UsdGeomCamera, all under /World.
-2. Bakes it with the guide's `make bake` line, once from the OBJ and the
-   JSON files and once from the stage alone (MESH, LIGHTS and CAMERA all
-   bunny.usda), the distances ten times longer (SD, MFP) as the stage's
-   world is.
+2. Writes the same scene as an exporter that flattens transforms would:
+   a PLY of the mesh's world-space points (Pixar's
+   ComputeLocalToWorldTransform, rounded to float), and JSON lights and
+   camera from Pixar's world transforms by the table of
+   formats/LIGHTS.md, all stating Y up in centimetres.
+   Bakes both with the guide's `make bake` line, the distances ten times
+   the default bake's (SD, MFP), as the stage's world is ten times the
+   OBJ's: once from the PLY and the JSON files, once from the stage alone
+   (MESH, LIGHTS and CAMERA all bunny.usda).
 3. Compares the two pictures (the beauty of out/usd/*/bunny.exr).
 4. Writes the bake back onto the stage (`filter bunny.usda ... -o
    bake.usda`, a layer of overs) and the cloud as `.usda`, and opens both
@@ -92,6 +97,43 @@ def stage(path, lights, camera):
     st.GetRootLayer().Save()
 
 
+def flat(usd, out):
+    """The stage as a PLY mesh and JSON lights and camera in world space."""
+    st = Usd.Stage.Open(str(usd))
+    time = Usd.TimeCode.Default()
+    world = lambda prim: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time)
+    mesh = UsdGeom.Mesh(st.GetPrimAtPath("/World/bunny"))
+    m = world(mesh.GetPrim())
+    p = np.array([list(m.Transform(Gf.Vec3d(*q))) for q in mesh.GetPointsAttr().Get()], np.float32)
+    counts, idx = mesh.GetFaceVertexCountsAttr().Get(), list(mesh.GetFaceVertexIndicesAttr().Get())
+    faces, k = [], 0
+    for c in counts:
+        faces.append(idx[k:k + c])
+        k += c
+    pcsss.write(pcsss.Cloud.from_arrays({"P": p}, faces=faces), out / "bunny.ply")
+    lights = []
+    for prim in st.Traverse():
+        if prim.GetTypeName() != "DistantLight":
+            continue
+        light = UsdLux.DistantLight(prim)
+        d = world(prim).TransformDir(Gf.Vec3d(0, 0, -1))
+        lights.append({"name": prim.GetName(), "type": "distant", "direction": list(d),
+                       "color": list(light.GetColorAttr().Get()),
+                       # normalize on: the illuminance is the intensity.
+                       "intensity": light.GetIntensityAttr().Get()})
+    (out / "lights.json").write_text(json.dumps({"up_axis": "y", "meters_per_unit": 0.01, "lights": lights}))
+    cam = UsdGeom.Camera(st.GetPrimAtPath("/World/camera"))
+    c = world(cam.GetPrim())
+    eye = c.Transform(Gf.Vec3d(0, 0, 0))
+    ahead = c.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
+    up = c.TransformDir(Gf.Vec3d(0, 1, 0))
+    gf = cam.GetCamera(time)
+    fov = 2 * math.degrees(math.atan(gf.verticalAperture / (2 * gf.focalLength)))
+    (out / "camera.json").write_text(json.dumps({
+        "up_axis": "y", "meters_per_unit": 0.01, "position": list(eye), "look_at": list(eye + ahead),
+        "up": list(up), "fov": fov, "width": 512, "height": 512}))
+
+
 def bake(out, **kw):
     args = ["make", "-s", "-C", str(ROOT / "pipelines"), f"OUT={out}"] + [f"{k}={v}" for k, v in kw.items()]
     subprocess.run(args, check=True)
@@ -108,12 +150,11 @@ def main():
     camera = json.load(open(ROOT / "fixtures" / "cameras" / "bunny.json"))
     usd = OUT / "bunny.usda"
     stage(usd, lights, camera)
-    # The JSON side's camera at the stage camera's 512 pixels.
-    cam512 = dict(camera, width=512, height=512)
-    (OUT / "camera512.json").write_text(json.dumps(cam512))
-    bake(OUT / "ply", MESH=ROOT / "fixtures" / "mesh" / "bunny.obj",
-         LIGHTS=ROOT / "fixtures" / "lights" / "bunny.json", CAMERA=OUT / "camera512.json")
-    bake(OUT / "usd", MESH=usd, LIGHTS=usd, CAMERA=usd, SD=0.6 * SCALE, MFP=0.1 * SCALE)
+    flat(usd, OUT)
+    common = dict(SD=0.6 * SCALE, MFP=0.1 * SCALE)
+    bake(OUT / "ply", MESH=OUT / "bunny.ply", LIGHTS=OUT / "lights.json", CAMERA=OUT / "camera.json",
+         UP_AXIS="y", METERS_PER_UNIT=0.01, **common)
+    bake(OUT / "usd", MESH=usd, LIGHTS=usd, CAMERA=usd, **common)
     a = pcsss.read(OUT / "ply" / "bunny.exr")
     b = pcsss.read(OUT / "usd" / "bunny.exr")
     ba, bb = a["beauty"], b["beauty"]

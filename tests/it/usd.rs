@@ -116,7 +116,7 @@ print(json.dumps(out))
         ("ptarea", "float[]"),
         ("k_u8", "uchar[]"),
         ("k_i16", "int[]"),
-        ("k_u32", "uint[]"),
+        ("k_u32", "int64[]"),
         ("k_f64", "double[]"),
         ("k_vec", "vector3d[]"),
     ];

@@ -16,6 +16,7 @@ use std::path::Path;
 use glam::DVec3;
 use openusd::{sdf, usd};
 
+use super::primvars;
 use super::stage::{self, at, value};
 use crate::cloud::{Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
 use crate::column::{Column, ScalarType};
@@ -118,9 +119,19 @@ struct Prim {
     corners: Vec<(u32, usize)>,
     normals: Option<Primvar<DVec3>>,
     st: Option<Primvar<[f64; 2]>>,
+    /// Its other vertex primvars, one value a point (in world space).
+    primvars: Vec<(String, primvars::Values)>,
+    details: Vec<(String, DetailValue)>,
 }
 
-fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> Result<Prim> {
+/// A `Mesh` prim (or, `mesh` false, a `Points` prim: its points alone).
+fn read_prim(
+    stage: &usd::Stage,
+    p: &sdf::Path,
+    mesh: bool,
+    text: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Prim> {
     let name = p.as_str();
     let points = value(stage, p, "points")?
         .map(|v| stage::vec3s(&v).ok_or_else(|| at(name, "points is not a point3f[]")))
@@ -132,7 +143,7 @@ fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> R
         .as_ref()
         .and_then(stage::token)
         .unwrap_or_else(|| "catmullClark".into());
-    if scheme != "none" {
+    if mesh && scheme != "none" {
         warnings.push(format!(
             "prim {name}: subdivisionScheme is {scheme}; its control cage is read, not the \
              subdivided surface (author subdivisionScheme = \"none\" to silence this)"
@@ -202,6 +213,8 @@ fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> R
     )?);
     let st = primvar(stage, p, "primvars:st", stage::vec2s)?;
     let nm = stage::normal_matrix(&m).ok_or_else(|| at(name, "its transform is singular"))?;
+    let primvars = primvars::vertex_primvars(stage, p, points.len(), &m)?;
+    let details = primvars::details(stage, p, text)?;
     let points = points.iter().map(|&q| m.transform_point3(q)).collect();
     let normals = normals.map(|mut pv| {
         for v in &mut pv.values {
@@ -216,6 +229,8 @@ fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> R
         corners,
         normals,
         st,
+        primvars,
+        details,
     })
 }
 
@@ -224,10 +239,20 @@ fn read_prim(stage: &usd::Stage, p: &sdf::Path, warnings: &mut Vec<String>) -> R
 /// instances and point instancers are errors or warnings naming the prim;
 /// a stage without a mesh is an error.
 pub fn read_mesh(path: &Path, root: Option<&str>) -> Result<StageMesh> {
+    stage::guarded(|| read_mesh_unguarded(path, root))
+}
+
+fn read_mesh_unguarded(path: &Path, root: Option<&str>) -> Result<StageMesh> {
     let stage = stage::open(path)?;
-    let frame = stage::frame(&stage)?;
+    let text = std::fs::File::open(path)
+        .and_then(|mut f| {
+            let mut head = [0u8; 5];
+            std::io::Read::read_exact(&mut f, &mut head).map(|()| head)
+        })
+        .is_ok_and(|h| &h == b"#usda");
     let mut warnings = Vec::new();
     let mut prims = Vec::new();
+    let mut points = Vec::new();
     for p in stage::prims_under(&stage, root)? {
         let prim = stage.prim(p.clone());
         let ty = stage::type_name(&stage, &p)?;
@@ -255,16 +280,32 @@ pub fn read_mesh(path: &Path, root: Option<&str>) -> Result<StageMesh> {
                     ));
                     continue;
                 }
-                prims.push(read_prim(&stage, &p, &mut warnings)?);
+                prims.push(read_prim(&stage, &p, true, text, &mut warnings)?);
             }
+            "Points" => points.push(p.clone()),
             "PointInstancer" => {
                 return Err(at(p.as_str(), "a PointInstancer: instancing is not read"))
             }
-            "Points" | "BasisCurves" | "NurbsCurves" | "HermiteCurves" | "NurbsPatch"
-            | "TetMesh" | "Cube" | "Sphere" | "Cylinder" | "Cone" | "Capsule" | "Plane" => {
+            "BasisCurves" | "NurbsCurves" | "HermiteCurves" | "NurbsPatch" | "TetMesh" | "Cube"
+            | "Sphere" | "Cylinder" | "Cone" | "Capsule" | "Plane" => {
                 warnings.push(format!("prim {}: a {ty}, not a Mesh: not read", p.as_str()));
             }
             _ => {}
+        }
+    }
+    // A stage of points alone (a cloud the toolkit wrote): the points,
+    // in the frame the stage states.
+    let mesh = !prims.is_empty();
+    if mesh {
+        for p in &points {
+            warnings.push(format!(
+                "prim {}: a Points, not a Mesh: not read",
+                p.as_str()
+            ));
+        }
+    } else {
+        for p in &points {
+            prims.push(read_prim(&stage, p, false, text, &mut warnings)?);
         }
     }
     if prims.is_empty() {
@@ -273,14 +314,15 @@ pub fn read_mesh(path: &Path, root: Option<&str>) -> Result<StageMesh> {
             None => "no UsdGeomMesh on the stage".to_string(),
         }));
     }
-    let mut cloud = merge(&prims)?;
-    cloud.set_frame(&frame);
+    let mut cloud = merge(&prims, mesh)?;
+    cloud.set_frame(&stage::frame(&stage, mesh)?);
     Ok(StageMesh { cloud, warnings })
 }
 
-/// The prims as one mesh: vertices per point, or per distinct corner
-/// when a primvar varies by corner.
-fn merge(prims: &[Prim]) -> Result<Cloud> {
+/// The prims as one mesh (or, `mesh` false, one cloud of points):
+/// vertices per point, or per distinct corner when a primvar varies by
+/// corner.
+fn merge(prims: &[Prim], mesh: bool) -> Result<Cloud> {
     let all_n = prims.iter().all(|p| p.normals.is_some());
     let all_st = prims.iter().all(|p| p.st.is_some());
     let mut pos: Vec<[f32; 3]> = Vec::new();
@@ -358,12 +400,67 @@ fn merge(prims: &[Prim]) -> Result<Cloud> {
         pts.set_scalar("u", uv.iter().map(|t| t[0]).collect())?;
         pts.set_scalar("v", uv.iter().map(|t| t[1]).collect())?;
     }
+    // Every other vertex primvar all the prims have, of one role and
+    // type, each vertex taking its point's value (a primvar named as an
+    // attribute read above, P or N, stands for it: its type and bits).
+    let idx: Vec<(u32, u32)> = from_prim
+        .iter()
+        .copied()
+        .zip(from_point.iter().copied())
+        .collect();
+    for (name, first) in &prims[0].primvars {
+        let all: Option<Vec<&primvars::Values>> = prims
+            .iter()
+            .map(|p| {
+                p.primvars
+                    .iter()
+                    .find(|(n, v)| n == name && v.same_kind(first))
+                    .map(|(_, v)| v)
+            })
+            .collect();
+        let Some(all) = all else { continue };
+        let attr = match first {
+            primvars::Values::Scalar(_) => {
+                let cols: Vec<&Column> = all
+                    .iter()
+                    .map(|v| match v {
+                        primvars::Values::Scalar(c) => c,
+                        primvars::Values::Vec3(_, c) => &c[0],
+                    })
+                    .collect();
+                Attribute::scalar(name, Column::gather_from(&cols, &idx))
+            }
+            primvars::Values::Vec3(role, _) => {
+                let comp = |k: usize| {
+                    let cols: Vec<&Column> = all
+                        .iter()
+                        .map(|v| match v {
+                            primvars::Values::Vec3(_, c) => &c[k],
+                            primvars::Values::Scalar(c) => c,
+                        })
+                        .collect();
+                    Column::gather_from(&cols, &idx)
+                };
+                Attribute::vec3(name, *role, [comp(0), comp(1), comp(2)])
+            }
+        };
+        pts.set(attr)?;
+    }
+    if !mesh {
+        for (name, d) in &prims[0].details {
+            cloud.set_detail(name, d.clone());
+        }
+        return Ok(cloud);
+    }
     pts.set_scalar(names::USD_PRIM, from_prim)?;
     pts.set_scalar(names::USD_POINT, from_point)?;
     let list: Vec<String> = prims
         .iter()
         .map(|p| format!("{} {}", p.path, p.points.len()))
         .collect();
+    for (name, d) in &prims[0].details {
+        cloud.set_detail(name, d.clone());
+    }
     cloud.set_detail(names::D_USD_PRIMS, DetailValue::Str(list.join("\n")));
     let mut f = Element::new(FACES, faces.len());
     f.set(Attribute {

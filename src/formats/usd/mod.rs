@@ -2,6 +2,7 @@
 //! lights and cameras in from a stage (`.usda`, `.usdc`, `.usdz`).
 
 mod mesh;
+mod primvars;
 mod scene;
 pub mod stage;
 mod write;

@@ -210,9 +210,13 @@ fn light(stage: &usd::Stage, p: &sdf::Path, ty: &str, name: &str) -> Result<Opti
 /// stage's frame. A light is named by its prim's name, or by its path
 /// when two share a name; a stage without a light is an error.
 pub fn lights_json(path: &Path) -> Result<String> {
+    stage::guarded(|| lights_unguarded(path))
+}
+
+fn lights_unguarded(path: &Path) -> Result<String> {
     let (file, root) = stage::split_prim(path);
     let stage = stage::open(file)?;
-    let frame = stage::frame(&stage)?;
+    let frame = stage::frame(&stage, true)?;
     let prims = stage::prims_under(&stage, root)?;
     let mut found = Vec::new();
     for p in &prims {
@@ -251,9 +255,13 @@ pub fn lights_json(path: &Path) -> Result<String> {
 /// view from `verticalAperture` and `focalLength`, and a picture whose
 /// width over height is the apertures' (`height` pixels high).
 pub fn camera_json(path: &Path, height: u32) -> Result<String> {
+    stage::guarded(|| camera_unguarded(path, height))
+}
+
+fn camera_unguarded(path: &Path, height: u32) -> Result<String> {
     let (file, root) = stage::split_prim(path);
     let stage = stage::open(file)?;
-    let frame = stage::frame(&stage)?;
+    let frame = stage::frame(&stage, true)?;
     let mut cams = Vec::new();
     for p in stage::prims_under(&stage, root)? {
         if stage::type_name(&stage, &p)? == "Camera" {

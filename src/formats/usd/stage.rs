@@ -49,6 +49,17 @@ pub fn is_usd(head: &[u8]) -> bool {
     head.starts_with(b"#usda ") || head.starts_with(b"PXR-USDC") || head.starts_with(b"PK\x03\x04")
 }
 
+/// Runs a read through the `openusd` crate, a panic in it (a file it
+/// was not written for) made an error naming the file's reader, so that
+/// a bad stage is one line and an exit status, not an abort.
+pub fn guarded<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|_| {
+        Err(Error::invalid(
+            "USD: the reader (openusd) failed on this file: not a stage it can read",
+        ))
+    })
+}
+
 /// Opens a stage.
 pub fn open(path: &Path) -> Result<usd::Stage> {
     let p = path
@@ -65,9 +76,14 @@ pub fn open(path: &Path) -> Result<usd::Stage> {
     usd::Stage::open(p).map_err(usd_err)
 }
 
-/// The stage's frame, with USD's fallbacks where it states none: Y up,
-/// 0.01 metres per unit (centimetres), as Pixar's library reads it.
-pub fn frame(stage: &usd::Stage) -> Result<Frame> {
+/// The stage's frame; with `fallbacks`, USD's where it states none (Y up,
+/// 0.01 metres per unit: centimetres, as Pixar's library reads a scene),
+/// else only what it states (a cloud the toolkit wrote states what the
+/// cloud recorded).
+pub fn frame(stage: &usd::Stage, fallbacks: bool) -> Result<Frame> {
+    let authored =
+        |k: &str| -> Result<bool> { Ok(stage.stage_metadata(k).map_err(usd_err)?.is_some()) };
+    let (has_up, has_mpu) = (authored("upAxis")?, authored("metersPerUnit")?);
     let up = match stage.stage_metadata("upAxis").map_err(usd_err)? {
         None => UpAxis::Y,
         Some(sdf::Value::Token(t)) => UpAxis::from_name(t.as_str())
@@ -79,8 +95,8 @@ pub fn frame(stage: &usd::Stage) -> Result<Frame> {
         Some(v) => scalar(&v).ok_or_else(|| Error::invalid("metersPerUnit is not a number"))?,
     };
     let f = Frame {
-        up: Some(up),
-        meters_per_unit: Some(mpu),
+        up: (fallbacks || has_up).then_some(up),
+        meters_per_unit: (fallbacks || has_mpu).then_some(mpu),
     };
     f.check()
         .map_err(|why| Error::invalid(format!("metersPerUnit: {why}")))?;

@@ -28,13 +28,15 @@ fn identifier(name: &str) -> bool {
         && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
 }
 
-/// A scalar type's USD name (small integers widen: USD has no int8 or
-/// int16).
+/// A scalar type's USD name. Small integers widen (USD has no int8 or
+/// int16), and `uint` is written as `int64`, which holds every value of
+/// it: openusd 0.6 (the reader the toolkit can build with rustc 1.95)
+/// does not parse `uint[]` arrays, and a layer of ours must read back.
 fn scalar_type(t: ScalarType) -> &'static str {
     match t {
         ScalarType::U8 => "uchar",
-        ScalarType::I8 | ScalarType::I16 | ScalarType::I32 => "int",
-        ScalarType::U16 | ScalarType::U32 => "uint",
+        ScalarType::I8 | ScalarType::I16 | ScalarType::U16 | ScalarType::I32 => "int",
+        ScalarType::U32 => "int64",
         ScalarType::F32 => "float",
         ScalarType::F64 => "double",
     }
