@@ -19,14 +19,19 @@ $(PY).stamp: tests/requirements.txt
 ## Everything the tests run, in one cargo invocation (the library, the
 ## stages, the test harnesses and the Python module's library): one build
 ## keeps both cores busy where two in a row leave one idle at each's end.
-build:
-	cargo build --release --workspace --lib --bins --tests
+## Run with the environment maturin gives pyo3 for the project's Python
+## (PYO3_*), so that maturin finds this build's crates fresh and only
+## packages the wheel.
+build: pyenv
+	PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON=$(abspath $(PY)) \
+	  PYO3_ENVIRONMENT_SIGNATURE=$$($(PY) -c 'import sys; print("cpython-%d.%d-64bit" % sys.version_info[:2])') \
+	  cargo build --release --workspace --lib --bins --tests
 
 ## The Python module (python/): an abi3 wheel built by maturin beside the
 ## library (the workspace shares its compiled crates with the tests'
 ## build), installed into the project's Python environment.
 pywheel: pyenv build
-	$(PYENV)/bin/maturin build --release --quiet -m python/Cargo.toml -o target/wheels
+	$(PYENV)/bin/maturin build --release --quiet -i $(PY) -m python/Cargo.toml -o target/wheels
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
 	  target/wheels/pcsss-*-cp39-abi3-*.whl
 

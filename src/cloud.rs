@@ -333,17 +333,18 @@ impl Element {
         ))
     }
 
-    /// Decodes the named attributes now (when they are lazily held).
+    /// Decodes the named attributes now (when they are lazily held), a
+    /// column a thread.
     pub fn decode(&self, names: &[&str]) {
-        for a in self
+        let cols: Vec<&Values> = self
             .attrs
             .iter()
             .filter(|a| names.contains(&a.name.as_str()))
-        {
-            for c in a.components() {
-                c.column();
-            }
-        }
+            .flat_map(|a| a.components())
+            .collect();
+        cols.into_par_iter().for_each(|c| {
+            c.column();
+        });
     }
 
     /// A scalar attribute's values as f64.

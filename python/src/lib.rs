@@ -11,6 +11,7 @@
 //! `ValueError`: the binary's exit status 2) or `pcsss.Error` (1).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use numpy::ndarray::ArrayView1;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
@@ -39,20 +40,28 @@ create_exception!(
 /// A point cloud: elements of rows with typed attributes, and a detail.
 /// `cloud["ssM"]` is an N x 3 NumPy array, `cloud["ptarea"]` a length-N
 /// one; `cloud["x"] = array` sets an attribute.
+///
+/// The cloud is shared, not copied, with the NumPy views of its columns:
+/// setting an attribute while a view exists gives the Python object a
+/// cloud of its own (copy on write), so a view never outlives its memory.
 #[pyclass(name = "Cloud", module = "pcsss", frozen)]
 struct PyCloud {
-    inner: std::sync::RwLock<Cloud>,
+    inner: std::sync::RwLock<Arc<Cloud>>,
 }
+
+/// What a view of a column keeps alive: the cloud it was taken from.
+#[pyclass(frozen)]
+struct Keep(#[allow(dead_code)] Arc<Cloud>);
 
 impl PyCloud {
     fn new(c: Cloud) -> PyCloud {
         PyCloud {
-            inner: std::sync::RwLock::new(c),
+            inner: std::sync::RwLock::new(Arc::new(c)),
         }
     }
 
-    fn get(&self) -> std::sync::RwLockReadGuard<'_, Cloud> {
-        self.inner.read().unwrap_or_else(|e| e.into_inner())
+    fn get(&self) -> Arc<Cloud> {
+        self.inner.read().unwrap_or_else(|e| e.into_inner()).clone()
     }
 }
 
@@ -224,25 +233,24 @@ impl PyCloud {
     /// gathered from its three columns.
     fn __getitem__<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let py = slf.py();
-        let me = slf.get();
-        let cloud = me.get();
+        let cloud = slf.get().get();
         let a = cloud
             .points()
             .attr(name)
             .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))?;
         match &a.data {
             AttrData::Scalar(v) => {
-                let owner = slf.clone().into_any();
+                let owner = Bound::new(py, Keep(cloud.clone()))?.into_any();
                 macro_rules! view {
                     ($($v:ident),*) => {
                         match v.column() {
                             $(Column::$v(x) => {
                                 let view = ArrayView1::from(&x[..]);
-                                // SAFETY: the column lives as long as the
-                                // cloud, which the array keeps alive as its
-                                // base; the cloud's columns are replaced,
-                                // never resized in place, so the memory does
-                                // not move while the view exists. The view is
+                                // SAFETY: the column is in the cloud that
+                                // `Keep`, the array's base, holds: an Arc
+                                // no one changes (a setitem copies the cloud
+                                // while another holder exists), so the memory
+                                // stays while the view exists. The view is
                                 // read-only: Python cannot write the cloud.
                                 let arr = unsafe { PyArray1::borrow_from_array(&view, owner) };
                                 arr.readwrite().make_nonwriteable();
@@ -280,7 +288,8 @@ impl PyCloud {
     fn __setitem__(&self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
         let a = attribute(name, value)?;
         let mut c = self.inner.write().unwrap_or_else(|e| e.into_inner());
-        c.points_mut()
+        Arc::make_mut(&mut c)
+            .points_mut()
             .set(a)
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
@@ -295,12 +304,14 @@ impl PyCloud {
     }
 }
 
-/// Reads a cloud or mesh (PLY, OBJ, OpenEXR, or a USD stage), every
-/// attribute decoded.
+/// Reads a cloud or mesh (PLY, OBJ, OpenEXR, or a USD stage). A binary
+/// PLY's attributes are decoded when first used (by a stage, or by
+/// `cloud[name]`), as the binaries do: one a stage does not read goes
+/// through to the output as the bytes it was.
 #[pyfunction]
 fn read(py: Python<'_>, path: PathBuf) -> PyResult<PyCloud> {
     let name = path.display().to_string();
-    py.detach(|| formats::read_cloud_file(&path, &Select::All))
+    py.detach(|| formats::read_cloud_file(&path, &Select::only(&[])))
         .map(PyCloud::new)
         .map_err(|e| Error::new_err(format!("{name}: {e}")))
 }
@@ -363,7 +374,7 @@ fn stage<T: clap::Parser + Send>(
     io: fn(&mut T) -> &mut cli::IoArgs,
 ) -> PyResult<PyCloud> {
     let argv = argv(kwargs)?;
-    let input = cloud.map(|c| c.get().clone()).unwrap_or_default();
+    let input = cloud.map(|c| Cloud::clone(&c.get())).unwrap_or_default();
     let memory = Memory::with_input(input);
     let m = memory.clone();
     py.detach(move || {

@@ -111,6 +111,10 @@ def test_arrays_in_and_out():
     assert v.ctypes.data == c["ptarea"].ctypes.data
     with pytest.raises(ValueError):
         v[0] = 1.0
+    # Setting the attribute while a view of it exists leaves the view
+    # on the values it showed (the cloud is copied on write).
+    c["ptarea"] = np.zeros(1000)
+    assert np.array_equal(v, area) and not c["ptarea"].any()
     del c
     assert v.sum() == area.sum()
     c = pcsss.Cloud.from_arrays({"P": p})

@@ -130,9 +130,19 @@ impl IoArgs {
     /// output was checked before, by [`main`]).
     pub fn read(&self, select: &Select) -> anyhow::Result<Cloud> {
         if let Some(m) = &self.memory {
-            return m
+            let cloud = m
                 .take_input()
-                .ok_or_else(|| anyhow::anyhow!("no input cloud (it was read already)"));
+                .ok_or_else(|| anyhow::anyhow!("no input cloud (it was read already)"))?;
+            // What a file's reader decodes as it reads, decoded now.
+            let names: Vec<&str> = cloud
+                .points()
+                .attrs()
+                .iter()
+                .map(|a| a.name.as_str())
+                .filter(|n| select.wants(n))
+                .collect();
+            cloud.points().decode(&names);
+            return Ok(cloud);
         }
         read_input(self.input.as_deref(), select)
     }

@@ -39,7 +39,8 @@ impl Select {
         Select::Only(names.iter().map(|s| s.to_string()).collect())
     }
 
-    fn wants(&self, name: &str) -> bool {
+    /// True when `name` is selected.
+    pub fn wants(&self, name: &str) -> bool {
         match self {
             Select::All => true,
             Select::Only(v) => v.iter().any(|n| n == name),
