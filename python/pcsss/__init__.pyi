@@ -36,6 +36,9 @@ class Cloud:
         """A scalar attribute as a read-only view of the toolkit's own
         column (no copy); a 3-vector as an N x 3 array (gathered from its
         three columns)."""
+    def components(self, name: str) -> List[np.ndarray]:
+        """A 3-vector's x, y and z columns as read-only views of the
+        toolkit's own memory (no copy); a scalar's column alone."""
     def __setitem__(self, name: str, value: npt.ArrayLike) -> None: ...
     def keys(self) -> List[str]: ...
     def elements(self) -> List[Tuple[str, int]]: ...

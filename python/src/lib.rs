@@ -137,6 +137,33 @@ fn detail_value(py: Python<'_>, v: &DetailValue) -> PyResult<Py<PyAny>> {
     })
 }
 
+/// A column of `cloud` as a read-only NumPy view of its memory.
+fn column_view<'py>(
+    py: Python<'py>,
+    cloud: &Arc<Cloud>,
+    v: &pcsss::column::Values,
+) -> PyResult<Bound<'py, PyAny>> {
+    let owner = Bound::new(py, Keep(cloud.clone()))?.into_any();
+    macro_rules! view {
+        ($($v:ident),*) => {
+            match v.column() {
+                $(Column::$v(x) => {
+                    let view = ArrayView1::from(&x[..]);
+                    // SAFETY: the column is in the cloud that `Keep`, the
+                    // array's base, holds: an Arc no one changes (a setitem
+                    // copies the cloud while another holder exists), so the
+                    // memory stays while the view exists. The view is
+                    // read-only: Python cannot write the cloud.
+                    let arr = unsafe { PyArray1::borrow_from_array(&view, owner) };
+                    arr.readwrite().make_nonwriteable();
+                    Ok(arr.into_any())
+                })*
+            }
+        };
+    }
+    view!(I8, U8, I16, U16, I32, U32, F32, F64)
+}
+
 #[pymethods]
 impl PyCloud {
     /// A cloud of points from arrays: `{"P": N x 3, "N": N x 3, "ptarea": N}`.
@@ -239,28 +266,7 @@ impl PyCloud {
             .attr(name)
             .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))?;
         match &a.data {
-            AttrData::Scalar(v) => {
-                let owner = Bound::new(py, Keep(cloud.clone()))?.into_any();
-                macro_rules! view {
-                    ($($v:ident),*) => {
-                        match v.column() {
-                            $(Column::$v(x) => {
-                                let view = ArrayView1::from(&x[..]);
-                                // SAFETY: the column is in the cloud that
-                                // `Keep`, the array's base, holds: an Arc
-                                // no one changes (a setitem copies the cloud
-                                // while another holder exists), so the memory
-                                // stays while the view exists. The view is
-                                // read-only: Python cannot write the cloud.
-                                let arr = unsafe { PyArray1::borrow_from_array(&view, owner) };
-                                arr.readwrite().make_nonwriteable();
-                                Ok(arr.into_any())
-                            })*
-                        }
-                    };
-                }
-                view!(I8, U8, I16, U16, I32, U32, F32, F64)
-            }
+            AttrData::Scalar(v) => column_view(py, &cloud, v),
             AttrData::Vec3(_, cols) => {
                 let n = a.len();
                 macro_rules! gather {
@@ -282,6 +288,23 @@ impl PyCloud {
             }
             AttrData::List(_) => Err(PyTypeError::new_err(format!("{name}: a list attribute"))),
         }
+    }
+
+    /// A 3-vector's three component columns as read-only NumPy views of
+    /// the toolkit's own memory (x, y, z: no copy; the toolkit keeps a
+    /// 3-vector as three columns, so an N x 3 array of it is a gather);
+    /// a scalar's column alone.
+    fn components<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Vec<Bound<'py, PyAny>>> {
+        let py = slf.py();
+        let cloud = slf.get().get();
+        let a = cloud
+            .points()
+            .attr(name)
+            .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))?;
+        a.components()
+            .iter()
+            .map(|v| column_view(py, &cloud, v))
+            .collect()
     }
 
     /// Sets (or replaces) a point attribute from an array of N or N x 3.

@@ -118,6 +118,11 @@ def test_arrays_in_and_out():
     del c
     assert v.sum() == area.sum()
     c = pcsss.Cloud.from_arrays({"P": p})
+    # A 3-vector's columns, as views.
+    x, y, z = c.components("P")
+    assert np.array_equal(np.stack([x, y, z], axis=1), p)
+    assert not x.flags.owndata and not x.flags.writeable
+    assert x.ctypes.data == c.components("P")[0].ctypes.data
     c["Cd"] = np.ones((1000, 3), dtype=np.float32)
     assert "Cd" in c
     with pytest.raises(ValueError):

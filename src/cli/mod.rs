@@ -270,11 +270,11 @@ fn read_json_text(path: &Path) -> anyhow::Result<String> {
 /// frame.
 pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::LightsFile> {
     let name = path.display().to_string();
-    let text = match usd_stage(path) {
+    let text = match formats::usd::stage_file(path) {
         Some(_) => formats::usd::lights_json(path).with_context(|| name.clone())?,
         None => read_json_text(path)?,
     };
-    let path = usd_stage(path).unwrap_or(path);
+    let path = formats::usd::stage_file(path).unwrap_or(path);
     // A dome's map is read beside the lights file.
     let dir = path.parent().map(|d| {
         if d.as_os_str().is_empty() {
@@ -296,21 +296,10 @@ pub fn read_lights(path: &Path, mask: &str) -> anyhow::Result<crate::lights::Lig
 /// on the camera.
 pub const USD_CAMERA_HEIGHT: u32 = 512;
 
-/// The stage's file when `path` is a USD stage (`scene.usda`, or
-/// `scene.usda:/prim`), by its first bytes.
-fn usd_stage(path: &Path) -> Option<&Path> {
-    let (file, prim) = formats::usd::split_prim(path);
-    let mut head = [0u8; 8];
-    let n = std::fs::File::open(file)
-        .and_then(|mut f| f.read(&mut head))
-        .unwrap_or(0);
-    (prim.is_some() || formats::usd::is_usd(&head[..n])).then_some(file)
-}
-
 /// Reads a camera file (`formats/CAMERA.md`), or a USD stage's camera.
 pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera> {
     let name = path.display().to_string();
-    let text = match usd_stage(path) {
+    let text = match formats::usd::stage_file(path) {
         Some(_) => {
             formats::usd::camera_json(path, USD_CAMERA_HEIGHT).with_context(|| name.clone())?
         }
@@ -569,6 +558,11 @@ pub fn named_paths(
                 }
             } else if path.exists() {
                 inputs.push(path);
+            } else if let (file, Some(_)) = formats::usd::split_prim(&path) {
+                // `scene.usda:/prim` reads scene.usda.
+                if file.exists() {
+                    inputs.push(file.to_path_buf());
+                }
             }
         }
     }

@@ -150,8 +150,8 @@ pub fn read_cloud_file_noting(
     whole: bool,
     note: &mut dyn FnMut(&str),
 ) -> Result<Cloud> {
-    let (file_path, prim) = usd::split_prim(path);
-    if prim.is_some() || usd_file(file_path)? {
+    if let Some(file_path) = usd::stage_file(path) {
+        let prim = usd::split_prim(path).1;
         let m = usd::read_mesh(file_path, prim)?;
         for w in &m.warnings {
             note(w);
@@ -180,26 +180,6 @@ pub fn read_cloud_file_noting(
         Some(Kind::Exr) => exr::read_exr(&buf),
         _ => read_cloud(&buf[..], select),
     }
-}
-
-/// True when a regular file's first bytes are a USD layer's.
-fn usd_file(path: &Path) -> Result<bool> {
-    let Ok(mut f) = std::fs::File::open(path) else {
-        // The caller's own open names what is wrong.
-        return Ok(false);
-    };
-    if !f.metadata().is_ok_and(|m| m.is_file()) {
-        return Ok(false);
-    }
-    let mut head = [0u8; 8];
-    let mut n = 0;
-    while n < head.len() {
-        match f.read(&mut head[n..])? {
-            0 => break,
-            k => n += k,
-        }
-    }
-    Ok(usd::is_usd(&head[..n]))
 }
 
 /// An error when `file` changed since `before` was taken (its size or its

@@ -492,3 +492,18 @@ fn a_cloud_written_as_usda_reads_back_as_it_was() {
     let back = pcsss::formats::read_cloud_file(&path, &pcsss::formats::Select::All).unwrap();
     assert_eq!(back.frame().unwrap(), pcsss::frame::Frame::default());
 }
+
+/// An output that is the stage a `FILE:/prim` input reads is refused
+/// before any work, as any output that is an input is.
+#[test]
+fn an_output_over_the_stage_named_with_a_prim_is_refused() {
+    let d = tempdir();
+    let stage = d.path().join("scene.usda");
+    std::fs::copy(fixtures().join("usd/scene.usda"), &stage).unwrap();
+    let before = std::fs::read(&stage).unwrap();
+    let arg = format!("{}:/World/Floor", stage.display());
+    let o = run("measure", &[&arg, "-o", stage.to_str().unwrap()], b"");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("scene.usda: is also an input"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&stage).unwrap(), before);
+}

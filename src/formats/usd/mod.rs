@@ -9,5 +9,5 @@ mod write;
 
 pub use mesh::{read_mesh, StageMesh};
 pub use scene::{camera_json, lights_json};
-pub use stage::{is_usd, split_prim};
+pub use stage::{is_usd, split_prim, stage_file};
 pub use write::write_usda;

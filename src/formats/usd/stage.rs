@@ -43,6 +43,30 @@ pub fn split_prim(path: &Path) -> (&Path, Option<&str>) {
     (path, None)
 }
 
+/// The stage's file when `path` names a USD stage (`scene.usda`, known by
+/// its first bytes, or `scene.usda:/prim`); `None` for any other path
+/// (whose reader then names what is wrong with it).
+pub fn stage_file(path: &Path) -> Option<&Path> {
+    use std::io::Read;
+    let (file, prim) = split_prim(path);
+    if prim.is_some() {
+        return Some(file);
+    }
+    let mut f = std::fs::File::open(file).ok()?;
+    if !f.metadata().is_ok_and(|m| m.is_file()) {
+        return None;
+    }
+    let mut head = [0u8; 8];
+    let mut n = 0;
+    while n < head.len() {
+        match f.read(&mut head[n..]) {
+            Ok(0) | Err(_) => break,
+            Ok(k) => n += k,
+        }
+    }
+    is_usd(&head[..n]).then_some(file)
+}
+
 /// True when a file's first bytes are a USD layer (text, crate or a
 /// package).
 pub fn is_usd(head: &[u8]) -> bool {
