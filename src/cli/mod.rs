@@ -52,6 +52,10 @@ pub struct IoArgs {
     /// Input file (PLY, OBJ or OpenEXR); standard input when absent or '-'.
     #[arg(value_name = "IN")]
     pub input: Option<PathBuf>,
+    /// A USD stage input: read the meshes at or under this prim alone
+    /// (the same as IN:/prim).
+    #[arg(long, value_name = "/PRIM/PATH")]
+    pub prim: Option<String>,
     /// Output file; standard output when absent or '-'.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -144,7 +148,19 @@ impl IoArgs {
             cloud.points().decode(&names);
             return Ok(cloud);
         }
-        read_input(self.input.as_deref(), select)
+        match &self.prim {
+            None => read_input(self.input.as_deref(), select),
+            Some(prim) => {
+                let input = self.input.as_deref().filter(|p| *p != Path::new("-"));
+                let stage = input.and_then(formats::usd::stage_file);
+                let (Some(stage), true) = (stage, prim.starts_with('/')) else {
+                    let why = "names a prim of a USD stage: give the stage's file as the input, and the prim's path from /";
+                    return Err(crate::Error::param("prim", why).into());
+                };
+                let path = PathBuf::from(format!("{}:{prim}", stage.display()));
+                read_input(Some(&path), select)
+            }
+        }
     }
 
     /// The output format in force.

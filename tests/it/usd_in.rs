@@ -504,6 +504,10 @@ fn an_output_over_the_stage_named_with_a_prim_is_refused() {
     let arg = format!("{}:/World/Floor", stage.display());
     let o = run("measure", &[&arg, "-o", stage.to_str().unwrap()], b"");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("scene.usda: is also an input"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("scene.usda: is also an input"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(std::fs::read(&stage).unwrap(), before);
 }
