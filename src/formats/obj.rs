@@ -83,24 +83,41 @@ pub fn read_obj<R: BufRead>(mut r: R) -> Result<Cloud> {
         }
     }
     faces.items = Column::I32(idx);
+    let n = (all_n && !n.is_empty()).then_some(&n[..]);
+    let uv = (all_uv && !uv.is_empty()).then_some(&uv[..]);
+    let mut cloud = polygon_mesh(&p, n, uv, Some(faces))?;
+    if all_cd && !cd.is_empty() {
+        cloud.points_mut().set_vec3("Cd", Role::Color, &cd)?;
+    }
+    Ok(cloud)
+}
+
+/// A mesh as the readers give it: `P`, and `N`, `u`, `v` when given, on
+/// the vertices, and the polygons as the `face` element's
+/// `vertex_indices` (none: points alone).
+pub(crate) fn polygon_mesh(
+    p: &[[f32; 3]],
+    n: Option<&[[f32; 3]]>,
+    uv: Option<&[[f32; 2]]>,
+    faces: Option<ListColumn>,
+) -> Result<Cloud> {
     let mut cloud = Cloud::with_points(p.len());
     let pts = cloud.points_mut();
-    pts.set_vec3("P", Role::Point, &p)?;
-    if all_n && !n.is_empty() {
-        pts.set_vec3("N", Role::Normal, &n)?;
+    pts.set_vec3("P", Role::Point, p)?;
+    if let Some(n) = n {
+        pts.set_vec3("N", Role::Normal, n)?;
     }
-    if all_uv && !uv.is_empty() {
+    if let Some(uv) = uv {
         pts.set_scalar("u", uv.iter().map(|t| t[0]).collect())?;
         pts.set_scalar("v", uv.iter().map(|t| t[1]).collect())?;
     }
-    if all_cd && !cd.is_empty() {
-        pts.set_vec3("Cd", Role::Color, &cd)?;
+    if let Some(faces) = faces {
+        let mut f = Element::new(FACES, faces.len());
+        f.set(Attribute {
+            name: "vertex_indices".into(),
+            data: crate::cloud::AttrData::List(faces),
+        })?;
+        cloud.elements.push(f);
     }
-    let mut f = Element::new(FACES, faces.len());
-    f.set(Attribute {
-        name: "vertex_indices".into(),
-        data: crate::cloud::AttrData::List(faces),
-    })?;
-    cloud.elements.push(f);
     Ok(cloud)
 }

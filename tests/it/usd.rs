@@ -9,14 +9,11 @@ use crate::util::*;
 use pcsss::cloud::{Attribute, DetailValue, Role};
 use pcsss::column::Column;
 
-#[test]
-#[ignore = "interop: needs Pixar's usd-core; `make test` runs it"]
-fn pixar_s_library_reads_what_we_write_as_usda() {
-    let py = python_with(&["pxr", "numpy"]);
-    let d = tempdir();
+/// A lit cloud with every scalar type USD output holds, an f64 vector,
+/// odd floats (`f32::MAX`, `1e-30`), a detail of every type and a frame.
+pub fn every_usd_type_cloud() -> pcsss::Cloud {
     let mut c = lit_cloud();
     let n = c.len();
-    // Every scalar type, an f64 vector, a detail of every type, a frame.
     let pts = c.points_mut();
     pts.set(Attribute::scalar(
         "k_u8",
@@ -57,6 +54,17 @@ fn pixar_s_library_reads_what_we_write_as_usda() {
         up: Some(pcsss::frame::UpAxis::Z),
         meters_per_unit: Some(0.01),
     });
+    c
+}
+
+#[test]
+#[ignore = "interop: needs Pixar's usd-core; `make test` runs it"]
+fn pixar_s_library_reads_what_we_write_as_usda() {
+    let py = python_with(&["pxr", "numpy"]);
+    let d = tempdir();
+    let c = every_usd_type_cloud();
+    let n = c.len();
+    let v = c.points().vec3_f64("k_vec").unwrap();
     let ply = d.path().join("c.ply");
     std::fs::write(&ply, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
     let o = run_in(Some(d.path()), "pcconvert", &["c.ply", "-o", "c.usda"], b"");

@@ -18,7 +18,7 @@ use openusd::{sdf, usd};
 
 use super::primvars;
 use super::stage::{self, at, value};
-use crate::cloud::{Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
+use crate::cloud::{Attribute, Cloud, DetailValue, ListColumn};
 use crate::column::{Column, ScalarType};
 use crate::error::{Error, Result};
 use crate::names;
@@ -390,16 +390,13 @@ fn merge(prims: &[Prim], mesh: bool) -> Result<Cloud> {
         }
     }
     faces.items = Column::I32(idx);
-    let mut cloud = Cloud::with_points(pos.len());
+    let mut cloud = crate::formats::obj::polygon_mesh(
+        &pos,
+        all_n.then_some(&nrm[..]),
+        all_st.then_some(&uv[..]),
+        mesh.then_some(faces),
+    )?;
     let pts = cloud.points_mut();
-    pts.set_vec3("P", Role::Point, &pos)?;
-    if all_n {
-        pts.set_vec3("N", Role::Normal, &nrm)?;
-    }
-    if all_st {
-        pts.set_scalar("u", uv.iter().map(|t| t[0]).collect())?;
-        pts.set_scalar("v", uv.iter().map(|t| t[1]).collect())?;
-    }
     // Every other vertex primvar all the prims have, of one role and
     // type, each vertex taking its point's value (a primvar named as an
     // attribute read above, P or N, stands for it: its type and bits).
@@ -462,12 +459,6 @@ fn merge(prims: &[Prim], mesh: bool) -> Result<Cloud> {
         cloud.set_detail(name, d.clone());
     }
     cloud.set_detail(names::D_USD_PRIMS, DetailValue::Str(list.join("\n")));
-    let mut f = Element::new(FACES, faces.len());
-    f.set(Attribute {
-        name: "vertex_indices".into(),
-        data: crate::cloud::AttrData::List(faces),
-    })?;
-    cloud.elements.push(f);
     Ok(cloud)
 }
 
