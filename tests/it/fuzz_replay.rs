@@ -24,13 +24,14 @@ type Target = fn(&[u8]);
 #[test]
 fn the_fuzz_corpus_and_past_crashes_replay_cleanly() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let targets: [(&str, Target); 6] = [
+    let targets: [(&str, Target); 7] = [
         ("ply", fuzz::ply),
         ("exr", fuzz::exr),
         ("obj", fuzz::obj),
         ("json", fuzz::json),
         ("manifest", fuzz::manifest),
         ("texture", fuzz::texture),
+        ("usd", fuzz::usd),
     ];
     let mut total = 0;
     for (name, run) in targets {
