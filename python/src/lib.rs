@@ -137,6 +137,14 @@ fn detail_value(py: Python<'_>, v: &DetailValue) -> PyResult<Py<PyAny>> {
     })
 }
 
+/// The point attribute `name`, or Python's KeyError.
+fn point_attr<'c>(cloud: &'c Cloud, name: &str) -> PyResult<&'c Attribute> {
+    cloud
+        .points()
+        .attr(name)
+        .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))
+}
+
 /// A column of `cloud` as a read-only NumPy view of its memory.
 fn column_view<'py>(
     py: Python<'py>,
@@ -261,10 +269,7 @@ impl PyCloud {
     fn __getitem__<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let py = slf.py();
         let cloud = slf.get().get();
-        let a = cloud
-            .points()
-            .attr(name)
-            .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))?;
+        let a = point_attr(&cloud, name)?;
         match &a.data {
             AttrData::Scalar(v) => column_view(py, &cloud, v),
             AttrData::Vec3(_, cols) => {
@@ -297,10 +302,7 @@ impl PyCloud {
     fn components<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Vec<Bound<'py, PyAny>>> {
         let py = slf.py();
         let cloud = slf.get().get();
-        let a = cloud
-            .points()
-            .attr(name)
-            .ok_or_else(|| PyKeyError::new_err(format!("no attribute '{name}'")))?;
+        let a = point_attr(&cloud, name)?;
         a.components()
             .iter()
             .map(|v| column_view(py, &cloud, v))

@@ -205,12 +205,11 @@ fn read_prim(
             ),
         ));
     }
-    let normals = primvar(stage, p, "normals", stage::vec3s)?.or(primvar(
-        stage,
-        p,
-        "primvars:normals",
-        stage::vec3s,
-    )?);
+    // `primvars:normals` stands in only where `normals` is not authored.
+    let normals = match primvar(stage, p, "normals", stage::vec3s)? {
+        Some(n) => Some(n),
+        None => primvar(stage, p, "primvars:normals", stage::vec3s)?,
+    };
     let st = primvar(stage, p, "primvars:st", stage::vec2s)?;
     let nm = stage::normal_matrix(&m).ok_or_else(|| at(name, "its transform is singular"))?;
     let primvars = primvars::vertex_primvars(stage, p, points.len(), &m)?;
@@ -244,12 +243,7 @@ pub fn read_mesh(path: &Path, root: Option<&str>) -> Result<StageMesh> {
 
 fn read_mesh_unguarded(path: &Path, root: Option<&str>) -> Result<StageMesh> {
     let stage = stage::open(path)?;
-    let text = std::fs::File::open(path)
-        .and_then(|mut f| {
-            let mut head = [0u8; 5];
-            std::io::Read::read_exact(&mut f, &mut head).map(|()| head)
-        })
-        .is_ok_and(|h| &h == b"#usda");
+    let text = stage::is_text(path);
     let mut warnings = Vec::new();
     let mut prims = Vec::new();
     let mut points = Vec::new();

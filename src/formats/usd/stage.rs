@@ -47,24 +47,29 @@ pub fn split_prim(path: &Path) -> (&Path, Option<&str>) {
 /// its first bytes, or `scene.usda:/prim`); `None` for any other path
 /// (whose reader then names what is wrong with it).
 pub fn stage_file(path: &Path) -> Option<&Path> {
-    use std::io::Read;
     let (file, prim) = split_prim(path);
     if prim.is_some() {
         return Some(file);
     }
-    let mut f = std::fs::File::open(file).ok()?;
+    is_usd(&head(file)?).then_some(file)
+}
+
+/// The first 8 bytes of a regular file (fewer when it is shorter).
+fn head(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let f = std::fs::File::open(path).ok()?;
     if !f.metadata().is_ok_and(|m| m.is_file()) {
         return None;
     }
-    let mut head = [0u8; 8];
-    let mut n = 0;
-    while n < head.len() {
-        match f.read(&mut head[n..]) {
-            Ok(0) | Err(_) => break,
-            Ok(k) => n += k,
-        }
-    }
-    is_usd(&head[..n]).then_some(file)
+    let mut head = Vec::with_capacity(8);
+    f.take(8).read_to_end(&mut head).ok()?;
+    Some(head)
+}
+
+/// True when `path` is a text layer (`#usda`): its strings come with
+/// their escapes.
+pub fn is_text(path: &Path) -> bool {
+    head(path).is_some_and(|h| h.starts_with(b"#usda"))
 }
 
 /// True when a file's first bytes are a USD layer (text, crate or a

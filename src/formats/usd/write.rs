@@ -515,10 +515,8 @@ fn write_over<W: Write + ?Sized>(
             open.push(name);
         }
         let k = k_of[parts];
-        let idx: Vec<usize> = first[k]
-            .iter()
-            .map(|v| v.or(first[k].iter().flatten().next().copied()).unwrap_or(0))
-            .collect();
+        let fallback = first[k].iter().flatten().next().copied().unwrap_or(0);
+        let idx: Vec<usize> = first[k].iter().map(|v| v.unwrap_or(fallback)).collect();
         let el = pts.gather(&idx);
         let mut body = Vec::new();
         over_body(&mut body, &el, cloud)?;
