@@ -7,11 +7,15 @@ PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
 
-.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build pywheel exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build build-and-tools pywheel exrtools slurm lint
+
+## The project's Python interpreter (its packages below).
+$(PY):
+	python3 -m venv $(PYENV)
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
-$(PY).stamp: tests/requirements.txt
+$(PY).stamp: tests/requirements.txt | $(PY)
 	python3 -m venv $(PYENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -r tests/requirements.txt
 	touch $@
@@ -21,16 +25,22 @@ $(PY).stamp: tests/requirements.txt
 ## keeps both cores busy where two in a row leave one idle at each's end.
 ## Run with the environment maturin gives pyo3 for the project's Python
 ## (PYO3_*), so that maturin finds this build's crates fresh and only
-## packages the wheel.
-build: pyenv
+## packages the wheel. pyo3 needs the interpreter alone, not its packages.
+build: | $(PY)
 	PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON=$(abspath $(PY)) \
 	  PYO3_ENVIRONMENT_SIGNATURE=$$($(PY) -c 'import sys; print("cpython-%d.%d-64bit" % sys.version_info[:2])') \
 	  cargo build --release --workspace --lib --bins --tests
 
+## The build beside the Python packages and the system tools the tests
+## use: pip and apt mostly wait on the disk and the network while cargo
+## keeps the cores busy (under -j2, cargo takes its jobs from make's).
+build-and-tools: | $(PY)
+	$(MAKE) -j2 --no-print-directory pyenv build exrtools slurm
+
 ## The Python module (python/): an abi3 wheel built by maturin beside the
 ## library (the workspace shares its compiled crates with the tests'
 ## build), installed into the project's Python environment.
-pywheel: pyenv build
+pywheel: build-and-tools
 	$(PYENV)/bin/maturin build --release --quiet -i $(PY) -m python/Cargo.toml -o target/wheels
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
 	  target/wheels/pcsss-*-cp39-abi3-*.whl
@@ -61,12 +71,20 @@ slurm:
 ## tests and `make demo` share one optimised build of the library and the
 ## stages. The Slurm cluster runs for the tests only: stopped at the end,
 ## whatever their outcome.
-test: pyenv pywheel exrtools slurm
+## The library's unit tests run beside the integration tests (cargo
+## holds no lock while tests run): the unit tests keep both cores busy
+## while the integration tests wait on make, Slurm, openjd and Python.
+test: pywheel pyenv exrtools slurm
 	mkdir -p target
 	pipelines/slurm/cluster.sh start target/slurm >/dev/null
 	trap 'pipelines/slurm/cluster.sh stop target/slurm' EXIT; \
-	  SLURM_CONF=$(abspath target/slurm/slurm.conf) PCSSS_OPENJD=$(abspath $(PYENV)/bin/openjd) \
-	  cargo test --release -- --include-ignored 2>&1 | tee target/test.log
+	  export SLURM_CONF=$(abspath target/slurm/slurm.conf) PCSSS_OPENJD=$(abspath $(PYENV)/bin/openjd); \
+	  cargo test --release --lib -- --include-ignored >target/test-lib.log 2>&1 & unit=$$!; \
+	  rest=0; cargo test --release --test '*' -- --include-ignored 2>&1 | tee target/test-rest.log || rest=$$?; \
+	  lib=0; wait $$unit || lib=$$?; cat target/test-lib.log; \
+	  doc=0; cargo test --release --doc 2>&1 | tee target/test-doc.log || doc=$$?; \
+	  cat target/test-lib.log target/test-rest.log target/test-doc.log >target/test.log; \
+	  test $$rest = 0 && test $$lib = 0 && test $$doc = 0
 	awk '/^test result:/ { p += $$4; f += $$6; i += $$8 } END { printf "%d passed, %d failed, %d ignored\n", p, f, i }' target/test.log
 
 ## Benchmarks (figures in the README's performance section), with the
