@@ -1,6 +1,7 @@
 //! USD (formats/USD.md): clouds and meshes out as text layers, and meshes,
 //! lights and cameras in from a stage (`.usda`, `.usdc`, `.usdz`).
 
+mod gf;
 mod mesh;
 mod primvars;
 mod scene;

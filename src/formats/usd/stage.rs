@@ -9,11 +9,13 @@
 
 use std::path::Path;
 
-use glam::{DMat3, DMat4, DQuat, DVec3};
+use glam::{DMat3, DMat4, DVec3};
 use openusd::{sdf, usd};
 
 use crate::error::{Error, Result};
 use crate::frame::{Frame, UpAxis};
+
+use super::gf;
 
 /// An error about `prim`.
 pub(super) fn at(prim: &str, why: impl std::fmt::Display) -> Error {
@@ -269,16 +271,17 @@ fn tokens(v: &sdf::Value) -> Option<Vec<String>> {
     }
 }
 
-/// A prim's local-to-parent transform (column vectors) and whether it
+/// A prim's local-to-parent transform (Pixar's, [`gf`]) and whether it
 /// resets the stack (`!resetXformStack!`: its parents' transforms do not
 /// apply).
-fn local(stage: &usd::Stage, p: &sdf::Path) -> Result<(DMat4, bool)> {
+fn local(stage: &usd::Stage, p: &sdf::Path) -> Result<(gf::Matrix4, bool)> {
     let Some(order) = value(stage, p, "xformOpOrder")? else {
-        return Ok((DMat4::IDENTITY, false));
+        return Ok((gf::IDENTITY, false));
     };
     let order =
         tokens(&order).ok_or_else(|| at(p.as_str(), "xformOpOrder is not a token array"))?;
-    let mut m = DMat4::IDENTITY;
+    // Each op's name, whether it is inverted, and its matrix.
+    let mut ops: Vec<(&str, bool, gf::Matrix4)> = Vec::new();
     let mut reset = false;
     for (i, op) in order.iter().enumerate() {
         if op == "!resetXformStack!" {
@@ -303,96 +306,145 @@ fn local(stage: &usd::Stage, p: &sdf::Path) -> Result<(DMat4, bool)> {
             .ok_or_else(|| bad("not an xformOp"))?;
         let s = || scalar(&v).ok_or_else(|| bad("not a number"));
         let v3 = || vec3(&v).ok_or_else(|| bad("not a 3-vector"));
-        let rx = |d: f64| DMat4::from_rotation_x(d.to_radians());
-        let ry = |d: f64| DMat4::from_rotation_y(d.to_radians());
-        let rz = |d: f64| DMat4::from_rotation_z(d.to_radians());
+        // Pixar inverts an op by its value (the translation negated, the
+        // scale's reciprocal, the angles negated), as here.
+        let sign = if inverse { -1.0 } else { 1.0 };
+        let turn = |axis: usize| -> Result<gf::Matrix4> {
+            Ok(gf::Rotation::new(gf::AXES[axis], sign * s()?).matrix())
+        };
+        let unit = |axis: usize, x: f64| {
+            let mut t = [0.0; 3];
+            t[axis] = x;
+            t
+        };
+        let scaled = |t: [f64; 3]| {
+            if inverse {
+                t.map(|c| 1.0 / c)
+            } else {
+                t
+            }
+        };
         let op_m = match kind {
-            "translate" => DMat4::from_translation(v3()?),
-            "translateX" => DMat4::from_translation(DVec3::X * s()?),
-            "translateY" => DMat4::from_translation(DVec3::Y * s()?),
-            "translateZ" => DMat4::from_translation(DVec3::Z * s()?),
-            "scale" => DMat4::from_scale(v3()?),
-            "scaleX" => DMat4::from_scale(DVec3::new(s()?, 1.0, 1.0)),
-            "scaleY" => DMat4::from_scale(DVec3::new(1.0, s()?, 1.0)),
-            "scaleZ" => DMat4::from_scale(DVec3::new(1.0, 1.0, s()?)),
-            "rotateX" => rx(s()?),
-            "rotateY" => ry(s()?),
-            "rotateZ" => rz(s()?),
+            "translate" => gf::translate((v3()? * sign).to_array()),
+            "translateX" => gf::translate(unit(0, sign * s()?)),
+            "translateY" => gf::translate(unit(1, sign * s()?)),
+            "translateZ" => gf::translate(unit(2, sign * s()?)),
+            "scale" => gf::scale(scaled(v3()?.to_array())),
+            "scaleX" => gf::scale(scaled([s()?, 1.0, 1.0])),
+            "scaleY" => gf::scale(scaled([1.0, s()?, 1.0])),
+            "scaleZ" => gf::scale(scaled([1.0, 1.0, s()?])),
+            "rotateX" => turn(0)?,
+            "rotateY" => turn(1)?,
+            "rotateZ" => turn(2)?,
             // `rotateXYZ` turns about X first, then Y, then Z.
             "rotateXYZ" | "rotateXZY" | "rotateYXZ" | "rotateYZX" | "rotateZXY" | "rotateZYX" => {
-                let a = v3()?;
-                let mut r = DMat4::IDENTITY;
-                for axis in kind["rotate".len()..].chars() {
-                    let turn = match axis {
-                        'X' => rx(a.x),
-                        'Y' => ry(a.y),
-                        _ => rz(a.z),
-                    };
-                    r = turn * r;
-                }
-                r
+                let order = kind["rotate".len()..]
+                    .chars()
+                    .map(|a| (a as u8 - b'X') as usize)
+                    .collect::<Vec<_>>();
+                gf::euler(v3()?.to_array(), [order[0], order[1], order[2]], inverse)
             }
             "orient" => {
-                let q = match &v {
-                    sdf::Value::Quatf(q) => {
-                        DQuat::from_xyzw(q.x as f64, q.y as f64, q.z as f64, q.w as f64)
-                    }
-                    sdf::Value::Quatd(q) => DQuat::from_xyzw(q.x, q.y, q.z, q.w),
-                    sdf::Value::Quath(q) => DQuat::from_xyzw(
-                        q.x.to_f32() as f64,
-                        q.y.to_f32() as f64,
-                        q.z.to_f32() as f64,
+                let (real, imaginary) = match &v {
+                    sdf::Value::Quatf(q) => (q.w as f64, [q.x as f64, q.y as f64, q.z as f64]),
+                    sdf::Value::Quatd(q) => (q.w, [q.x, q.y, q.z]),
+                    sdf::Value::Quath(q) => (
                         q.w.to_f32() as f64,
+                        [
+                            q.x.to_f32() as f64,
+                            q.y.to_f32() as f64,
+                            q.z.to_f32() as f64,
+                        ],
                     ),
                     _ => return Err(bad("not a quaternion")),
                 };
-                if q.length().is_nan() || q.length() <= 0.0 {
+                let length = (real * real + imaginary.iter().map(|c| c * c).sum::<f64>()).sqrt();
+                if !length.is_finite() || length <= 0.0 {
                     return Err(bad("a zero quaternion"));
                 }
-                DMat4::from_quat(q.normalize())
+                let r = gf::Rotation::from_quat(real, imaginary);
+                if inverse { r.inverse() } else { r }.matrix()
             }
-            // USD's matrices act on row vectors: read as columns, the
-            // stored rows are the column-vector matrix.
+            // USD's matrices act on row vectors, as gf's.
             "transform" => match &v {
-                sdf::Value::Matrix4d(t) => DMat4::from_cols_array(&t.0),
+                sdf::Value::Matrix4d(t) => {
+                    let mut m = [[0.0; 4]; 4];
+                    for (k, x) in t.0.iter().enumerate() {
+                        m[k / 4][k % 4] = *x;
+                    }
+                    if inverse {
+                        let g = gf::to_glam(&m);
+                        if g.determinant().abs() < f64::MIN_POSITIVE {
+                            return Err(bad("inverted, but not invertible"));
+                        }
+                        g.inverse().to_cols_array_2d()
+                    } else {
+                        m
+                    }
+                }
                 _ => return Err(bad("not a matrix4d")),
             },
             other => return Err(bad(&format!("the xformOp kind '{other}' is not read"))),
         };
-        let op_m = if inverse {
-            if op_m.determinant().abs() < f64::MIN_POSITIVE {
-                return Err(bad("inverted, but not invertible"));
-            }
-            op_m.inverse()
-        } else {
-            op_m
-        };
-        // The first op in the order is the outermost.
-        m *= op_m;
+        ops.push((name, inverse, op_m));
     }
-    if !m.is_finite() {
+    // An op next to its own inverse is skipped with it, as Pixar does.
+    let mut kept = Vec::with_capacity(ops.len());
+    let mut k = ops.len();
+    while k > 0 {
+        let (name, inverse, m) = ops[k - 1];
+        if k > 1 && ops[k - 2].0 == name && ops[k - 2].1 != inverse {
+            k -= 2;
+            continue;
+        }
+        kept.push(m);
+        k -= 1;
+    }
+    kept.reverse();
+    let m = gf::compose(&kept);
+    if !m.iter().flatten().all(|v| v.is_finite()) {
         return Err(at(p.as_str(), "its transform is not finite"));
     }
     Ok((m, reset))
 }
 
 /// A prim's local-to-world transform: its own and its ancestors' ops, up
-/// to the root or a prim that resets the stack.
+/// to the root or a prim that resets the stack, composed from the root
+/// down as Pixar's `UsdGeomXformCache` does (a prim's local times its
+/// parent's world).
 pub fn world(stage: &usd::Stage, p: &sdf::Path) -> Result<DMat4> {
-    let mut m = DMat4::IDENTITY;
+    let mut chain = Vec::new();
     let mut cur = Some(p.clone());
+    // A prim that resets the stack is its own world, not its local times
+    // an identity (which can turn a -0 into a +0).
+    let mut top = gf::IDENTITY;
     while let Some(c) = cur {
         if c.is_abs_root() {
             break;
         }
         let (l, reset) = local(stage, &c)?;
-        m = l * m;
         if reset {
+            top = l;
             break;
         }
+        chain.push(l);
         cur = c.parent();
     }
-    Ok(m)
+    let mut m = top;
+    for l in chain.iter().rev() {
+        m = gf::mul(l, &m);
+    }
+    Ok(gf::to_glam(&m))
+}
+
+/// The world transform (column vectors) of the prim at `prim` in the
+/// stage file `file`, as every reader here composes it.
+pub fn world_transform(file: &Path, prim: &str) -> Result<DMat4> {
+    guarded(|| {
+        let stage = open(file)?;
+        let p = sdf::Path::new(prim).map_err(|e| at(prim, format!("not a prim path ({e})")))?;
+        world(&stage, &p)
+    })
 }
 
 /// The matrix that carries normals: the inverse transpose of the upper
