@@ -9,39 +9,39 @@ export PCSSS_PYTHON := $(abspath $(PY))
 
 .PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build build-and-tools pywheel exrtools slurm lint
 
-## The project's Python interpreter (its packages below).
-$(PY):
-	python3 -m venv $(PYENV)
-
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
-$(PY).stamp: tests/requirements.txt | $(PY)
+$(PY).stamp: tests/requirements.txt
 	python3 -m venv $(PYENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -r tests/requirements.txt
 	touch $@
 
+## The interpreter the Python module is built for (an abi3 wheel: any
+## CPython from 3.9), the one the project's environment is made from.
+SYSPY := $(shell python3 -c 'import sys; print(sys.executable)')
+
 ## Everything the tests run, in one cargo invocation (the library, the
 ## stages, the test harnesses and the Python module's library): one build
 ## keeps both cores busy where two in a row leave one idle at each's end.
-## Run with the environment maturin gives pyo3 for the project's Python
+## Run with the environment maturin gives pyo3 for that interpreter
 ## (PYO3_*), so that maturin finds this build's crates fresh and only
-## packages the wheel. pyo3 needs the interpreter alone, not its packages.
-build: | $(PY)
-	PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON=$(abspath $(PY)) \
-	  PYO3_ENVIRONMENT_SIGNATURE=$$($(PY) -c 'import sys; print("cpython-%d.%d-64bit" % sys.version_info[:2])') \
+## packages the wheel.
+build:
+	PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON=$(SYSPY) \
+	  PYO3_ENVIRONMENT_SIGNATURE=$$($(SYSPY) -c 'import sys; print("cpython-%d.%d-64bit" % sys.version_info[:2])') \
 	  cargo build --release --workspace --lib --bins --tests
 
 ## The build beside the Python packages and the system tools the tests
 ## use: pip and apt mostly wait on the disk and the network while cargo
 ## keeps the cores busy (under -j2, cargo takes its jobs from make's).
-build-and-tools: | $(PY)
+build-and-tools:
 	$(MAKE) -j2 --no-print-directory pyenv build exrtools slurm
 
 ## The Python module (python/): an abi3 wheel built by maturin beside the
 ## library (the workspace shares its compiled crates with the tests'
 ## build), installed into the project's Python environment.
 pywheel: build-and-tools
-	$(PYENV)/bin/maturin build --release --quiet -i $(PY) -m python/Cargo.toml -o target/wheels
+	$(PYENV)/bin/maturin build --release --quiet -i $(SYSPY) -m python/Cargo.toml -o target/wheels
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
 	  target/wheels/pcsss-*-cp39-abi3-*.whl
 

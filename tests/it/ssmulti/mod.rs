@@ -77,10 +77,14 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
     } else {
         vec![[1.0; 3]; pos.len()]
     };
+    let unit_normals: Vec<DVec3> = nrm
+        .iter()
+        .map(|n| DVec3::from_array(*n).normalize())
+        .collect();
     let mut out = Vec::new();
     for o in 0..pos.len() {
         let xo = DVec3::from_array(pos[o]);
-        let no = DVec3::from_array(nrm[o]).normalize();
+        let no = unit_normals[o];
         let mut ssm = [0.0; 3];
         let mut loc = [0.0; 3];
         for i in 0..pos.len() {
@@ -89,7 +93,7 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
             if r > ld1 || ld1 == 0.0 {
                 continue;
             }
-            let ni = DVec3::from_array(nrm[i]).normalize();
+            let ni = unit_normals[i];
             let li = (xo - xi) / ld1;
             let kb = 1.0 - (1.0 - no.dot(ni)) * (1.0 - no.dot(li)) / 2.0;
             let kb = 1.0 + p.bounce * (kb - 1.0);
@@ -98,10 +102,11 @@ pub(super) fn brute(c: &Cloud, p: &Params) -> Vec<[f64; 3]> {
                 if d <= 0.0 || r > d {
                     continue;
                 }
+                let wi = w(r, d, i);
                 if kb > 0.0 && reached[i][c] > 0.0 {
-                    ssm[c] += kb * illum[i][c] * area[i] * w(r, d, i) / reached[i][c];
+                    ssm[c] += kb * illum[i][c] * area[i] * wi / reached[i][c];
                 }
-                loc[c] += area[i] * w(r, d, i);
+                loc[c] += area[i] * wi;
             }
         }
         let i1 = ssmulti::disk_integral(p.falloff, ld1);
