@@ -16,15 +16,20 @@ mkdir -p "$dir"
 dir=$(cd "$dir" && pwd)
 conf=$dir/slurm.conf
 
+# Every daemon is told at once (each takes a second or two to end), then
+# waited for, and killed after 5 s.
 stop() {
+    local pids=() d pid
     for d in slurmd slurmctld munged; do
         if [[ -f $dir/$d.pid ]]; then
-            pid=$(cat "$dir/$d.pid")
-            kill "$pid" 2>/dev/null || true
-            for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-            kill -9 "$pid" 2>/dev/null || true
+            pids+=("$(cat "$dir/$d.pid")")
+            kill "${pids[-1]}" 2>/dev/null || true
             rm -f "$dir/$d.pid"
         fi
+    done
+    for pid in "${pids[@]}"; do
+        for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+        kill -9 "$pid" 2>/dev/null || true
     done
 }
 
