@@ -9,6 +9,7 @@ pub mod follow;
 pub mod illum;
 pub mod measure;
 pub mod promote;
+pub mod render;
 pub mod scatter;
 pub mod ssmulti;
 pub mod sssingle;

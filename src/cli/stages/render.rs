@@ -1,0 +1,250 @@
+//! `render`: ray-cast a mesh from a pinhole camera, filter the cloud's
+//! `ssM` at the hit points, write an OpenEXR image (and a PNG preview).
+
+use std::path::PathBuf;
+
+use crate::cli::{self, MaterialArgs, MsgArgs, SingleArgs, SsArgs};
+use crate::files;
+use crate::formats::exr::{Compression, ExrOptions};
+use crate::formats::{self, Format, Select};
+use crate::geom::mesh::TriMesh;
+use crate::stages::filter::{self, SingleSetup};
+use crate::stages::render;
+use crate::Error;
+use clap::Parser;
+
+/// Renders a mesh through a pinhole camera (formats/CAMERA.md): P, N and
+/// coverage passes by ray casting, then the beauty = ssM + ssS filtered
+/// from the cloud at every hit (computed lazily when the cloud has only
+/// illum), plus with --direct a diffuse direct term. Writes an OpenEXR
+/// image (channels beauty, ssM, ssS, P, N, A) and, with --png, a
+/// tone-mapped sRGB preview (alone without -o).
+#[derive(Parser, Debug)]
+#[command(version, allow_negative_numbers = true)]
+pub struct Args {
+    /// The mesh (OBJ or PLY with faces).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: PathBuf,
+    /// The camera file (JSON).
+    #[arg(long, value_name = "FILE")]
+    pub camera: PathBuf,
+    /// The cloud: P and ssM, ssS (or P, N, ptarea, illum and --sd to
+    /// compute ssM lazily; --single-lights for ssS).
+    #[arg(long, value_name = "CLOUD")]
+    pub cloud: PathBuf,
+    /// Output image (OpenEXR).
+    #[arg(short, long, value_name = "OUT.exr", required_unless_present = "png")]
+    pub output: Option<PathBuf>,
+    /// A PNG preview (beside the OpenEXR, or alone without -o).
+    #[arg(long, value_name = "OUT.png")]
+    pub png: Option<PathBuf>,
+    /// Preview exposure: 1 - exp(-exposure * beauty) (the bake's EXPOSURE).
+    #[arg(long, default_value_t = 1.2)]
+    pub exposure: f64,
+    /// Use the N nearest cloud points.
+    #[arg(long, value_name = "N", conflicts_with = "radius")]
+    pub nfp: Option<usize>,
+    /// Use the cloud points within this fraction of the scattering
+    /// distance D = sd * max(Rd) (the physical model's largest distance)
+    /// [default: 0.25, but never under twice the cloud's spacing
+    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea); the physical
+    /// model's ssM: twice the spacing].
+    #[arg(long, value_name = "FRACTION")]
+    pub radius: Option<f64>,
+    /// Only cloud points whose normal faces the shade point's side.
+    #[arg(long)]
+    pub facing: bool,
+    /// Add a direct diffuse term from these lights (JSON, as illum's):
+    /// beauty = ssM + ssS + kd * illum, with shadows from the mesh.
+    #[arg(long, value_name = "LIGHTS")]
+    pub direct: Option<PathBuf>,
+    /// Light mask for --direct (names and globs, ^ excludes).
+    #[arg(long, default_value = "*")]
+    pub lmask: String,
+    /// Diffuse reflectance of the direct term: R,G,B or one value.
+    #[arg(long, value_name = "R,G,B", default_value = "0.2")]
+    pub kd: String,
+    /// OpenEXR compression.
+    #[arg(long, value_name = "C", default_value = "zip")]
+    pub compression: Compression,
+    /// What the beauty sums (comma-separated, repeatable) [default: ssM
+    /// and ssS, those the cloud has or can compute].
+    #[arg(long = "attr", value_name = "NAME,..", value_delimiter = ',')]
+    pub attrs: Vec<String>,
+    /// Camera rays a pixel (1: through its centre; more: jittered in
+    /// strata), seeded by --seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub spp: u32,
+    /// How a ray's value is spread over the pixels: its own (box), or
+    /// Mitsuba's default Gaussian (0.5 pixel, cut at 2).
+    #[arg(long, value_name = "F", default_value = "box")]
+    pub pixel_filter: render::PixelFilter,
+    #[command(flatten)]
+    pub ss: SsArgs,
+    /// Lazy ssS: the lights (JSON) single scattering is computed with, for
+    /// the cloud points read, seen from the camera (with sssingle's model
+    /// options).
+    #[arg(long, value_name = "FILE")]
+    pub single_lights: Option<PathBuf>,
+    /// Lazy ssS: light mask (names and globs, ^ excludes).
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    pub single_lmask: String,
+    #[command(flatten)]
+    pub single: SingleArgs,
+    #[command(flatten)]
+    pub material: MaterialArgs,
+    #[command(flatten)]
+    pub msg: MsgArgs,
+}
+
+/// Runs `render` on its command line.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let msg = args.msg.messages("render");
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        let what = format!("{}: must be > 0", args.exposure);
+        return Err(Error::param("exposure", what).into());
+    }
+    // The outputs before any work: an OpenEXR and a PNG (cli::main checked
+    // that they can be written and are no input).
+    if let Some(out) = &args.output {
+        if !out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        {
+            let why = format!("{}: render writes OpenEXR: name a .exr file", out.display());
+            return Err(Error::param("output", why).into());
+        }
+    }
+    if let Some(png) = &args.png {
+        if png
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
+        {
+            let why = format!("{}: name a .png file", png.display());
+            return Err(Error::param("png", why).into());
+        }
+    }
+    render::Pixels {
+        spp: args.spp,
+        filter: args.pixel_filter,
+        seed: 0,
+    }
+    .validate()?;
+    let cam_file = cli::read_camera(&args.camera)?;
+    let lazy = args.ss.params(&args.material)?;
+    // The direct term's parameters and lights, checked before any work.
+    let kd = cli::parse_rgb("--kd", &args.kd)?;
+    if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
+        return Err(Error::param("kd", format!("{kd:?}: must be finite and >= 0")).into());
+    }
+    let lights_file = match &args.direct {
+        Some(path) => Some(cli::read_lights(path, &args.lmask)?),
+        None => None,
+    };
+    let single_file = match &args.single_lights {
+        Some(path) => Some(
+            cli::read_lights(path, &args.single_lmask)
+                .map_err(|e| cli::as_param(e, "single_lmask"))?,
+        ),
+        None => None,
+    };
+    let cloud_name = args.cloud.display().to_string();
+    let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
+    // The camera and the lights are moved into the cloud's frame.
+    let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
+    let cam = cam_file.in_frame(&frame);
+    let lights_used = lights_file.map(|f| f.in_frame(&frame));
+    let single = match &single_file {
+        Some(file) => {
+            // What the cloud records of ssmulti's run fills in what is
+            // not given, as for sssingle.
+            let params = args.single.params_for(
+                &args.material,
+                args.ss.rd.as_deref(),
+                args.ss.sd,
+                args.ss.rgb,
+                cam.position,
+                Some(&cloud),
+            )?;
+            Some((params, file.in_frame(&frame)))
+        }
+        None => None,
+    };
+    let mesh_name = args.mesh.display().to_string();
+    let mesh = cli::read_input(Some(&args.mesh), &Select::All)?;
+    let tris = match single {
+        Some(_) => Some(TriMesh::from_cloud(&mesh).map_err(cli::at(&mesh_name))?),
+        None => None,
+    };
+    let lazy_single = single
+        .as_ref()
+        .zip(tris.as_ref())
+        .map(|((params, lights), mesh)| SingleSetup {
+            mesh,
+            lights,
+            params,
+        });
+    let setup = filter::Setup::new(
+        &cloud,
+        &args.attrs,
+        lazy.as_ref(),
+        lazy_single.as_ref(),
+        args.nfp,
+        args.radius,
+        args.facing,
+    )
+    .map_err(cli::at(&cloud_name))?;
+    if let Some(note) = &setup.note {
+        msg.debug(note);
+    }
+    let scene = render::Scene {
+        mesh: &mesh,
+        mesh_name: &mesh_name,
+        camera: &cam,
+        cloud: &cloud,
+        cloud_name: &cloud_name,
+        filter: setup.params.clone(),
+        sources: &setup.sources,
+        direct: lights_used.as_deref().map(|l| (l, kd)),
+        pixels: render::Pixels {
+            spp: args.spp,
+            filter: args.pixel_filter,
+            seed: args.single.seed,
+        },
+    };
+    let progress = msg.progress();
+    let (shade, rep, frep) = render::render_scene(&scene, &progress)?;
+    msg.info(format!(
+        "{} of {} pixels see the mesh",
+        rep.covered, rep.pixels
+    ));
+    let (info, warn) = frep.messages();
+    info.iter().skip(1).for_each(|m| msg.info(m));
+    for w in warn {
+        msg.warn(w);
+    }
+    let opt = ExrOptions {
+        compression: args.compression,
+        half: vec![],
+    };
+    // Both files complete before either is in place: all or none.
+    let exr = match &args.output {
+        Some(path) => Some(files::Staged::write(path, |w| {
+            formats::write_cloud_with(w, &shade, Format::Exr, &opt)
+        })?),
+        None => None,
+    };
+    let png = match &args.png {
+        Some(path) => Some(files::Staged::write(path, |w| {
+            render::write_png(w, &shade, "beauty", args.exposure)
+        })?),
+        None => None,
+    };
+    if let Some(exr) = exr {
+        exr.commit()?;
+    }
+    if let Some(png) = png {
+        png.commit()?;
+    }
+    Ok(())
+}
