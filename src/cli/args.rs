@@ -13,6 +13,24 @@ use crate::stages::medium::{self, Medium, Model};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle;
 
+/// Which cloud points `filter` and `render` gather at a shade point.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GatherArgs {
+    /// Use the N nearest cloud points.
+    #[arg(long, value_name = "N", conflicts_with = "radius")]
+    pub nfp: Option<usize>,
+    /// Use the cloud points within this fraction of the scattering
+    /// distance D = sd * max(Rd) (the physical model's largest distance)
+    /// [default: 0.25, but never under twice the cloud's spacing
+    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea); the physical
+    /// model's ssM: twice the spacing].
+    #[arg(long, value_name = "FRACTION")]
+    pub radius: Option<f64>,
+    /// Only cloud points whose normal faces the shade point's side.
+    #[arg(long)]
+    pub facing: bool,
+}
+
 /// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).
 #[derive(clap::Args, Debug, Clone)]
 pub struct SsArgs {

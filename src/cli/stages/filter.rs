@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::cli::{self, IoArgs, MaterialArgs, SingleArgs, SsArgs};
+use crate::cli::{self, GatherArgs, IoArgs, MaterialArgs, SingleArgs, SsArgs};
 use crate::formats::Select;
 use crate::stages::facet::{self, Weight};
 use crate::stages::filter::{self, SingleSetup};
@@ -25,19 +25,8 @@ pub struct Args {
     /// The cloud: P and ssM (or P, N, ptarea, illum for lazy evaluation).
     #[arg(long, value_name = "CLOUD")]
     pub cloud: PathBuf,
-    /// Use the N nearest cloud points.
-    #[arg(long, value_name = "N", conflicts_with = "radius")]
-    pub nfp: Option<usize>,
-    /// Use the cloud points within this fraction of the scattering
-    /// distance D = sd * max(Rd) (the physical model's largest distance)
-    /// [default: 0.25, but never under twice the cloud's spacing
-    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea); the physical
-    /// model's ssM: twice the spacing].
-    #[arg(long, value_name = "FRACTION")]
-    pub radius: Option<f64>,
-    /// Only cloud points whose normal faces the shade point's side.
-    #[arg(long)]
-    pub facing: bool,
+    #[command(flatten)]
+    pub gather: GatherArgs,
     /// The attributes to filter (colour or vector, comma-separated,
     /// repeatable) [default: ssM and ssS, those the cloud has or can
     /// compute].
@@ -134,9 +123,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.attrs,
         multi.as_ref(),
         lazy_single.as_ref(),
-        args.nfp,
-        args.radius,
-        args.facing,
+        args.gather.nfp,
+        args.gather.radius,
+        args.gather.facing,
     )
     .map_err(cli::at(&cloud_name))?;
     if let Some(note) = &setup.note {

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::cli::{self, MaterialArgs, MsgArgs, SingleArgs, SsArgs};
+use crate::cli::{self, GatherArgs, MaterialArgs, MsgArgs, SingleArgs, SsArgs};
 use crate::files;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
@@ -41,19 +41,8 @@ pub struct Args {
     /// Preview exposure: 1 - exp(-exposure * beauty) (the bake's EXPOSURE).
     #[arg(long, default_value_t = 1.2)]
     pub exposure: f64,
-    /// Use the N nearest cloud points.
-    #[arg(long, value_name = "N", conflicts_with = "radius")]
-    pub nfp: Option<usize>,
-    /// Use the cloud points within this fraction of the scattering
-    /// distance D = sd * max(Rd) (the physical model's largest distance)
-    /// [default: 0.25, but never under twice the cloud's spacing
-    /// sqrt(Tarea / scatter_count), else sqrt(mean ptarea); the physical
-    /// model's ssM: twice the spacing].
-    #[arg(long, value_name = "FRACTION")]
-    pub radius: Option<f64>,
-    /// Only cloud points whose normal faces the shade point's side.
-    #[arg(long)]
-    pub facing: bool,
+    #[command(flatten)]
+    pub gather: GatherArgs,
     /// Add a direct diffuse term from these lights (JSON, as illum's):
     /// beauty = ssM + ssS + kd * illum, with shadows from the mesh.
     #[arg(long, value_name = "LIGHTS")]
@@ -189,9 +178,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.attrs,
         lazy.as_ref(),
         lazy_single.as_ref(),
-        args.nfp,
-        args.radius,
-        args.facing,
+        args.gather.nfp,
+        args.gather.radius,
+        args.gather.facing,
     )
     .map_err(cli::at(&cloud_name))?;
     if let Some(note) = &setup.note {
