@@ -33,9 +33,11 @@ class Cloud:
     def __len__(self) -> int: ...
     def __contains__(self, name: str) -> bool: ...
     def __getitem__(self, name: str) -> np.ndarray:
-        """A scalar attribute as a read-only view of the toolkit's own
-        column (no copy); a 3-vector as an N x 3 array (gathered from its
-        three columns)."""
+        """An attribute as a read-only view of the toolkit's own memory
+        (no copy): a scalar's column; a 3-vector as N x 3 (the rows the
+        module keeps a 3-vector in, or a binary file's records where its
+        x, y, z are neighbours; gathered into a new array only where
+        they are not)."""
     def components(self, name: str) -> List[np.ndarray]:
         """A 3-vector's x, y and z columns as read-only views of the
         toolkit's own memory (no copy); a scalar's column alone."""

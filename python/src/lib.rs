@@ -17,7 +17,7 @@ use numpy::ndarray::ArrayView1;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pcsss::cli::{self, stages, Failure, Memory};
 use pcsss::cloud::{AttrData, Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
-use pcsss::column::{Column, ScalarType};
+use pcsss::column::{Bytes, Column, RawBlock, RawRef, ScalarType, Values};
 use pcsss::formats::{self, Format, Select};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
@@ -54,7 +54,8 @@ struct PyCloud {
 struct Keep(#[allow(dead_code)] Arc<Cloud>);
 
 impl PyCloud {
-    fn new(c: Cloud) -> PyCloud {
+    fn new(mut c: Cloud) -> PyCloud {
+        interleave(&mut c);
         PyCloud {
             inner: std::sync::RwLock::new(Arc::new(c)),
         }
@@ -135,6 +136,145 @@ fn detail_value(py: Python<'_>, v: &DetailValue) -> PyResult<Py<PyAny>> {
         DetailValue::V3D(x) => PyTuple::new(py, x)?.into_any().unbind(),
         DetailValue::Str(s) => s.into_pyobject(py)?.into_any().unbind(),
     })
+}
+
+/// A 3-vector whose three columns the toolkit owns, as one block of rows
+/// (x, y, z; the machine's byte order), which the library reads as it
+/// reads a binary file's records (decoded when a stage uses it, copied
+/// through by the writers) and NumPy views as N x 3: the module keeps
+/// every such attribute so, so that `cloud[name]` is a view, not a
+/// gather. Columns still in a file's bytes are left there.
+fn interleaved(a: &Attribute) -> Option<Attribute> {
+    let AttrData::Vec3(role, cols) = &a.data else {
+        return None;
+    };
+    let ty = cols[0].ty();
+    if cols.iter().any(|c| c.raw().is_some() || c.ty() != ty) {
+        return None;
+    }
+    let (n, size) = (a.len(), ty.size());
+    let big = cfg!(target_endian = "big");
+    let mut bytes = vec![0u8; n * 3 * size];
+    for (k, c) in cols.iter().enumerate() {
+        c.column()
+            .scatter_into(0..n, &mut bytes, 3 * size, k * size, big);
+    }
+    let block = Arc::new(RawBlock {
+        bytes: Bytes::Owned(bytes),
+        stride: 3 * size,
+        big_endian: big,
+    });
+    let part = |k: usize| {
+        Values::lazy(
+            ty,
+            RawRef {
+                block: block.clone(),
+                offset: k * size,
+            },
+        )
+    };
+    Some(Attribute {
+        name: a.name.clone(),
+        data: AttrData::Vec3(*role, Box::new([part(0), part(1), part(2)])),
+    })
+}
+
+/// [`interleaved`] for every point attribute of `c`.
+fn interleave(c: &mut Cloud) {
+    let new: Vec<Attribute> = c.points().attrs().iter().filter_map(interleaved).collect();
+    for a in new {
+        c.points_mut().set(a).expect("the same rows");
+    }
+}
+
+/// A 3-vector as a read-only N x 3 NumPy view of the block of records
+/// its columns are in (rows of [`interleaved`], or a binary file's
+/// records where x, y, z are neighbours), or `None` where they are not.
+/// A file's records need not be aligned for the type (a PLY header is
+/// any length): NumPy reads an unaligned array as it reads any other.
+fn vec3_view<'py>(
+    py: Python<'py>,
+    cloud: &Arc<Cloud>,
+    cols: &[Values; 3],
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let ty = cols[0].ty();
+    let size = ty.size();
+    let Some(r0) = cols[0].raw() else {
+        return Ok(None);
+    };
+    let block = &r0.block;
+    let neighbours = cols.iter().enumerate().all(|(k, c)| {
+        c.ty() == ty
+            && c.raw()
+                .is_some_and(|r| Arc::ptr_eq(&r.block, block) && r.offset == r0.offset + k * size)
+    });
+    let n = cols[0].len();
+    if !neighbours || block.big_endian != cfg!(target_endian = "big") || n == 0 {
+        return Ok(None);
+    }
+    let base = block.bytes[r0.offset..].as_ptr();
+    let owner = Bound::new(py, Keep(cloud.clone()))?.into_any();
+    macro_rules! view {
+        ($($v:ident => $t:ty),*) => {
+            match ty {
+                // SAFETY: row i's x, y, z are at i * stride + 0, size,
+                // 2 size bytes from `base`, within the block's n * stride
+                // bytes; the block is in the cloud that `owner` (the
+                // array's base) holds, an Arc no one changes (a setitem
+                // copies the cloud while another holder exists).
+                $(ScalarType::$v => unsafe { strided::<$t>(py, n, block.stride, base, owner) },)*
+            }
+        };
+    }
+    view!(I8 => i8, U8 => u8, I16 => i16, U16 => u16, I32 => i32, U32 => u32, F32 => f32, F64 => f64)
+        .map(Some)
+}
+
+/// A read-only n x 3 array of `T` whose row i starts `i * row` bytes
+/// from `base`, its components `size_of::<T>()` bytes apart, kept alive
+/// by `owner`.
+///
+/// # Safety
+/// The n rows must lie in memory that `owner` keeps unchanged.
+unsafe fn strided<'py, T: numpy::Element>(
+    py: Python<'py>,
+    n: usize,
+    row: usize,
+    base: *const u8,
+    owner: Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use numpy::npyffi::{get_type_object, npy_intp, NpyTypes, PyArrayObject, PY_ARRAY_API};
+    use numpy::PyArrayDescrMethods;
+    let mut dims = [n as npy_intp, 3];
+    let mut strides = [row as npy_intp, std::mem::size_of::<T>() as npy_intp];
+    // SAFETY: the descriptor is a new reference the call steals; no
+    // flags: read-only, and NumPy works out alignment and contiguity.
+    let ptr = unsafe {
+        PY_ARRAY_API.PyArray_NewFromDescr(
+            py,
+            get_type_object(py, NpyTypes::PyArray_Type),
+            T::get_dtype(py).into_dtype_ptr(),
+            2,
+            dims.as_mut_ptr(),
+            strides.as_mut_ptr(),
+            base as *mut std::ffi::c_void,
+            0,
+            std::ptr::null_mut(),
+        )
+    };
+    if ptr.is_null() {
+        return Err(PyErr::fetch(py));
+    }
+    // SAFETY: `ptr` is the new array (a reference we own).
+    let arr = unsafe { Bound::from_owned_ptr(py, ptr) };
+    // SAFETY: SetBaseObject steals the reference `into_ptr` gives.
+    if unsafe {
+        PY_ARRAY_API.PyArray_SetBaseObject(py, ptr as *mut PyArrayObject, owner.into_ptr())
+    } < 0
+    {
+        return Err(PyErr::fetch(py));
+    }
+    Ok(arr)
 }
 
 /// The point attribute `name`, or Python's KeyError.
@@ -263,9 +403,11 @@ impl PyCloud {
             .collect()
     }
 
-    /// An attribute as NumPy: a scalar as a read-only view of the
-    /// toolkit's own column (no copy); a 3-vector as an N x 3 array
-    /// gathered from its three columns.
+    /// An attribute as a read-only NumPy view of the toolkit's own
+    /// memory (no copy): a scalar's column; a 3-vector as N x 3 (the rows
+    /// the module keeps a 3-vector in, or a binary file's records where
+    /// its x, y, z are neighbours; gathered into a new array only where
+    /// they are not).
     fn __getitem__<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let py = slf.py();
         let cloud = slf.get().get();
@@ -273,6 +415,9 @@ impl PyCloud {
         match &a.data {
             AttrData::Scalar(v) => column_view(py, &cloud, v),
             AttrData::Vec3(_, cols) => {
+                if let Some(view) = vec3_view(py, &cloud, cols)? {
+                    return Ok(view);
+                }
                 let n = a.len();
                 macro_rules! gather {
                     ($($v:ident),*) => {
@@ -296,9 +441,8 @@ impl PyCloud {
     }
 
     /// A 3-vector's three component columns as read-only NumPy views of
-    /// the toolkit's own memory (x, y, z: no copy; the toolkit keeps a
-    /// 3-vector as three columns, so an N x 3 array of it is a gather);
-    /// a scalar's column alone.
+    /// the toolkit's own memory (x, y, z, each decoded once into a column
+    /// of its own); a scalar's column alone.
     fn components<'py>(slf: &Bound<'py, Self>, name: &str) -> PyResult<Vec<Bound<'py, PyAny>>> {
         let py = slf.py();
         let cloud = slf.get().get();
@@ -312,6 +456,7 @@ impl PyCloud {
     /// Sets (or replaces) a point attribute from an array of N or N x 3.
     fn __setitem__(&self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
         let a = attribute(name, value)?;
+        let a = interleaved(&a).unwrap_or(a);
         let mut c = self.inner.write().unwrap_or_else(|e| e.into_inner());
         Arc::make_mut(&mut c)
             .points_mut()

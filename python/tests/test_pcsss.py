@@ -125,10 +125,59 @@ def test_arrays_in_and_out():
     assert x.ctypes.data == c.components("P")[0].ctypes.data
     c["Cd"] = np.ones((1000, 3), dtype=np.float32)
     assert "Cd" in c
+    # A 3-vector as N x 3: a read-only view of the toolkit's own block,
+    # the same memory at every access.
+    q = c["P"]
+    assert q.shape == (1000, 3) and not q.flags.owndata and not q.flags.writeable
+    assert q.ctypes.data == c["P"].ctypes.data
+    assert q.flags.c_contiguous and np.array_equal(q, p)
+    assert c["Cd"].ctypes.data == c["Cd"].ctypes.data and (c["Cd"] == 1).all()
     with pytest.raises(ValueError):
         c["bad"] = np.ones(3)
     with pytest.raises(KeyError):
         c["none"]
+
+
+def test_a_stage_s_3_vectors_are_views_and_a_file_s_too(lit, tmp_path):
+    """What a stage makes is an N x 3 view from Python, and the next stage
+    and the writers take it as it was; a binary file's x, y, z read from
+    Python are a view of the file's records (no decode)."""
+    cloud = pcsss.read(lit / "i.ply")
+    p = cloud["P"]
+    # The PLY's x, y, z are neighbours in each record: a strided view.
+    assert not p.flags.owndata and p.strides[1] == 4 and p.strides[0] > 12
+    assert np.array_equal(p, np.stack(cloud.components("P"), axis=1))
+    out = pcsss.ssmulti(cloud, rd=(0.9, 0.5, 0.3), sd=0.6, rgb=True)
+    m = out["ssM"]
+    assert m.shape == (len(out), 3) and m.dtype == np.float32
+    assert not m.flags.owndata and m.ctypes.data == out["ssM"].ctypes.data
+    assert np.array_equal(m, np.stack(out.components("ssM"), axis=1))
+    # The binary's bits, through a stage that reads ssM and a writer.
+    code, err = binary("ssmulti", lit / "i.ply", "--rd", "0.9,0.5,0.3", "--sd", "0.6", "--rgb",
+                       "-o", tmp_path / "m.ply")
+    assert code == 0, err
+    same(out, pcsss.read(tmp_path / "m.ply"))
+    pcsss.write(out, tmp_path / "py.ply")
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "m.ply").read_bytes()
+    # Records that are neither 4-byte rows nor aligned (a 13-byte row after
+    # a header of odd length): still a view, with the values written.
+    rng = np.random.default_rng(7)
+    pts = rng.random((50, 3), dtype=np.float32)
+    row = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("k", "u1")])
+    rec = np.zeros(50, dtype=row)
+    rec["x"], rec["y"], rec["z"], rec["k"] = pts[:, 0], pts[:, 1], pts[:, 2], 7
+    head = ("ply\nformat binary_little_endian 1.0\ncomment odd\nelement vertex 50\n"
+            "property float x\nproperty float y\nproperty float z\nproperty uchar k\nend_header\n")
+    assert len(head) % 4 != 0
+    (tmp_path / "odd.ply").write_bytes(head.encode() + rec.tobytes())
+    odd = pcsss.read(tmp_path / "odd.ply")
+    v = odd["P"]
+    assert not v.flags.owndata and v.strides == (13, 4) and np.array_equal(v, pts)
+    f = pcsss.filter(out, cloud=str(tmp_path / "m.ply"))
+    code, err = binary("filter", tmp_path / "m.ply", "--cloud", tmp_path / "m.ply",
+                       "-o", tmp_path / "f.ply")
+    assert code == 0, err
+    same(f, pcsss.read(tmp_path / "f.ply"))
 
 
 def test_the_gil_is_released_while_a_stage_runs(lit):
