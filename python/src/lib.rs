@@ -17,7 +17,7 @@ use numpy::ndarray::ArrayView1;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pcsss::cli::{self, stages, Failure, Memory};
 use pcsss::cloud::{AttrData, Attribute, Cloud, DetailValue, Element, ListColumn, Role, FACES};
-use pcsss::column::{Bytes, Column, RawBlock, RawRef, ScalarType, Values};
+use pcsss::column::{Bytes, Column, RawBlock, RawRef, Scalar, ScalarType, Values};
 use pcsss::formats::{self, Format, Select};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
@@ -103,8 +103,15 @@ macro_rules! scalar_from {
                 if a.ncols() != 3 {
                     return Err(PyValueError::new_err(format!("{}: an N x {} array; an attribute is N or N x 3", $name, a.ncols())));
                 }
-                let col = |k: usize| Column::$v(a.column(k).to_vec());
-                return Ok(Attribute::vec3($name, role_of($name), [col(0), col(1), col(2)]));
+                // Straight into the rows the module keeps a 3-vector in
+                // (one copy; see `interleaved`).
+                let size = std::mem::size_of::<$t>();
+                let big = cfg!(target_endian = "big");
+                let mut bytes = vec![0u8; a.nrows() * 3 * size];
+                for (x, out) in a.iter().zip(bytes.chunks_exact_mut(size)) {
+                    x.write(out, big);
+                }
+                return Ok(rows_attribute($name, role_of($name), ScalarType::$v, bytes));
             }
         )*
     }};
@@ -153,16 +160,26 @@ fn interleaved(a: &Attribute) -> Option<Attribute> {
         return None;
     }
     let (n, size) = (a.len(), ty.size());
-    let big = cfg!(target_endian = "big");
     let mut bytes = vec![0u8; n * 3 * size];
     for (k, c) in cols.iter().enumerate() {
-        c.column()
-            .scatter_into(0..n, &mut bytes, 3 * size, k * size, big);
+        c.column().scatter_into(
+            0..n,
+            &mut bytes,
+            3 * size,
+            k * size,
+            cfg!(target_endian = "big"),
+        );
     }
+    Some(rows_attribute(&a.name, *role, ty, bytes))
+}
+
+/// A 3-vector of `ty` from its rows (x, y, z; the machine's byte order).
+fn rows_attribute(name: &str, role: Role, ty: ScalarType, bytes: Vec<u8>) -> Attribute {
+    let size = ty.size();
     let block = Arc::new(RawBlock {
         bytes: Bytes::Owned(bytes),
         stride: 3 * size,
-        big_endian: big,
+        big_endian: cfg!(target_endian = "big"),
     });
     let part = |k: usize| {
         Values::lazy(
@@ -173,10 +190,10 @@ fn interleaved(a: &Attribute) -> Option<Attribute> {
             },
         )
     };
-    Some(Attribute {
-        name: a.name.clone(),
-        data: AttrData::Vec3(*role, Box::new([part(0), part(1), part(2)])),
-    })
+    Attribute {
+        name: name.to_string(),
+        data: AttrData::Vec3(role, Box::new([part(0), part(1), part(2)])),
+    }
 }
 
 /// [`interleaved`] for every point attribute of `c`.
