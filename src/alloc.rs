@@ -45,6 +45,24 @@ pub fn keep_freed_memory() {
     }
 }
 
+/// Runs `f` keeping what is freed for later allocations, as
+/// [`keep_freed_memory`], then gives the allocator back its delay before
+/// returning memory: for a program that runs a stage and goes on (the
+/// Python module, with mimalloc as its allocator).
+pub fn keeping_freed_memory<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(feature = "mimalloc")]
+    // SAFETY: reading an option is a plain load from mimalloc's table.
+    let before = unsafe { libmimalloc_sys::mi_option_get(MI_OPTION_PURGE_DELAY) };
+    keep_freed_memory();
+    let r = f();
+    #[cfg(feature = "mimalloc")]
+    // SAFETY: setting an option is a plain store into mimalloc's table.
+    unsafe {
+        libmimalloc_sys::mi_option_set(MI_OPTION_PURGE_DELAY, before);
+    }
+    r
+}
+
 #[cfg(all(test, feature = "mimalloc"))]
 mod tests {
     use super::*;
@@ -66,5 +84,14 @@ mod tests {
         assert_eq!(purge, -1);
         // The option after it keeps its default: the index is not off by one.
         assert_eq!(numa, 0);
+        // For the length of a stage only: the delay set before comes back.
+        let get = || {
+            // SAFETY: reading an option.
+            unsafe { libmimalloc_sys::mi_option_get(MI_OPTION_PURGE_DELAY) }
+        };
+        // SAFETY: setting an option (this test alone touches this one).
+        unsafe { libmimalloc_sys::mi_option_set(MI_OPTION_PURGE_DELAY, 1000) };
+        assert_eq!(keeping_freed_memory(get), -1);
+        assert_eq!(get(), 1000);
     }
 }

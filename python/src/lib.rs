@@ -24,6 +24,15 @@ use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 
+// The binaries' allocator (src/alloc.rs) for the module's own Rust
+// allocations, keeping freed memory while a stage runs: a stage from
+// Python allocates its big vectors as its binary does (with glibc's,
+// each big vector is mapped and zeroed afresh, and a stage ran a few per
+// cent slower than its binary: benches/results/HISTORY.md). Python and
+// NumPy keep their own allocators.
+#[global_allocator]
+static GLOBAL: pcsss::alloc::MiMalloc = pcsss::alloc::MiMalloc;
+
 create_exception!(
     pcsss,
     Error,
@@ -565,9 +574,11 @@ fn stage<T: clap::Parser + Send>(
     let memory = Memory::with_input(input);
     let m = memory.clone();
     py.detach(move || {
-        cli::call::<T>(name, &argv, move |mut args: T| {
-            io(&mut args).memory = Some(m);
-            run(args)
+        pcsss::alloc::keeping_freed_memory(|| {
+            cli::call::<T>(name, &argv, move |mut args: T| {
+                io(&mut args).memory = Some(m);
+                run(args)
+            })
         })
     })
     .map_err(failure)?;
