@@ -157,9 +157,9 @@ fn detail_value(py: Python<'_>, v: &DetailValue) -> PyResult<Py<PyAny>> {
 /// A 3-vector whose three columns the toolkit owns, as one block of rows
 /// (x, y, z; the machine's byte order), which the library reads as it
 /// reads a binary file's records (decoded when a stage uses it, copied
-/// through by the writers) and NumPy views as N x 3: the module keeps
-/// every such attribute so, so that `cloud[name]` is a view, not a
-/// gather. Columns still in a file's bytes are left there.
+/// through by the writers) and NumPy views as N x 3. The module holds
+/// every 3-vector it owns this way, so that `cloud[name]` is a view, not
+/// a gather; columns still in a file's bytes are left there.
 fn interleaved(a: &Attribute) -> Option<Attribute> {
     let AttrData::Vec3(role, cols) = &a.data else {
         return None;
