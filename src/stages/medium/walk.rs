@@ -199,7 +199,7 @@ pub fn walk_faces(
 /// the bins up to `n_max` are as long a walk's (other random draws), and
 /// the tests that read only those, or weigh longer paths by a vanishing
 /// `alpha^n`, are spared the long paths.
-fn walk_faces_upto(
+pub(super) fn walk_faces_upto(
     g: f64,
     eta: f64,
     mu_i: f64,
