@@ -72,15 +72,16 @@ slurm:
 ## stages. The Slurm cluster runs for the tests only: stopped at the end,
 ## whatever their outcome.
 ## The library's unit tests run beside the integration tests (cargo
-## holds no lock while tests run): the unit tests keep both cores busy
-## while the integration tests wait on make, Slurm, openjd and Python.
+## holds no lock while tests run), and the integration tests three at a
+## time on two cores: many of them wait on a stage's process, make,
+## Slurm, openjd or Python, and the others keep the cores busy meanwhile.
 test: pywheel pyenv exrtools slurm
 	mkdir -p target
 	pipelines/slurm/cluster.sh start target/slurm >/dev/null
 	trap 'pipelines/slurm/cluster.sh stop target/slurm' EXIT; \
 	  export SLURM_CONF=$(abspath target/slurm/slurm.conf) PCSSS_OPENJD=$(abspath $(PYENV)/bin/openjd); \
 	  cargo test --release --lib -- --include-ignored >target/test-lib.log 2>&1 & unit=$$!; \
-	  rest=0; cargo test --release --test '*' -- --include-ignored 2>&1 | tee target/test-rest.log || rest=$$?; \
+	  rest=0; cargo test --release --test '*' -- --include-ignored --test-threads=3 2>&1 | tee target/test-rest.log || rest=$$?; \
 	  lib=0; wait $$unit || lib=$$?; cat target/test-lib.log; \
 	  doc=0; cargo test --release --doc 2>&1 | tee target/test-doc.log || doc=$$?; \
 	  cat target/test-lib.log target/test-rest.log target/test-doc.log >target/test.log; \

@@ -29,14 +29,27 @@ array=$(sbatch --parsable --job-name=pcsss-tiles --array=0-$((n - 1)) \
     --output="$odir/slurm-%A_%a.log" --wrap "$task")
 merge=$(printf '%q ' "$BIN/pctile" -q merge "$tdir" --from "$odir" -o "$merged")
 echo "tiles: job array $array ($n tasks)"
-# (With --wait, sbatch returns 0 for a merge cancelled by a failed tile:
-# its state says what happened.)
 job=$(sbatch --parsable --job-name=pcsss-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes \
-    --output="$odir/slurm-merge-%j.log" "${wait[@]}" --wrap "$merge") || status=$?
-echo "merge: job ${job:-?}"
+    --output="$odir/slurm-merge-%j.log" --wrap "$merge")
+echo "merge: job $job"
 if (( ${#wait[@]} )); then
-    state=$(scontrol show job "$job" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' | cut -d= -f2 || true)
-    if [[ ${status:-0} != 0 || $state != COMPLETED ]]; then
+    # The merge job's state, asked every 0.25 s at first and every 2 s
+    # after a few. (`sbatch --wait` asks 2, 10 and 42 s after the
+    # submission, then every 32 s: a bake of seconds would return up to
+    # half a minute late.) A state that cannot be read 10 times running
+    # (the controller gone, the job purged) ends the wait.
+    state='' pause=0.25 lost=0
+    while :; do
+        state=$(scontrol show job "$job" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' | cut -d= -f2 || true)
+        case $state in
+            COMPLETED | FAILED | CANCELLED | TIMEOUT | NODE_FAIL | PREEMPTED | BOOT_FAIL | DEADLINE | OUT_OF_MEMORY) break ;;
+            '') (( ++lost < 10 )) || break ;;
+            *) lost=0 ;;
+        esac
+        sleep "$pause"
+        [[ $pause == 2 ]] || pause=$(awk -v p="$pause" 'BEGIN { p *= 2; print (p > 2 ? 2 : p) }')
+    done
+    if [[ $state != COMPLETED ]]; then
         echo "submit.sh: the merge job $job ended ${state:-unknown}: a tile failed or was cancelled (logs: $odir/slurm-*.log)" >&2
         exit 1
     fi
