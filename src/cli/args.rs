@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use super::{env_flag, IoArgs};
+use crate::stages::filter::{self, SingleSetup};
 use crate::stages::medium::{self, Medium, Model};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle;
@@ -29,6 +30,37 @@ pub struct GatherArgs {
     /// Only cloud points whose normal faces the shade point's side.
     #[arg(long)]
     pub facing: bool,
+}
+
+impl GatherArgs {
+    /// `filter`'s setup for `cloud` (named `cloud_name` in an error)
+    /// with these options: the attributes `attrs` gathered, `ssM` and
+    /// `ssS` made lazily by `multi` and `single`; how the reach was
+    /// chosen is a debug message.
+    pub fn setup<'a>(
+        &self,
+        cloud: &crate::cloud::Cloud,
+        cloud_name: &str,
+        attrs: &'a [String],
+        multi: Option<&'a ssmulti::Params>,
+        single: Option<&'a SingleSetup<'a>>,
+        msg: &super::Messages,
+    ) -> anyhow::Result<filter::Setup<'a>> {
+        let setup = filter::Setup::new(
+            cloud,
+            attrs,
+            multi,
+            single,
+            self.nfp,
+            self.radius,
+            self.facing,
+        )
+        .map_err(super::at(cloud_name))?;
+        if let Some(note) = &setup.note {
+            msg.debug(note);
+        }
+        Ok(setup)
+    }
 }
 
 /// `ssmulti`'s parameters (also `filter`'s, for lazy evaluation).

@@ -118,19 +118,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lights,
         params,
     });
-    let setup = filter::Setup::new(
+    let setup = args.gather.setup(
         &cloud,
+        &cloud_name,
         &args.attrs,
         multi.as_ref(),
         lazy_single.as_ref(),
-        args.gather.nfp,
-        args.gather.radius,
-        args.gather.facing,
-    )
-    .map_err(cli::at(&cloud_name))?;
-    if let Some(note) = &setup.note {
-        msg.debug(note);
-    }
+        &msg,
+    )?;
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());

@@ -8,7 +8,7 @@ use crate::files;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
 use crate::geom::mesh::TriMesh;
-use crate::stages::filter::{self, SingleSetup};
+use crate::stages::filter::SingleSetup;
 use crate::stages::render;
 use crate::Error;
 use clap::Parser;
@@ -173,19 +173,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             lights,
             params,
         });
-    let setup = filter::Setup::new(
+    let setup = args.gather.setup(
         &cloud,
+        &cloud_name,
         &args.attrs,
         lazy.as_ref(),
         lazy_single.as_ref(),
-        args.gather.nfp,
-        args.gather.radius,
-        args.gather.facing,
-    )
-    .map_err(cli::at(&cloud_name))?;
-    if let Some(note) = &setup.note {
-        msg.debug(note);
-    }
+        &msg,
+    )?;
     let scene = render::Scene {
         mesh: &mesh,
         mesh_name: &mesh_name,
