@@ -17,12 +17,13 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 import pcsss
+
+from timing import best  # benches/py/timing.py
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = ROOT / "target" / "release"
@@ -33,14 +34,6 @@ LIGHTS = str(ROOT / "fixtures" / "lights" / "bunny.json")
 def run(*args):
     subprocess.run([str(a) for a in args], check=True)
 
-
-def best(f, n):
-    ts = []
-    for _ in range(n):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return min(ts)
 
 
 def main():

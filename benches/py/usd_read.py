@@ -9,11 +9,12 @@ side by side in one run, as `.usdc` and as `.usda`.
 import json
 import subprocess
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, Vt
+
+from timing import best  # benches/py/timing.py
 
 ROOT = Path(__file__).resolve().parents[2]
 PCINFO = ROOT / "target" / "release" / "pcinfo"
@@ -38,14 +39,6 @@ def write(path, n=708):
     pv.Set(Vt.Vec2fArray.FromNumpy(p[:, :2].copy()))
     st.GetRootLayer().Save()
 
-
-def best(f, runs=3):
-    ts = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return min(ts)
 
 
 def main():
