@@ -38,7 +38,8 @@ if (( ${#wait[@]} )); then
     # submission, then every 32 s: a bake of seconds would return up to
     # half a minute late.) A state that cannot be read 10 times running
     # (the controller gone, the job purged) ends the wait.
-    state='' pause=0.25 lost=0
+    state='' asked=0 lost=0
+    pauses=(0.25 0.5 1)
     while :; do
         state=$(scontrol show job "$job" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' | cut -d= -f2 || true)
         case $state in
@@ -46,8 +47,7 @@ if (( ${#wait[@]} )); then
             '') (( ++lost < 10 )) || break ;;
             *) lost=0 ;;
         esac
-        sleep "$pause"
-        [[ $pause == 2 ]] || pause=$(awk -v p="$pause" 'BEGIN { p *= 2; print (p > 2 ? 2 : p) }')
+        sleep "${pauses[asked++]:-2}"
     done
     if [[ $state != COMPLETED ]]; then
         echo "submit.sh: the merge job $job ended ${state:-unknown}: a tile failed or was cancelled (logs: $odir/slurm-*.log)" >&2
