@@ -8,7 +8,8 @@
 //! those below: the repository's `docs/ARCHITECTURE.md`):
 //!
 //! - Leaves: [`names`] (attribute names and the stage that makes each),
-//!   [`maths`] (smoothstep, seeded uniform streams), [`radix`] (radix
+//!   [`maths`] (smoothstep, seeded uniform streams), [`optics`]
+//!   (refraction, Fresnel, Henyey-Greenstein), [`radix`] (radix
 //!   sorts), [`progress`] (progress bars, phase times),
 //!   [`alloc`](mod@alloc) (the binaries' allocator).
 //! - [`column`](mod@column): scalar types and (lazily decoded) columns.
@@ -49,6 +50,7 @@ pub mod lights;
 pub mod maths;
 pub mod memory;
 pub mod names;
+pub mod optics;
 pub mod progress;
 pub mod radix;
 pub mod stages;

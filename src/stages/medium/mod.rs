@@ -16,8 +16,8 @@
 
 use std::f64::consts::PI;
 
-use super::sssingle::optics::{fresnel, hg};
 use crate::error::{Error, Result};
+use crate::optics::{fresnel, hg};
 use walk::Histogram;
 
 pub mod material;

@@ -23,8 +23,8 @@ use std::f64::consts::PI;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
-use super::super::sssingle::optics::fresnel;
 use crate::maths::uniform53;
+use crate::optics::fresnel;
 
 /// Counts of `n` kept one by one.
 pub const EXACT: u32 = 32;
