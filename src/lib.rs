@@ -23,7 +23,8 @@
 //!   measures, sampling, closest points; meshes ([`geom::mesh`]), rays
 //!   against them ([`geom::bvh`]), neighbour search over points
 //!   ([`geom::grid`], [`geom::kdtree`]).
-//! - [`lights`]: the lights file, light masks, light arriving at a point.
+//! - [`lights`]: the lights file, light masks, light arriving at a point,
+//!   and whether it arrives: shadow rays ([`lights::shadow`]).
 //! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti,
 //!   sssingle, filter, render.
 //! - [`tiles`]: `pctile`'s split and merge, the halo a stage needs;

@@ -11,6 +11,7 @@
 
 pub mod dome;
 mod file;
+pub mod shadow;
 
 pub use file::{parse, parse_file, parse_file_in};
 

@@ -7,11 +7,12 @@
 //! arrives): the physical model of `ssmulti` reflects oblique light more
 //! than light along the normal (`docs/DESIGN.md#incidence`).
 //!
-//! - Visibility: an any-hit shadow ray against the mesh (`crate::bvh`),
-//!   from the point moved off its surface by a few ulps along `N`, up to
-//!   the light (or to infinity for a distant light). A light sample that
-//!   the normal faces away from, or that falls outside a spot's cone,
-//!   brings nothing and casts no ray. Without a mesh every ray is clear.
+//! - Visibility: a shadow ray against the mesh ([`crate::lights::shadow`],
+//!   the rules sssingle's share: off the point's own triangle, the
+//!   terminator, a medium's passage), up to the light (or to infinity for
+//!   a distant light). A light sample that the normal faces away from, or
+//!   that falls outside a spot's cone, brings nothing and casts no ray.
+//!   Without a mesh every ray is clear.
 //! - `N` is normalised here; a zero-length or non-finite `N` or `P` is an
 //!   error naming the point (facet leaves zero normals on degenerate
 //!   faces).
@@ -19,10 +20,10 @@
 //!   a random offset per point and light (`Pcg32`, from the seed, the
 //!   light's place in the file and the point's index): the same output
 //!   bits for any thread count and any light mask.
-//! - Shadow terminator: with smooth normals a point just on the lit side
-//!   of its smooth normal but behind its flat facet sees the facet's own
-//!   mesh in the way, as a ray tracer would; its `dot(N, L)` is near zero
-//!   there, so the light it loses is small.
+//! - Shadow terminator: with smooth normals a point on the lit side of its
+//!   smooth normal but behind its flat facet is lit as the smooth surface
+//!   would be, unless its ray crosses the solid beyond the facets around
+//!   its own (`lights::shadow`).
 //!
 //! Positions may be f64: light directions and distances are computed in
 //! f64, rays in the mesh's unit frame (see `crate::bvh`).
@@ -60,8 +61,6 @@ const CHUNK: usize = 4096;
 /// and unlit points.
 type Chunk = (Vec<(DVec3, f64)>, u64, u64, usize);
 
-/// Adds `illum` to `cloud` from `lights` (already masked), with shadows
-/// from `occluder` when given.
 /// Bytes a mesh's triangle takes at illum's peak (its BVH and the build's
 /// work, the mesh itself, a distant light's grid), with a margin: peaks
 /// measured on the Stanford dragon and a mesh of 1e7 triangles
@@ -75,90 +74,21 @@ pub fn occluder(mesh: &TriMesh) -> Result<Occluder> {
     Ok(Occluder::new(mesh))
 }
 
-/// Shadows of a medium: the light a shadow ray carries through the mesh's
-/// inside, `exp(-sigma_t d)` over the length `d` it crosses, and the
-/// boundary's Fresnel transmittance where it enters and leaves.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Passage {
-    /// Extinction per channel (1 / the mean free path).
-    pub sigma_t: DVec3,
-    /// Relative index of refraction of the boundary.
-    pub eta: f64,
-}
+/// Shadows of a medium (the light a shadow ray carries through the
+/// mesh's inside): the shadow rays' own type.
+pub use crate::lights::shadow::{Passage, Shadows};
 
-/// Crossings a shadow ray follows through the mesh before it counts as
-/// blocked.
-const MAX_CROSSINGS: usize = 64;
-
-/// The light that a shadow ray from `p` (normal `n`) along `dir` for `dist`
-/// carries through the medium `m` bounded by the mesh of `occ`: the
-/// product over its passages inside of `exp(-sigma_t d)` and the Fresnel
-/// transmittance where it enters and leaves, along a straight line (exact at eta 1; at other
-/// eta the refraction's sideways shift is not followed). Zero once every
-/// channel is below 1e-12, or after [`MAX_CROSSINGS`].
-fn passage(occ: &Occluder, m: &Passage, p: DVec3, n: DVec3, dir: DVec3, dist: f64) -> DVec3 {
-    use crate::stages::sssingle::optics::fresnel;
-    let mut ray = occ.shadow_ray(p, n, dir, dist);
-    let end = ray.tmax;
-    let mut t = DVec3::ONE;
-    // Where the ray went in (the mesh frame's distance), when inside.
-    let mut inside: Option<f64> = None;
-    for k in 0..MAX_CROSSINGS {
-        let Some(j) = occ.nearest_ray(&mut ray, Facing::Any) else {
-            // Never left: an open mesh, or the ray ends inside (a light
-            // inside the mesh) - the medium up to the end counts.
-            if let Some(t0) = inside {
-                let d = occ.mesh_dist(end.min(f32::MAX)) - t0;
-                if d.is_finite() {
-                    t *= (-m.sigma_t * d.max(0.0)).exp();
-                } else {
-                    return DVec3::ZERO;
-                }
-            }
-            return t;
-        };
-        let at = occ.mesh_dist(ray.tmax);
-        let f = occ.leaf_normal(j);
-        let cos = (f.dot(dir) / f.length()).abs();
-        let entering = f.dot(dir) < 0.0;
-        match (entering, inside) {
-            (true, None) => inside = Some(at),
-            (false, Some(t0)) => {
-                t *= (-m.sigma_t * (at - t0).max(0.0)).exp();
-                inside = None;
-            }
-            // Leaving first: the ray started inside (a smooth normal
-            // facing the light where the facet does not, by the shadow
-            // terminator), and crossed the medium from its start.
-            (false, None) if k == 0 => t *= (-m.sigma_t * at.max(0.0)).exp(),
-            // Two faces the same way in a row (a mesh that overlaps
-            // itself): the boundary is crossed, the inside's length
-            // counted from the first.
-            _ => {}
-        }
-        t *= 1.0 - fresnel(cos, m.eta);
-        if t.max_element() < 1e-12 {
-            return DVec3::ZERO;
-        }
-        // On past this hit (a relative step: the unit frame's f32).
-        let next = ray.tmax * (1.0 + 4.0 * f32::EPSILON) + 1e-7;
-        ray.tmin = next;
-        ray.tmax = end;
-        if next >= end {
-            return if inside.is_some() { DVec3::ZERO } else { t };
-        }
-    }
-    DVec3::ZERO
-}
-
+/// Adds `illum` to `cloud` from `lights` (already masked), with the
+/// shadows of `shadows`' mesh (and the light through its medium) when
+/// given.
 pub fn illum(
     cloud: &mut Cloud,
     lights: &[Light],
-    occluder: Option<&Occluder>,
-    medium: Option<&Passage>,
+    shadows: Option<&Shadows>,
     seed: u64,
     progress: &Progress,
 ) -> Result<Report> {
+    let occluder = shadows.map(|s| s.occluder());
     let pts = cloud.points();
     if !pts.has("N") {
         return Err(pts.missing("N"));
@@ -232,19 +162,11 @@ pub fn illum(
                         // What of it gets here: all, none, or (a medium's
                         // shadow) what crosses the medium.
                         let mut got = a.e;
-                        if let Some(occ) = occluder {
+                        if let Some(sh) = shadows {
                             rays += 1;
-                            let blocked_here = match cols {
-                                Some(c) => c.occluded(occ, p, n, a.dir, a.dist),
-                                None => occ.occluded(p, n, a.dir, a.dist),
-                            };
-                            if blocked_here {
-                                blocked += 1;
-                                got *= match medium {
-                                    Some(m) => passage(occ, m, p, n, a.dir, a.dist),
-                                    None => DVec3::ZERO,
-                                };
-                            }
+                            let reach = sh.from_point(cols.as_ref(), p, n, a.dir, a.dist);
+                            blocked += reach.blocked as u64;
+                            got *= reach.through;
                         }
                         if got == DVec3::ZERO {
                             continue;
@@ -304,18 +226,18 @@ pub fn illum(
     // What the run was: the lights (their names, and all they are), the
     // mesh that shadowed them, the area lights' seed.
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
-    let shadows = occluder.map_or("none".to_string(), |o| o.mesh_digest.clone());
+    let shadow_mesh = occluder.map_or("none".to_string(), |o| o.mesh_digest.clone());
     let mut details = vec![
         ("illum_lights", DetailValue::Str(names.join(","))),
         (
             "illum_lights_digest",
             DetailValue::Str(crate::lights::digest(lights)),
         ),
-        ("illum_shadows", DetailValue::Str(shadows)),
+        ("illum_shadows", DetailValue::Str(shadow_mesh)),
         ("illum_seed", DetailValue::Str(seed.to_string())),
     ];
     // A medium's shadows let light through: what it was.
-    if let (Some(m), Some(_)) = (medium, occluder) {
+    if let Some(m) = shadows.and_then(|s| s.medium()) {
         details.push(("illum_mfp", DetailValue::V3D((1.0 / m.sigma_t).to_array())));
         details.push(("illum_eta", DetailValue::F64(m.eta)));
     }
@@ -509,7 +431,8 @@ pub fn indirect(
                     if dir.dot(flat) <= 0.0 {
                         continue;
                     }
-                    let mut ray = occluder.shadow_ray(p, n, dir, f64::INFINITY);
+                    // (Off the plane it leaves: lights::shadow's origin.)
+                    let mut ray = occluder.shadow_ray(p, flat, dir, f64::INFINITY);
                     let Some(j) = occluder.nearest_ray(&mut ray, Facing::Any) else {
                         continue;
                     };

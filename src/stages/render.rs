@@ -19,6 +19,7 @@ use crate::geom;
 use crate::geom::bvh::Occluder;
 use crate::geom::mesh::TriMesh;
 use crate::image::{self, Window, PIXEL_X, PIXEL_Y};
+use crate::lights::shadow::Shadows;
 use crate::lights::Light;
 use crate::maths::uniform24;
 use crate::progress::Progress;
@@ -307,16 +308,19 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         scene.sources,
         progress,
     )?;
-    let occluder = match scene.direct {
-        Some(_) => Some(Occluder::new(
-            &TriMesh::from_cloud(scene.mesh).map_err(at_mesh)?,
-        )),
+    let tris = match scene.direct {
+        Some(_) => Some(TriMesh::from_cloud(scene.mesh).map_err(at_mesh)?),
         None => None,
     };
+    let occluder = tris.as_ref().map(Occluder::new);
+    let shadows = tris
+        .as_ref()
+        .zip(occluder.as_ref())
+        .map(|(m, o)| Shadows::new(m, o, None));
     let direct = scene
         .direct
-        .zip(occluder.as_ref())
-        .map(|((lights, kd), occ)| (lights, occ, kd));
+        .zip(shadows.as_ref())
+        .map(|((lights, kd), sh)| (lights, sh, kd));
     let terms: Vec<(&str, f64)> = scene
         .sources
         .iter()
@@ -625,11 +629,12 @@ fn splat(sx: f64, sy: f64, r: i64, w: i64, h: i64, px: &Pixels, mut add: impl Fn
 /// `terms` (`ssM`, `ssS`), each times its scale ([`filter::radiance_scale`]),
 /// plus `kd * illum`, with `illum` the direct
 /// diffuse light from `lights` (`illum`'s code: `Cl max(0, N.L)` with
-/// shadow rays against `occluder`, kept as the attribute `illum`).
+/// shadow rays against the mesh of `shadows`, kept as the attribute
+/// `illum`).
 pub fn beauty(
     shade: &mut Cloud,
     terms: &[(&str, f64)],
-    direct: Option<(&[Light], &Occluder, [f64; 3])>,
+    direct: Option<(&[Light], &Shadows, [f64; 3])>,
     progress: &Progress,
 ) -> Result<()> {
     let mut sum = vec![[0.0f64; 3]; shade.len()];
@@ -643,8 +648,8 @@ pub fn beauty(
     let names: Vec<&str> = terms.iter().map(|t| t.0).collect();
     let out: Vec<[f32; 3]> = match direct {
         None => sum.iter().map(|v| v.map(|x| x as f32)).collect(),
-        Some((lights, occ, kd)) => {
-            crate::stages::illum::illum(shade, lights, Some(occ), None, 0, progress)?;
+        Some((lights, shadows, kd)) => {
+            crate::stages::illum::illum(shade, lights, Some(shadows), 0, progress)?;
             let e = shade.points().vec3_f64("illum")?;
             sum.iter()
                 .zip(&e)

@@ -42,8 +42,8 @@ fn mean_illum(c: &Cloud) -> f64 {
     e.iter().map(|v| v[0]).sum::<f64>() / e.len() as f64
 }
 
-fn lit(mut c: Cloud, lights: &[lights::Light], occ: Option<&pcsss::geom::bvh::Occluder>) -> Cloud {
-    illum::illum(&mut c, lights, occ, None, 7, &Progress::hidden()).unwrap();
+fn lit(mut c: Cloud, lights: &[lights::Light], shadows: Option<&illum::Shadows>) -> Cloud {
+    illum::illum(&mut c, lights, shadows, 7, &Progress::hidden()).unwrap();
     c
 }
 
@@ -72,10 +72,12 @@ fn a_constant_dome_gives_pi_l_on_a_plane_and_a_square_overhead_its_view_factor()
         ],
         &[vec![0, 1, 2, 3]],
     );
-    let occ = illum::occluder(&pcsss::geom::mesh::TriMesh::from_cloud(&sq).unwrap()).unwrap();
+    let tris = pcsss::geom::mesh::TriMesh::from_cloud(&sq).unwrap();
+    let occ = illum::occluder(&tris).unwrap();
+    let shadows = illum::Shadows::new(&tris, &occ, None);
     let s2 = 2f64.sqrt();
     let f = 2.0 / PI * (2.0 / s2 * (1.0 / s2).atan());
-    let c = lit(points(4000, [0.0, 0.0, 1.0]), &l, Some(&occ));
+    let c = lit(points(4000, [0.0, 0.0, 1.0]), &l, Some(&shadows));
     let got = mean_illum(&c);
     let want = PI * 1.0 * (1.0 - f);
     assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want} (F = {f})");

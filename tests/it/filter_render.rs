@@ -665,13 +665,14 @@ fn the_direct_term_adds_kd_times_the_light() {
         "l.json",
     )
     .unwrap();
-    let occ =
-        pcsss::geom::bvh::Occluder::new(&pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap());
+    let tris = pcsss::geom::mesh::TriMesh::from_cloud(&mesh).unwrap();
+    let occ = pcsss::geom::bvh::Occluder::new(&tris);
+    let shadows = pcsss::lights::shadow::Shadows::new(&tris, &occ, None);
     let kd = [0.1, 0.2, 0.4];
     render::beauty(
         &mut shade,
         &[("ssM", 1.0)],
-        Some((&lights, &occ, kd)),
+        Some((&lights, &shadows, kd)),
         &Progress::hidden(),
     )
     .unwrap();

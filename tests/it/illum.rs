@@ -115,8 +115,13 @@ fn run_illum(
     shadows: Option<&Cloud>,
 ) -> (Vec<[f64; 3]>, illum::Report) {
     let mut c = cloud.clone();
-    let occ = shadows.map(|m| Occluder::new(&TriMesh::from_cloud(m).unwrap()));
-    let rep = illum::illum(&mut c, lights, occ.as_ref(), None, 0, &Progress::hidden()).unwrap();
+    let tris = shadows.map(|m| TriMesh::from_cloud(m).unwrap());
+    let occ = tris.as_ref().map(Occluder::new);
+    let sh = tris
+        .as_ref()
+        .zip(occ.as_ref())
+        .map(|(t, o)| illum::Shadows::new(t, o, None));
+    let rep = illum::illum(&mut c, lights, sh.as_ref(), 0, &Progress::hidden()).unwrap();
     (c.points().vec3_f64("illum").unwrap(), rep)
 }
 
@@ -619,8 +624,10 @@ fn illum_cos_is_the_irradiance_weighted_mean_cosine() {
     );
     let cosine = |lights: &[Light]| {
         let mut c = pts.clone();
-        let occ = Occluder::new(&TriMesh::from_cloud(&mesh).unwrap());
-        illum::illum(&mut c, lights, Some(&occ), None, 0, &Progress::hidden()).unwrap();
+        let tris = TriMesh::from_cloud(&mesh).unwrap();
+        let occ = Occluder::new(&tris);
+        let sh = illum::Shadows::new(&tris, &occ, None);
+        illum::illum(&mut c, lights, Some(&sh), 0, &Progress::hidden()).unwrap();
         c.points().scalar_f64("illum_cos").unwrap()
     };
     // Weights: 3 x 1 from the top, 3.5 x 0.28 from the low light.
@@ -707,9 +714,10 @@ fn a_mediums_shadow_lets_through_what_crosses_it_unscattered() {
                 eta,
             };
             let mut c = pts.clone();
-            let occ = Occluder::new(&TriMesh::from_cloud(scene).unwrap());
-            let rep =
-                illum::illum(&mut c, &l, Some(&occ), Some(&m), 0, &Progress::hidden()).unwrap();
+            let tris = TriMesh::from_cloud(scene).unwrap();
+            let occ = Occluder::new(&tris);
+            let sh = illum::Shadows::new(&tris, &occ, Some(m));
+            let rep = illum::illum(&mut c, &l, Some(&sh), 0, &Progress::hidden()).unwrap();
             assert_eq!(rep.blocked, 400);
             let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
             let want = (-d / mfp).exp() * (1.0 - f0).powi(crossings);
@@ -816,7 +824,8 @@ fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
             .build()
             .unwrap();
         pool.install(|| {
-            illum::illum(&mut c, &[], Some(&occ), None, 0, &Progress::hidden()).unwrap();
+            let sh = illum::Shadows::new(&mesh, &occ, None);
+            illum::illum(&mut c, &[], Some(&sh), 0, &Progress::hidden()).unwrap();
             illum::indirect(&mut c, &occ, &mesh, &medium(), 1024, 3, &Progress::hidden()).unwrap()
         });
         c
@@ -833,8 +842,10 @@ fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
     assert!(c.detail("illum_indirect_rays").is_some());
     // illum again: the light between surfaces is gone, attribute and record.
     let mut again = c.clone();
-    let occ = Occluder::new(&under_a_glowing_square(half, h, m, false).1);
-    illum::illum(&mut again, &[], Some(&occ), None, 0, &Progress::hidden()).unwrap();
+    let tris = under_a_glowing_square(half, h, m, false).1;
+    let occ = Occluder::new(&tris);
+    let sh = illum::Shadows::new(&tris, &occ, None);
+    illum::illum(&mut again, &[], Some(&sh), 0, &Progress::hidden()).unwrap();
     assert!(!again.points().has("illum_indirect") && again.detail("illum_indirect_rays").is_none());
     // Seen from behind: nothing.
     let back = run(true, 2);
@@ -854,7 +865,7 @@ fn indirect_light_carries_the_single_scattering_of_the_light_it_got() {
     let f = view_factor(half, half, h);
     let (mut c, mesh) = under_a_glowing_square(half, h, m, false);
     let up = parse(r#"{"lights": [{"name": "below", "type": "distant", "direction": [0, 0, 1]}]}"#);
-    illum::illum(&mut c, &up, None, None, 0, &Progress::hidden()).unwrap();
+    illum::illum(&mut c, &up, None, 0, &Progress::hidden()).unwrap();
     let occ = Occluder::new(&mesh);
     let med = medium();
     illum::indirect(&mut c, &occ, &mesh, &med, 1024, 3, &Progress::hidden()).unwrap();

@@ -38,6 +38,7 @@ mod python_interop;
 mod python_module;
 mod render_pixels;
 mod scatter;
+mod shadow_rays;
 mod ssmulti;
 mod sssingle;
 mod texture;

@@ -592,7 +592,8 @@ proptest! {
             let mut c = c.clone();
             let tm = TriMesh::from_cloud(m).unwrap();
             let occ = Occluder::new(&tm);
-            illum::illum(&mut c, &lights(o), Some(&occ), None, 7, &Progress::hidden()).unwrap();
+            let sh = illum::Shadows::new(&tm, &occ, None);
+            illum::illum(&mut c, &lights(o), Some(&sh), 7, &Progress::hidden()).unwrap();
             c
         };
         let want = on_threads(1, || run(&cloud, &mesh, DVec3::ZERO));

@@ -46,15 +46,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),
         eta: m.eta,
     });
-    let rep = illum::illum(
-        &mut cloud,
-        &used,
-        occluder.as_ref(),
-        passage.as_ref(),
-        args.seed,
-        &progress,
-    )
-    .map_err(cli::at(&name))?;
+    let shadows = match (&occluder, &mesh) {
+        (Some(occ), Some(mesh)) => Some(illum::Shadows::new(mesh, occ, passage)),
+        _ => None,
+    };
+    let rep = illum::illum(&mut cloud, &used, shadows.as_ref(), args.seed, &progress)
+        .map_err(cli::at(&name))?;
     if let (true, Some(mesh)) = (args.thickness, &mesh) {
         let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
         if open > 0 {

@@ -13,14 +13,31 @@ use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::columns::Columns;
 use crate::geom::mesh::TriMesh;
 use crate::geom::{self, unit_or_zero};
+use crate::lights::shadow::{Passage, Shadows};
+use crate::optics::fresnel;
 use crate::stages::facet::{corner_normals, Weight};
 
-/// A surface hit: the distance along the ray and the mesh's unit normal
-/// there.
+/// The most stretches of the medium a view ray is followed through.
+pub const MAX_STRETCHES: usize = 16;
+
+/// A stretch of the view ray inside the medium: where it starts, its
+/// length (infinite: it never leaves), and the Fresnel transmittance of
+/// the faces the ray crossed before it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stretch {
+    pub at: DVec3,
+    pub len: f64,
+    pub kt: f64,
+}
+
+/// A surface hit: the distance along the ray, the mesh's unit normal
+/// there, and the triangle hit.
 #[derive(Clone, Copy, Debug)]
 pub struct Entry {
     pub dist: f64,
     pub normal: DVec3,
+    /// The mesh's triangle the ray leaves by.
+    pub tri: usize,
 }
 
 /// The mesh, its BVH and its normals (corners split at the cusp angle).
@@ -125,6 +142,12 @@ impl<'a> Interior<'a> {
     /// (The seed model's depths stop at the longest scattering distance,
     /// a small part of most objects: the BVH then skips every box beyond.)
     pub fn view_within(&self, xo: DVec3, dir: DVec3, far: f64) -> (DVec3, f64) {
+        let (on, len, _) = self.view_exit(xo, dir, far);
+        (on, len)
+    }
+
+    /// [`Interior::view_within`], and the triangle the ray leaves by.
+    fn view_exit(&self, xo: DVec3, dir: DVec3, far: f64) -> (DVec3, f64, Option<usize>) {
         let start = xo - dir * self.margin;
         let on = match self
             .occ
@@ -137,12 +160,67 @@ impl<'a> Interior<'a> {
             None => xo,
         };
         let reach = far * (1.0 + 1e-3) + 2.0 * self.margin;
-        let exit = self
-            .occ
+        let (len, exit) = self.leave(on, dir, reach);
+        (on, len, exit)
+    }
+
+    /// How far the ray from `on` (inside) along unit `dir` goes, within
+    /// `reach`, before it leaves the mesh, and the triangle it leaves by
+    /// (infinite and none: it does not, within `reach`).
+    fn leave(&self, on: DVec3, dir: DVec3, reach: f64) -> (f64, Option<usize>) {
+        self.occ
             .nearest(on, dir, -self.behind, reach, Facing::Leaving)
-            .and_then(|(t, _)| self.plane_dist(t, on, dir))
-            .map_or(f64::INFINITY, |d| d.max(0.0));
-        (on, exit)
+            .and_then(|(t, _)| Some((self.plane_dist(t, on, dir)?.max(0.0), Some(t))))
+            .unwrap_or((f64::INFINITY, None))
+    }
+
+    /// The view ray's path through the medium: the stretch from the point
+    /// ([`Interior::view`]), then every later one the ray crosses on past
+    /// where it leaves (another part of the object, another object in the
+    /// mesh), at most [`MAX_STRETCHES`], into `out`: each stretch's start,
+    /// length, and the Fresnel transmittance (at `eta`) of the faces
+    /// crossed before it. The ray goes on inside in its own direction:
+    /// exact at eta 1, and between parallel faces at any eta (it leaves
+    /// and enters again at the same angle, shifted sideways); total
+    /// internal reflection ends the path.
+    pub fn view_path(&self, xo: DVec3, dir: DVec3, eta: f64, out: &mut Vec<Stretch>) {
+        out.clear();
+        let (mut at, mut len, mut exit) = self.view_exit(xo, dir, f64::INFINITY);
+        let mut kt = 1.0;
+        loop {
+            out.push(Stretch { at, len, kt });
+            let Some(t) = exit else {
+                return;
+            };
+            if out.len() >= MAX_STRETCHES {
+                return;
+            }
+            // Out through the face it leaves by, and in again through the
+            // next face it enters by, if any.
+            let from = at + dir * len;
+            let Some((u, _)) =
+                self.occ
+                    .nearest(from, dir, self.behind, f64::INFINITY, Facing::Entering)
+            else {
+                return;
+            };
+            let Some(gap) = plane_dist(self.mesh.tri(u), from, dir) else {
+                return;
+            };
+            kt *= crossing(self.cos(t, dir), eta) * crossing(self.cos(u, dir), eta);
+            if kt == 0.0 {
+                return;
+            }
+            at = from + dir * gap.max(0.0);
+            (len, exit) = self.leave(at, dir, f64::INFINITY);
+        }
+    }
+
+    /// `|cos|` of the angle between unit `dir` and triangle `t`'s plane's
+    /// normal.
+    fn cos(&self, t: usize, dir: DVec3) -> f64 {
+        let [a, b, c] = self.mesh.tri(t);
+        unit_or_zero(geom::tri_cross(a, b, c)).dot(dir).abs()
     }
 
     /// Where the ray from `p` (inside) along unit `dir` first leaves the
@@ -191,19 +269,13 @@ impl<'a> Interior<'a> {
         Some(Entry {
             dist,
             normal: self.normal_on(t, tri, p + dir * dist),
+            tri: t,
         })
     }
 
-    /// Is the segment from `from` (where a ray from inside left the
-    /// mesh) along unit `dir` for `dist` (infinite: a distant light)
-    /// blocked by the mesh? The ray starts a few ulps out along `dir`
-    /// (the face it left by is behind it), through `cols` when they were
-    /// built for `dir`.
-    pub fn blocked(&self, cols: Option<&Columns>, from: DVec3, dir: DVec3, dist: f64) -> bool {
-        match cols {
-            Some(c) => c.occluded(&self.occ, from, dir, dir, dist),
-            None => self.occ.occluded(from, dir, dir, dist),
-        }
+    /// The shadows the mesh casts, through `medium` when given.
+    pub fn shadows(&self, medium: Option<Passage>) -> Shadows<'_> {
+        Shadows::new(self.mesh, &self.occ, medium)
     }
 
     /// Is `eye` inside the mesh? The nearest surface a ray from it meets
@@ -227,6 +299,18 @@ impl<'a> Interior<'a> {
             .count();
         inside >= 2
     }
+}
+
+/// The Fresnel transmittance of a face that light crosses with the
+/// direction of cosine `cos_t` to its normal inside (relative index
+/// `eta`): at the angle outside whose refraction that is; 0 where none is
+/// (total internal reflection).
+fn crossing(cos_t: f64, eta: f64) -> f64 {
+    let sin_o2 = eta * eta * (1.0 - cos_t * cos_t);
+    if sin_o2 >= 1.0 {
+        return 0.0;
+    }
+    1.0 - fresnel((1.0 - sin_o2).sqrt(), eta)
 }
 
 /// The distance from `o` along unit `dir` to the plane of triangle `abc`,

@@ -4,7 +4,9 @@
 //! depths (stratified, from the point's own random stream: the same bits
 //! on any thread count); from each, a ray towards every light sample finds
 //! where that light enters the mesh, and a shadow ray from there on to
-//! the light whether anything blocks it; the light is carried to the depth
+//! the light what lies in the way ([`crate::lights::shadow`], illum's
+//! rules; the physical model's mesh holds its medium, which lets through
+//! what crosses it); the light is carried to the depth
 //! along the refracted path, scattered towards the eye by a
 //! Henyey-Greenstein phase function and refracted out, with Fresnel at
 //! both crossings.
@@ -33,11 +35,12 @@ use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
 use crate::geom::columns::Columns;
 use crate::geom::mesh::TriMesh;
+use crate::lights::shadow::{Passage, Shadows};
 use crate::lights::{Arrival, Light, Shape};
 use crate::maths::uniform24;
 use crate::progress::Progress;
 
-use self::interior::{Entry, Interior};
+use self::interior::{Entry, Interior, Stretch};
 use self::optics::*;
 
 /// Which estimator: Marengo's (`Seed`: Rd, sd, the smooth falloff over
@@ -78,7 +81,8 @@ pub struct Params {
     pub cusp: f64,
     /// Light that enters the mesh is first traced from the entry point to
     /// its light sample: the mesh (the object itself, or another in the
-    /// same file) shadows it. Off: Marengo's unshadowed estimator.
+    /// same file) shadows it, opaque for the seed model, its medium for
+    /// the physical one. Off: Marengo's unshadowed estimator.
     pub shadows: bool,
 }
 
@@ -467,6 +471,22 @@ struct Scratch {
     emissions: Vec<Arrival>,
     /// Per light: the sum over its pairs and the pairs with a hit.
     sums: Vec<([f64; 3], u64)>,
+    /// The view ray's stretches inside the medium.
+    path: Vec<Stretch>,
+}
+
+/// The point at length `s` inside the medium along the view ray `dir`
+/// through the stretches `path` (the last one's end when `s` is past
+/// them all), and the Fresnel transmittance of the faces crossed to get
+/// there.
+fn along(path: &[Stretch], dir: DVec3, mut s: f64) -> (DVec3, f64) {
+    for (k, st) in path.iter().enumerate() {
+        if s <= st.len || k + 1 == path.len() {
+            return (st.at + dir * s.min(st.len), st.kt);
+        }
+        s -= st.len;
+    }
+    (DVec3::ZERO, 0.0)
 }
 
 /// What happened at a point.
@@ -502,6 +522,8 @@ struct Run<'a> {
     single: bool,
     /// Per light: a grid for its parallel rays (a distant light's).
     columns: Vec<Option<Columns>>,
+    /// The mesh's shadows (the physical model's: through its medium).
+    shadows: Shadows<'a>,
 }
 
 impl<'a> Run<'a> {
@@ -543,6 +565,13 @@ impl<'a> Run<'a> {
             sigma_t,
             single,
             columns,
+            shadows: interior.shadows(match p.model {
+                Model::Seed => None,
+                Model::Physical => Some(Passage {
+                    sigma_t: DVec3::from_array(sigma_t),
+                    eta: p.eta,
+                }),
+            }),
         }
     }
 
@@ -562,23 +591,38 @@ impl<'a> Run<'a> {
             wpo: -to,
             kto: 1.0 - fresnel(cos_o, p.eta),
         };
-        // (Seed: depths stop at the longest distance, so the exit
-        // farther away need not be found.)
-        let far = match p.model {
-            Model::Seed => self.lu1,
-            Model::Physical => f64::INFINITY,
-        };
-        let (x0, d) = self.interior.view_within(xo, to, far);
+        let Scratch {
+            emissions,
+            sums,
+            path,
+        } = scratch;
+        // The depths' range along the view ray. Seed: up to the longest
+        // distance, so the exit farther away need not be found. Physical:
+        // every stretch of the medium the ray crosses, end to end (the
+        // exponential runs over the length inside).
+        match p.model {
+            Model::Seed => {
+                let (x0, d) = self.interior.view_within(xo, to, self.lu1);
+                path.clear();
+                path.push(Stretch {
+                    at: x0,
+                    len: d,
+                    kt: 1.0,
+                });
+            }
+            Model::Physical => self.interior.view_path(xo, to, p.eta, path),
+        }
+        let d: f64 = path.iter().map(|s| s.len).sum();
         let mut rng = Pcg32::new(p.seed, i);
         let k = p.samples as usize;
-        let Scratch { emissions, sums } = scratch;
         sums.clear();
         sums.resize(self.lights.len(), ([0.0; 3], 0));
         let (mut rays, mut entered) = (0u64, 0u64);
         let (mut shadow_rays, mut shadowed) = (0u64, 0u64);
         for j in 0..k {
             let (s, weight) = self.depth(j, uniform24(&mut rng), d);
-            let ps = x0 + to * s;
+            let (ps, kt) = along(path, to, s);
+            let weight = weight.map(|w| w * kt);
             for (l, light) in self.lights.iter().enumerate() {
                 let (r1, r2) = if light.samples > 1 {
                     (uniform24(&mut rng), uniform24(&mut rng))
@@ -601,19 +645,19 @@ impl<'a> Run<'a> {
                     // A shadowed pair still counts (it entered, and
                     // brings nothing); one that adds nothing needs no
                     // shadow ray.
-                    let lit = !p.shadows || f == [0.0; 3] || {
+                    let through = if !p.shadows || f == [0.0; 3] {
+                        DVec3::ONE
+                    } else {
                         shadow_rays += 1;
                         let from = ps + e.dir * hit.dist;
                         let rest = e.dist - hit.dist;
-                        let blocked = self.interior.blocked(cols, from, e.dir, rest);
-                        shadowed += blocked as u64;
-                        !blocked
+                        let reach = self.shadows.from_triangle(cols, from, hit.tri, e.dir, rest);
+                        shadowed += reach.blocked as u64;
+                        reach.through
                     };
                     let (sum, n) = &mut sums[l];
-                    if lit {
-                        for c in 0..3 {
-                            sum[c] += f[c];
-                        }
+                    for c in 0..3 {
+                        sum[c] += f[c] * through[c];
                     }
                     *n += 1;
                 }

@@ -283,3 +283,64 @@ fn the_physical_model_under_a_constant_dome_equals_the_closed_form() {
         }
     }
 }
+
+/// Two slabs, one over the other with a gap: the view ray leaves the top
+/// one and goes on into the bottom one, and the light reaching the bottom
+/// one crosses the top one's medium. Beside the top slab's own closed
+/// form, the bottom one's, times what both rays lose crossing the top
+/// slab: `e^(-t1 / mfp (1 / mu_i_t + 1 / mu_o_t))` and the Fresnel
+/// transmittance of its bottom face and the bottom slab's top face, twice
+/// each. (Exact when the shadow ray's straight line is the light's path
+/// inside: at eta 1, or with the light along the normal.)
+#[test]
+fn the_view_ray_goes_on_into_the_medium_below_a_gap() {
+    let cl = [1.0, 0.8, 0.6];
+    let cloud = top_points(4, 0.05, DVec3::ZERO);
+    let (t1, gap) = (0.05, 0.3);
+    let albedo = [0.9, 0.7, 0.5];
+    // (eta, g, bottom thickness, mean free paths, light and view angles)
+    let cases = [
+        (1.0, 0.0, f64::INFINITY, [0.1; 3], 30.0, 20.0, 0.0),
+        (1.0, 0.6, 0.1, [0.05, 0.1, 0.2], 40.0, 35.0, 180.0),
+        (1.0, -0.3, f64::INFINITY, [0.05, 0.1, 0.2], 10.0, 50.0, 90.0),
+        (1.33, 0.3, f64::INFINITY, [0.05, 0.1, 0.2], 0.0, 65.0, 0.0),
+    ];
+    for (eta, g, t2, mfp, ti, to, phi) in cases {
+        let top = slab_mesh(20.0, t1, DVec3::ZERO);
+        let depth2 = if t2.is_finite() { t2 } else { 50.0 };
+        let bottom = slab_mesh(20.0, depth2, DVec3::new(0.0, 0.0, -t1 - gap));
+        let mesh = crate::shadow_rays::join_meshes(&top, &bottom);
+        let p = Params {
+            model: Model::Physical,
+            albedo,
+            mfp,
+            g,
+            eta,
+            samples: 256,
+            eye: eye(to, phi, DVec3::ZERO),
+            ..Params::default()
+        };
+        let got = run(&cloud, &mesh, &distant(ti, cl), &p);
+        let a = Angles::new(ti, to, phi, eta);
+        let upper = physical_truth(&a, cl, albedo, mfp, g, eta, t1);
+        let lower = physical_truth(&a, cl, albedo, mfp, g, eta, t2);
+        let (tti, tto) = (
+            snell(ti.to_radians(), eta).unwrap(),
+            snell(to.to_radians(), eta).unwrap(),
+        );
+        let cross = (fresnel_t(ti.to_radians(), eta) * fresnel_t(to.to_radians(), eta)).powi(2);
+        let want = [0, 1, 2].map(|c| {
+            let lost = (-t1 / mfp[c] * (1.0 / tti.cos() + 1.0 / tto.cos())).exp();
+            upper[c] + lower[c] * lost * cross
+        });
+        let alone = physical_truth(&a, cl, albedo, mfp, g, eta, t1);
+        let e = worst(&got, want);
+        assert!(
+            e < 0.01,
+            "eta {eta} g {g} t2 {t2} mfp {mfp:?} in {ti} out {to}/{phi}: {:?} against {want:?} (the top slab alone {alone:?}), worst {e:.1e}",
+            got[0]
+        );
+        // The bottom slab's share is not small.
+        assert!(want[2] > alone[2] * 1.1, "{want:?} {alone:?}");
+    }
+}
