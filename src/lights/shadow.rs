@@ -28,7 +28,7 @@ use glam::DVec3;
 use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::columns::Columns;
 use crate::geom::mesh::TriMesh;
-use crate::geom::{tri_cross, unit_or_zero};
+use crate::geom::{closest_on_triangle, tri_cross, unit_or_zero};
 use crate::optics::fresnel;
 
 /// Shadows of a medium: the light a shadow ray carries through the mesh's
@@ -67,6 +67,44 @@ const MAX_CROSSINGS: usize = 64;
 /// share of the mesh's size (points written as f32 round by about 1e-7 of
 /// it).
 pub const ON_MESH: f64 = 1e-5;
+
+/// A normal this close to its triangle's (the cosine between them) is the
+/// triangle's: a ray off it is the ray off the triangle (flat normals,
+/// rounded to f32).
+const FLAT: f64 = 1.0 - 1e-9;
+
+/// A cloud point a shadow ray starts from: its place, unit normal, the
+/// mesh face it was scattered on if known, and the triangle under it once
+/// a ray needed it.
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    p: DVec3,
+    n: DVec3,
+    face: Option<usize>,
+    under: Option<Option<usize>>,
+}
+
+impl Point {
+    /// The point at `p` with unit normal `n`.
+    pub fn new(p: DVec3, n: DVec3) -> Point {
+        Point {
+            p,
+            n,
+            face: None,
+            under: None,
+        }
+    }
+
+    /// The point, with the face it was scattered on (its `sourceprim`): the
+    /// first place to look for its triangle (a face the mesh does not have,
+    /// or one the point is not on, is passed over).
+    pub fn on_face(self, face: usize) -> Point {
+        Point {
+            face: Some(face),
+            ..self
+        }
+    }
+}
 
 /// The mesh that casts shadows, its BVH, and the medium inside it (none:
 /// opaque).
@@ -110,25 +148,40 @@ impl<'a> Shadows<'a> {
         self.medium.as_ref()
     }
 
-    /// The ray from cloud point `p` (unit normal `n`) along unit `dir` to a
-    /// light at `dist` (infinite: a distant light), through `cols` when
-    /// they were built for `dir`. Traced first from `p` off its normal;
-    /// only a blocked ray looks for the triangle `p` lies on, and is then
-    /// decided from that triangle (its own plane, the terminator). A point
-    /// off the mesh (a cloud over another surface) keeps the first answer.
+    /// The ray from cloud point `at` along unit `dir` to a light at `dist`
+    /// (infinite: a distant light), through `cols` when they were built for
+    /// `dir`. Traced first from the point off its normal: a clear ray is
+    /// final. A blocked one looks for the triangle the point lies on (in
+    /// the face it was scattered on, else the mesh's closest point; kept
+    /// for the point's other rays) and is decided again from that
+    /// triangle, unless the first ray was that triangle's own (the normal
+    /// is the triangle's and the ray leaves it). A point off the mesh (a
+    /// cloud over another surface) keeps the first answer.
     pub fn from_point(
         &self,
         cols: Option<&Columns>,
-        p: DVec3,
-        n: DVec3,
+        at: &mut Point,
         dir: DVec3,
         dist: f64,
     ) -> Reach {
+        let (p, n) = (at.p, at.n);
         if !self.any_hit(cols, p, n, dir, dist) {
             return Reach::CLEAR;
         }
-        match self.triangle_under(p) {
-            Some(t) => self.from_triangle(cols, p, t, dir, dist),
+        let face = at.face;
+        let under = *at.under.get_or_insert_with(|| {
+            face.and_then(|f| self.on_face(p, f))
+                .or_else(|| self.triangle_under(p))
+        });
+        match under {
+            Some(t) => {
+                let f = self.facet(t);
+                if f.dot(dir) > 0.0 && f.dot(n) >= FLAT {
+                    self.blocked(p, n, dir, dist)
+                } else {
+                    self.from_triangle(cols, p, t, dir, dist)
+                }
+            }
             None => self.blocked(p, n, dir, dist),
         }
     }
@@ -268,7 +321,26 @@ impl<'a> Shadows<'a> {
         DVec3::ZERO
     }
 
-    /// The triangle `p` lies on (within [`ON_MESH`] of the mesh's size).
+    /// The triangle of face `f` that `p` lies on (within [`ON_MESH`] of the
+    /// mesh's size), if the mesh has that face.
+    fn on_face(&self, p: DVec3, f: usize) -> Option<usize> {
+        let m = self.mesh;
+        if f >= m.face_count() {
+            return None;
+        }
+        (m.face_tris[f]..m.face_tris[f + 1])
+            .map(|t| {
+                let [a, b, c] = m.tri(t as usize);
+                let w = closest_on_triangle(p, a, b, c);
+                ((a * w[0] + b * w[1] + c * w[2] - p).length(), t as usize)
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0))
+            .filter(|x| x.0 <= self.on_mesh)
+            .map(|x| x.1)
+    }
+
+    /// The triangle `p` lies on (within [`ON_MESH`] of the mesh's size):
+    /// the mesh's nearest.
     fn triangle_under(&self, p: DVec3) -> Option<usize> {
         let (t, _, d) = self.occ.closest_point(self.mesh, p)?;
         (d <= self.on_mesh).then_some(t)

@@ -76,7 +76,7 @@ pub fn occluder(mesh: &TriMesh) -> Result<Occluder> {
 
 /// Shadows of a medium (the light a shadow ray carries through the
 /// mesh's inside): the shadow rays' own type.
-pub use crate::lights::shadow::{Passage, Shadows};
+pub use crate::lights::shadow::{Passage, Point, Shadows};
 
 /// Adds `illum` to `cloud` from `lights` (already masked), with the
 /// shadows of `shadows`' mesh (and the light through its medium) when
@@ -95,6 +95,12 @@ pub fn illum(
     }
     let pos = pts.vec3_f64("P")?;
     let nrm = pts.vec3_f64("N")?;
+    // The faces points were scattered on: where a shadow ray that needs
+    // its point's triangle looks first.
+    let faces = match (shadows, pts.has("sourceprim")) {
+        (Some(_), true) => Some(pts.scalar_f64("sourceprim")?),
+        _ => None,
+    };
     for i in 0..pos.len() {
         if !DVec3::from_array(pos[i]).is_finite() {
             return Err(Error::invalid(format!(
@@ -137,6 +143,12 @@ pub fn illum(
                 let i = c * CHUNK + k;
                 let p = DVec3::from_array(*p);
                 let n = DVec3::from_array(*n).normalize();
+                let mut at = Point::new(p, n);
+                if let Some(f) = faces.as_ref().and_then(|f| f.get(i)) {
+                    if *f >= 0.0 && *f < u32::MAX as f64 {
+                        at = at.on_face(*f as usize);
+                    }
+                }
                 let mut e = DVec3::ZERO;
                 // The arrivals' irradiance summed over channels, and with
                 // their cosines.
@@ -164,7 +176,7 @@ pub fn illum(
                         let mut got = a.e;
                         if let Some(sh) = shadows {
                             rays += 1;
-                            let reach = sh.from_point(cols.as_ref(), p, n, a.dir, a.dist);
+                            let reach = sh.from_point(cols.as_ref(), &mut at, a.dir, a.dist);
                             blocked += reach.blocked as u64;
                             got *= reach.through;
                         }

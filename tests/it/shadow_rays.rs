@@ -12,7 +12,7 @@ use crate::util::*;
 use pcsss::cloud::Role;
 use pcsss::geom::bvh::Occluder;
 use pcsss::geom::mesh::TriMesh;
-use pcsss::lights::shadow::{Passage, Shadows};
+use pcsss::lights::shadow::{Passage, Point, Shadows};
 use pcsss::lights::{self, Light};
 use pcsss::progress::Progress;
 use pcsss::stages::facet::{self, Mode, Weight};
@@ -125,15 +125,28 @@ fn grazing_light_is_never_shadowed_on_a_convex_mesh() {
             for mode in [Mode::Flat, Mode::Smooth] {
                 let pts = points_on(&mesh, 1000, mode);
                 let (pos, nrm) = (positions(&pts), pts.points().vec3_f64("N").unwrap());
+                let prim = pts.points().scalar_f64("sourceprim").unwrap();
                 let mut blocked = 0;
                 let mut rays = 0;
-                for (p, n) in pos.iter().zip(&nrm) {
+                for (i, (p, n)) in pos.iter().zip(&nrm).enumerate() {
                     let n = DVec3::from_array(*n).normalize();
+                    // The triangle found from the mesh alone, from the
+                    // face the point was scattered on, and from a face
+                    // it is not on (passed over).
+                    let face = prim[i] as usize;
+                    let wrong = (face + 7) % tris.face_count();
+                    let mut at = [
+                        Point::new(*p, n),
+                        Point::new(*p, n).on_face(face),
+                        Point::new(*p, n).on_face(wrong),
+                    ];
                     for dir in grazing(n) {
                         // A distant light, and a point light 10 away.
                         for dist in [f64::INFINITY, 10.0] {
-                            rays += 1;
-                            blocked += shadows.from_point(None, *p, n, dir, dist).blocked as usize;
+                            for a in at.iter_mut() {
+                                rays += 1;
+                                blocked += shadows.from_point(None, a, dir, dist).blocked as usize;
+                            }
                         }
                     }
                 }
@@ -261,7 +274,7 @@ fn a_ball_in_the_way_shadows_what_it_hides_and_its_medium_lets_light_through() {
                 continue;
             }
             let miss = (*p - bc).cross(dir).length(); // distance of the line from the centre
-            let reach = opaque.from_point(None, *p, n, dir, f64::INFINITY);
+            let reach = opaque.from_point(None, &mut Point::new(*p, n), dir, f64::INFINITY);
             if miss < br - band && (bc - *p).dot(dir) > 0.0 {
                 hidden += 1;
                 assert!(
@@ -271,7 +284,9 @@ fn a_ball_in_the_way_shadows_what_it_hides_and_its_medium_lets_light_through() {
                 // Through the medium: exp(-sigma d) over the chord, the
                 // faceted chord within 3% of the sphere's.
                 let d = chord(*p, dir, bc, br);
-                let got = medium.from_point(None, *p, n, dir, f64::INFINITY).through;
+                let got = medium
+                    .from_point(None, &mut Point::new(*p, n), dir, f64::INFINITY)
+                    .through;
                 for c in 0..3 {
                     let (lo, hi) = (
                         (-sigma[c] * d * 1.03).exp(),
@@ -287,7 +302,9 @@ fn a_ball_in_the_way_shadows_what_it_hides_and_its_medium_lets_light_through() {
                 seen += 1;
                 assert!(!reach.blocked, "{p}: {reach:?}");
                 assert_eq!(
-                    medium.from_point(None, *p, n, dir, f64::INFINITY).through,
+                    medium
+                        .from_point(None, &mut Point::new(*p, n), dir, f64::INFINITY)
+                        .through,
                     DVec3::ONE
                 );
             }
@@ -329,7 +346,7 @@ fn a_ray_that_crosses_the_solid_under_a_tilted_normal_is_blocked() {
         let a = dive_deg.to_radians();
         let dir = (x * a.cos() - facet * a.sin()).normalize();
         assert!(n.dot(dir) > 0.0);
-        let r = opaque.from_point(None, p, n, dir, f64::INFINITY);
+        let r = opaque.from_point(None, &mut Point::new(p, n), dir, f64::INFINITY);
         // The chord of the unit sphere from the point on.
         let d = chord(p, dir, DVec3::ZERO, 1.0);
         if dive_deg < 1.0 {
@@ -340,7 +357,9 @@ fn a_ray_that_crosses_the_solid_under_a_tilted_normal_is_blocked() {
                 r.blocked && r.through == DVec3::ZERO,
                 "dive {dive_deg}: {r:?}"
             );
-            let got = medium.from_point(None, p, n, dir, f64::INFINITY).through;
+            let got = medium
+                .from_point(None, &mut Point::new(p, n), dir, f64::INFINITY)
+                .through;
             for c in 0..3 {
                 let want = (-sigma[c] * d).exp();
                 assert!(

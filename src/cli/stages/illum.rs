@@ -36,8 +36,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut cloud = match args.indirect {
         // The indirect light needs the last run's ssM.
-        Some(_) => args.io.read(&Select::only(&["P", "N", "ssM"]))?,
-        None => args.io.read(&Select::only(&["P", "N"]))?,
+        Some(_) => args
+            .io
+            .read(&Select::only(&["P", "N", "sourceprim", "ssM"]))?,
+        None => args.io.read(&Select::only(&["P", "N", "sourceprim"]))?,
     };
     // The lights are moved into the cloud's frame.
     let used = lights_file.in_frame(&cloud.frame().map_err(cli::at(&name))?);
