@@ -106,6 +106,7 @@ impl Error {
     pub fn about(self, name: &str) -> Self {
         match self {
             Error::Param { .. } => self,
+            Error::In { name: ref n, .. } if n == name => self,
             _ => Error::In {
                 name: name.to_string(),
                 inner: Box::new(self),

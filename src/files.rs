@@ -11,6 +11,7 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, Once, OnceLock};
 
 use crate::error::{Error, Result};
@@ -23,19 +24,102 @@ fn identity(meta: &std::fs::Metadata) -> Identity {
     (meta.dev(), meta.ino())
 }
 
-/// The inputs this process has opened, each with the name it was opened
-/// by.
+/// The inputs this run has opened, each with the name it was opened by.
 static INPUTS: Mutex<Vec<(Identity, PathBuf)>> = Mutex::new(Vec::new());
 
+/// The outputs this run will write that exist already (standard output
+/// among them when it is a file), each with its name and the parameter
+/// that names it: no input is read from one of them.
+static OUTPUTS: Mutex<Vec<(Identity, PathBuf, String)>> = Mutex::new(Vec::new());
+
+/// Starts a run: forgets the inputs and outputs of the one before (a
+/// process that runs several stages, the Python module's).
+pub fn begin_run() {
+    INPUTS.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    OUTPUTS.lock().unwrap_or_else(|e| e.into_inner()).clear();
+}
+
 /// Opens the input file `path` for reading and remembers it: an output of
-/// this process is never renamed over it ([`Staged::commit`]).
-pub fn open_input(path: &Path) -> io::Result<File> {
+/// this run is never renamed over it ([`Staged::commit`]), and an input
+/// that is one of the run's outputs (through any path or link, or as
+/// standard output) is refused here, before the work, naming the output's
+/// parameter. Every file a stage reads is opened through this or
+/// [`read_input`]: a file named on the command line, and the files those
+/// name (a lights file's dome map, a USD stage's layers, a texture, a
+/// material file).
+pub fn open_input(path: &Path) -> Result<File> {
     let f = File::open(path)?;
     if let Ok(meta) = f.metadata() {
-        let mut v = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
-        v.push((identity(&meta), path.to_path_buf()));
+        note_input(&meta, path)?;
     }
     Ok(f)
+}
+
+/// Remembers the input `path` (its metadata `meta`) that a reader opened,
+/// refusing it when it is one of the run's outputs.
+pub fn note_input(meta: &std::fs::Metadata, path: &Path) -> Result<()> {
+    let id = identity(meta);
+    let outs = OUTPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, out, param)) = outs.iter().find(|(i, _, _)| *i == id) {
+        return Err(collision(param, out, path));
+    }
+    drop(outs);
+    let mut v = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    v.push((id, path.to_path_buf()));
+    Ok(())
+}
+
+/// Reads the whole input file `path` ([`open_input`]), at most `cap`
+/// bytes: a longer file (or a device that never ends, `/dev/zero`) is
+/// refused as `what` past the cap, after reading `cap + 1` bytes and no
+/// more, into memory asked for as it grows (a request the machine
+/// refuses is an error, not an abort).
+pub fn read_input(path: &Path, cap: u64, what: &str) -> Result<Vec<u8>> {
+    read_input_of(path, cap, what, &[])
+}
+
+/// [`read_input`] of a file that starts with one of `magics` (none: any
+/// start): another start is refused as not `what` from its first bytes,
+/// before the rest is read.
+pub fn read_input_of(path: &Path, cap: u64, what: &str, magics: &[&[u8]]) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let name = path.display().to_string();
+    let mut f = open_input(path)?.take(cap.saturating_add(1));
+    let mut v: Vec<u8> = Vec::new();
+    if let Some(longest) = magics.iter().map(|m| m.len()).max() {
+        (&mut f)
+            .take(longest as u64)
+            .read_to_end(&mut v)
+            .map_err(|e| Error::Io(e).about(&name))?;
+        if !magics.iter().any(|m| v.starts_with(m)) {
+            let why = format!("not {what} (its first bytes are no such file's)");
+            return Err(Error::unsupported(why).about(&name));
+        }
+    }
+    let mut chunk = vec![0u8; 1 << 16];
+    loop {
+        let n = match f.read(&mut chunk) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::Io(e).about(&name)),
+        };
+        if v.len() + n > v.capacity() {
+            v.try_reserve(v.len().max(n)).map_err(|_| {
+                Error::invalid(format!(
+                    "{} bytes read and more to come: more than this machine holds",
+                    v.len()
+                ))
+                .about(&name)
+            })?;
+        }
+        v.extend_from_slice(&chunk[..n]);
+    }
+    if v.len() as u64 > cap {
+        let why = format!("larger than {cap} bytes: not {what}");
+        return Err(Error::invalid(why).about(&name));
+    }
+    Ok(v)
 }
 
 /// The input (as it was opened) that `path` is, if it is one.
@@ -43,6 +127,20 @@ fn opened_input(path: &Path) -> Option<PathBuf> {
     let id = identity(&std::fs::metadata(path).ok()?);
     let v = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
     v.iter().find(|(i, _)| *i == id).map(|(_, p)| p.clone())
+}
+
+/// Standard output's identity when it is a regular file (`> out.ply`,
+/// `1<> in.ply`).
+fn stdout_file() -> Option<Identity> {
+    use std::os::fd::AsRawFd;
+    let fd = io::stdout().as_raw_fd();
+    // SAFETY: fstat on descriptor 1, which stays open; `st` is a plain C
+    // struct fstat fills, read only when it succeeded.
+    unsafe {
+        let mut st: libc::stat = std::mem::zeroed();
+        (libc::fstat(fd, &mut st) == 0 && (st.st_mode & libc::S_IFMT) == libc::S_IFREG)
+            .then_some((st.st_dev as u64, st.st_ino as u64))
+    }
 }
 
 /// An output a binary will write: a file, or a directory of files (a
@@ -73,6 +171,14 @@ impl<'a> Output<'a> {
 /// in a directory that exists and can be written. A collision is a bad
 /// parameter: the one that names the output.
 pub fn check_outputs(outputs: &[Output], inputs: &[&Path]) -> Result<()> {
+    check_outputs_to(outputs, inputs, false)
+}
+
+/// [`check_outputs`], and when `stdout` (the run writes standard output)
+/// standard output too when it is a file: it must be no input, and no
+/// input opened later may be it. The outputs that exist are remembered
+/// for [`open_input`]'s check.
+pub fn check_outputs_to(outputs: &[Output], inputs: &[&Path], stdout: bool) -> Result<()> {
     let mut ids: Vec<(Identity, &Path)> = inputs
         .iter()
         .filter_map(|p| std::fs::metadata(p).ok().map(|m| (identity(&m), *p)))
@@ -82,6 +188,19 @@ pub fn check_outputs(outputs: &[Output], inputs: &[&Path]) -> Result<()> {
     if let Some(m) = std::fs::metadata("/dev/stdin").ok().filter(|m| m.is_file()) {
         ids.push((identity(&m), Path::new("<stdin>")));
     }
+    let mut declared = OUTPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(id) = stdout.then(stdout_file).flatten() {
+        if let Some((_, input)) = ids.iter().find(|(i, _)| *i == id) {
+            return Err(collision("output", Path::new("<stdout>"), input));
+        }
+        declared.push((id, PathBuf::from("<stdout>"), "output".into()));
+    }
+    for out in outputs {
+        if let Some(m) = std::fs::metadata(out.path).ok().filter(|m| m.is_file()) {
+            declared.push((identity(&m), out.path.to_path_buf(), out.param.into()));
+        }
+    }
+    drop(declared);
     for out in outputs {
         let Ok(meta) = std::fs::metadata(out.path) else {
             if !out.dir {
@@ -246,19 +365,86 @@ fn dir_of(path: &Path) -> &Path {
     }
 }
 
+/// Where an output named by a path goes (`docs/GUIDE.md#conventions`).
+#[derive(Clone, Debug, PartialEq)]
+enum Target {
+    /// A regular file (or none yet): written atomically, a temp file
+    /// beside it renamed onto it. A symbolic link names the file it leads
+    /// to, which is written; the link stays a link.
+    File(PathBuf),
+    /// A device, FIFO or socket: written in place, opened by its path.
+    Direct(PathBuf),
+    /// An open descriptor of this process (`/dev/stdout`, `/dev/fd/3`,
+    /// `/proc/self/fd/3`): written through it, as it is open (a shell's
+    /// `>>` appends), never renamed over.
+    Descriptor(i32),
+}
+
+/// The most symbolic links followed from an output's path (Linux's).
+const MAX_LINKS: usize = 40;
+
+/// Where the output `path` goes: its chain of symbolic links followed to
+/// a descriptor of this process, a file that is not a regular one, or a
+/// regular file (or a path with nothing there yet).
+fn target(path: &Path) -> Target {
+    let mut p = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        if let Some(fd) = descriptor(&p) {
+            return Target::Descriptor(fd);
+        }
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => match std::fs::read_link(&p) {
+                Ok(t) if t.is_absolute() => p = t,
+                Ok(t) => p = dir_of(&p).join(t),
+                Err(_) => break,
+            },
+            Ok(m) if !m.is_file() && !m.is_dir() => return Target::Direct(p),
+            _ => break,
+        }
+    }
+    Target::File(p)
+}
+
+/// The descriptor a path names directly: `/dev/fd/N`, `/proc/self/fd/N`
+/// or `/proc/PID/fd/N` of this process.
+fn descriptor(p: &Path) -> Option<i32> {
+    let s = p.to_str()?;
+    let own = format!("/proc/{}/fd/", std::process::id());
+    let n = ["/dev/fd/", "/proc/self/fd/", own.as_str()]
+        .iter()
+        .find_map(|pre| s.strip_prefix(pre))?;
+    n.parse().ok().filter(|&n: &i32| n >= 0)
+}
+
+/// A writable duplicate of this process's descriptor `fd`.
+fn duplicate(fd: i32) -> io::Result<File> {
+    use std::os::fd::FromRawFd;
+    // SAFETY: dup makes a new descriptor this process then owns alone;
+    // on failure it returns -1, checked before it is used.
+    let d = unsafe { libc::dup(fd) };
+    if d < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: `d` was just made and nothing else holds it.
+    Ok(unsafe { File::from_raw_fd(d) })
+}
+
 /// Checks, before any work, that `path` can be an output: not a
 /// directory, in a directory that exists and that a file can be created
 /// in (a temp file is made and removed). A device or FIFO (`/dev/null`)
-/// is written as it is.
+/// or a descriptor (`/dev/stdout`) is written as it is; a symbolic link,
+/// the file it leads to.
 pub fn check_output(path: &Path) -> Result<()> {
     let name = path.display().to_string();
     let meta = std::fs::metadata(path);
     if meta.as_ref().is_ok_and(|m| m.is_dir()) {
         return Err(Error::invalid("is a directory, not an output file").about(&name));
     }
-    if meta.is_ok_and(|m| !m.is_file()) {
-        return Ok(());
-    }
+    let path = match target(path) {
+        Target::File(t) => t,
+        Target::Direct(_) | Target::Descriptor(_) => return Ok(()),
+    };
+    let path = path.as_path();
     let dir = dir_of(path);
     if !dir.is_dir() {
         let what = format!("no such directory: {}", dir.display());
@@ -317,24 +503,35 @@ fn output_mode(path: &Path) -> u32 {
     }
 }
 
-/// Whether standard output was closed when the process started: Rust's
-/// runtime then puts `/dev/null` opened read-write in its place, where a
-/// shell's `> /dev/null` opens it write-only. Writing there would lose
-/// the output and succeed.
-fn stdout_was_closed() -> bool {
-    use std::os::unix::fs::FileTypeExt;
-    // SAFETY: F_GETFL on descriptor 1 reads its flags and nothing else.
-    let flags = unsafe { libc::fcntl(1, libc::F_GETFL) };
-    if flags < 0 || flags & libc::O_ACCMODE != libc::O_RDWR {
-        return false;
+/// Whether descriptor 1 was closed when the process started, as seen
+/// before Rust's runtime ran: the runtime then puts `/dev/null` opened
+/// read-write in its place, the very file a parent's `/dev/null` opened
+/// read-write on purpose is (Python's `subprocess.DEVNULL`), so only a
+/// look before it can tell them apart. Set by [`SEE_STDOUT`].
+static STDOUT_CLOSED_AT_START: AtomicBool = AtomicBool::new(false);
+
+/// Runs as the program is loaded (an `.init_array` entry, before `main`
+/// and before Rust's runtime opens `/dev/null` over closed descriptors):
+/// records whether descriptor 1 was open.
+#[used]
+#[link_section = ".init_array"]
+static SEE_STDOUT: extern "C" fn() = {
+    extern "C" fn see_stdout() {
+        // SAFETY: F_GETFD on descriptor 1 only reads its flags (-1 and
+        // EBADF when it is not open).
+        if unsafe { libc::fcntl(1, libc::F_GETFD) } < 0 {
+            STDOUT_CLOSED_AT_START.store(true, Ordering::Relaxed);
+        }
     }
-    let (Ok(out), Ok(null)) = (
-        std::fs::metadata("/proc/self/fd/1"),
-        std::fs::metadata("/dev/null"),
-    ) else {
-        return false;
-    };
-    out.file_type().is_char_device() && out.rdev() == null.rdev()
+    see_stdout
+};
+
+/// Whether standard output was closed when the process started: writing
+/// there would lose the output and succeed.
+fn stdout_was_closed() -> bool {
+    // (Named, so that the object that holds the entry is linked in.)
+    std::hint::black_box(SEE_STDOUT);
+    STDOUT_CLOSED_AT_START.load(Ordering::Relaxed)
 }
 
 /// Refuses a closed standard output, where what a binary writes would
@@ -370,18 +567,22 @@ pub fn write_output(
 /// failure never leaves a partial file at `path`. Devices and FIFOs are
 /// written directly.
 pub fn write_atomic(path: &Path, body: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
-    // A device or FIFO (`-o /dev/null`, a named pipe) is written directly.
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        let direct = || -> Result<()> {
-            let f = std::fs::OpenOptions::new().write(true).open(path)?;
-            let mut w = BufWriter::with_capacity(1 << 16, f);
-            body(&mut w)?;
-            w.flush()?;
-            Ok(())
-        };
-        return direct().map_err(|e| e.about(&path.display().to_string()));
-    }
-    Staged::write(path, body)?.commit()
+    // A device or FIFO (`-o /dev/null`, a named pipe) or a descriptor
+    // (`-o /dev/stdout`) is written directly.
+    let open = match target(path) {
+        Target::File(_) => return Staged::write(path, body)?.commit(),
+        Target::Direct(p) => std::fs::OpenOptions::new().write(true).open(p),
+        Target::Descriptor(fd) => duplicate(fd),
+    };
+    let direct = || -> Result<()> {
+        let f = open?;
+        grow_pipe(&f);
+        let mut w = BufWriter::with_capacity(1 << 16, f);
+        body(&mut w)?;
+        w.flush()?;
+        Ok(())
+    };
+    direct().map_err(|e| e.about(&path.display().to_string()))
 }
 
 /// A file written completely to a temp file beside its target, not yet
@@ -390,7 +591,10 @@ pub fn write_atomic(path: &Path, body: impl FnOnce(&mut dyn Write) -> Result<()>
 /// them (all or none); dropped uncommitted, the temp file is removed.
 pub struct Staged {
     tmp: tempfile::NamedTempFile,
+    /// The path the output was named by, for messages.
     path: PathBuf,
+    /// Where it goes ([`target`]).
+    target: Target,
     _in_flight: InFlight,
 }
 
@@ -411,6 +615,14 @@ impl Staged {
     /// [`Staged::file`] (by a writer that keeps many files open, such as
     /// `pctile split`'s one a tile).
     pub fn create(path: &Path) -> Result<Staged> {
+        // A file's temp file is beside the file (the rename stays on its
+        // file system); one for a device or a descriptor, which is copied
+        // there when committed, in the temp directory.
+        let target = target(path);
+        let (place, mode) = match &target {
+            Target::File(t) => (dir_of(t).to_path_buf(), output_mode(t)),
+            _ => (std::env::temp_dir(), 0o600),
+        };
         // Created and registered under the lock the signal handler takes:
         // a signal between the two would otherwise leave the file behind.
         let (tmp, in_flight) = {
@@ -418,18 +630,19 @@ impl Staged {
             let tmp = tempfile::Builder::new()
                 .prefix(".pcsss-")
                 .suffix(".tmp")
-                .tempfile_in(dir_of(path))
+                .tempfile_in(&place)
                 .map_err(io_at(path))?;
             v.push(tmp.path().to_path_buf());
             let in_flight = InFlight(tmp.path().to_path_buf());
             (tmp, in_flight)
         };
         tmp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(output_mode(path)))
+            .set_permissions(std::fs::Permissions::from_mode(mode))
             .map_err(io_at(path))?;
         Ok(Staged {
             tmp,
             path: path.to_path_buf(),
+            target,
             _in_flight: in_flight,
         })
     }
@@ -448,14 +661,35 @@ impl Staged {
     /// Renames the temp file into place; refused (and the temp file
     /// removed) when the target is an input this process opened.
     pub fn commit(self) -> Result<()> {
-        if let Some(input) = opened_input(&self.path) {
-            return Err(collision("output", &self.path, &input));
-        }
         let path = self.path;
-        self.tmp
-            .persist(&path)
-            .map_err(|e| e.error)
-            .map_err(io_at(&path))?;
+        let copy_to = |out: io::Result<File>, mut tmp: File| -> Result<()> {
+            use std::io::Seek;
+            tmp.rewind()?;
+            let mut out = out?;
+            io::copy(&mut tmp, &mut out)?;
+            out.flush()?;
+            Ok(())
+        };
+        match self.target {
+            Target::File(t) => {
+                if let Some(input) = opened_input(&t) {
+                    return Err(collision("output", &path, &input));
+                }
+                self.tmp
+                    .persist(&t)
+                    .map_err(|e| e.error)
+                    .map_err(io_at(&path))?;
+            }
+            Target::Direct(p) => {
+                let out = std::fs::OpenOptions::new().write(true).open(p);
+                let tmp = self.tmp.reopen().map_err(io_at(&path))?;
+                copy_to(out, tmp).map_err(|e| e.about(&path.display().to_string()))?;
+            }
+            Target::Descriptor(fd) => {
+                let tmp = self.tmp.reopen().map_err(io_at(&path))?;
+                copy_to(duplicate(fd), tmp).map_err(|e| e.about(&path.display().to_string()))?;
+            }
+        }
         Ok(())
     }
 }

@@ -532,7 +532,7 @@ pub fn call<T: clap::Parser>(
     let args = T::from_arg_matches(&matches).map_err(usage)?;
     let result = check_environment()
         .map_err(anyhow::Error::from)
-        .and_then(|()| check_named_paths(&cmd, &matches, &[]))
+        .and_then(|()| check_paths(&cmd, &matches, &[], false))
         .and_then(|()| run(args));
     result.map_err(|mut e| {
         if let Some(lib) = e.downcast_mut::<crate::Error>() {
@@ -600,20 +600,35 @@ pub fn check_named_paths(
     m: &clap::ArgMatches,
     more_inputs: &[&Path],
 ) -> anyhow::Result<()> {
+    check_paths(cmd, m, more_inputs, true)
+}
+
+/// [`check_named_paths`]; `stdout`: the run may write standard output (a
+/// binary's; not a run in memory, the Python module's). Starts the run's
+/// record of what it opens ([`files::begin_run`]).
+fn check_paths(
+    cmd: &clap::Command,
+    m: &clap::ArgMatches,
+    more_inputs: &[&Path],
+    stdout: bool,
+) -> anyhow::Result<()> {
+    files::begin_run();
     let (outputs, inputs) = named_paths(cmd, m);
     // No output file named where a stage can name one: the output is
-    // stdout, which must be open.
+    // stdout, which must be open. A binary that names none writes its
+    // report there (pcinfo, pcdiff).
     let has_output = cmd.get_arguments().any(|a| a.get_id() == "output");
-    if has_output && outputs.is_empty() {
+    if stdout && has_output && outputs.is_empty() {
         files::check_stdout_open()?;
     }
+    let stdout = stdout && outputs.is_empty();
     let outs: Vec<files::Output> = outputs
         .iter()
         .map(|&(ref path, param, dir)| files::Output { path, param, dir })
         .collect();
     let mut ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     ins.extend_from_slice(more_inputs);
-    Ok(files::check_outputs(&outs, &ins)?)
+    Ok(files::check_outputs_to(&outs, &ins, stdout)?)
 }
 
 /// Runs a stage's body: on error prints `stage: context: error` on one line

@@ -40,16 +40,32 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// The largest texture file read: a 16k x 16k RGBA float image,
+/// uncompressed (a device that never ends, `/dev/zero`, is refused after
+/// it, not read until memory runs out).
+pub const MAX_FILE: u64 = 4 << 30;
+
 /// Reads the texture at `path` (PNG or OpenEXR, by its first bytes).
 pub fn read(path: &Path, decode: Decode) -> Result<Texture> {
-    read_bytes(&std::fs::read(path)?, decode)
+    let bytes = crate::files::read_input_of(
+        path,
+        MAX_FILE,
+        "a texture image (PNG or OpenEXR)",
+        &[PNG, EXR],
+    )?;
+    read_bytes(&bytes, decode)
 }
+
+/// A PNG file's first bytes.
+pub const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
+/// An OpenEXR file's first bytes.
+pub const EXR: &[u8] = &[0x76, 0x2f, 0x31, 0x01];
 
 /// A texture from a file's bytes (PNG or OpenEXR, by its first bytes).
 pub fn read_bytes(bytes: &[u8], decode: Decode) -> Result<Texture> {
-    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+    if bytes.starts_with(PNG) {
         read_png(bytes, decode)
-    } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+    } else if bytes.starts_with(EXR) {
         let (w, h, texels) = super::exr::read::read_rgb_image(bytes)?;
         let texels = match decode {
             Decode::Srgb => texels.into_iter().map(|t| t.map(srgb_to_linear)).collect(),

@@ -178,8 +178,10 @@ pub fn parse_file_in(text: &str, file: &str, dir: Option<&Path>) -> Result<Light
         .map_err(|why| Error::invalid(format!("{file} at meters_per_unit: {why}")))?;
     let mut out = Vec::with_capacity(spec.lights.len());
     for (i, s) in spec.lights.into_iter().enumerate() {
-        let mut light = validate(s, dir)
-            .map_err(|(key, why)| Error::invalid(format!("{file} at lights[{i}].{key}: {why}")))?;
+        let mut light = validate(s, dir).map_err(|(key, why)| match key {
+            OUTPUT => Error::param("output", why),
+            _ => Error::invalid(format!("{file} at lights[{i}].{key}: {why}")),
+        })?;
         light.id = i as u32;
         if let Some(j) = out.iter().position(|l: &Light| l.name == light.name) {
             return Err(Error::invalid(format!(
@@ -202,6 +204,10 @@ pub fn parse_file_in(text: &str, file: &str, dir: Option<&Path>) -> Result<Light
 }
 
 type Check<T> = std::result::Result<T, (&'static str, String)>;
+
+/// The key of a [`Check`] error that is the output's fault, not the
+/// file's: a file the lights file names is one of the run's outputs.
+const OUTPUT: &str = "\0output";
 
 fn finite3(key: &'static str, v: [f64; 3]) -> Check<DVec3> {
     let d = DVec3::from_array(v);
@@ -273,7 +279,17 @@ fn read_map(map: &str, dir: Option<&Path>) -> Check<Arc<LatLong>> {
         ));
     };
     let path = dir.join(map);
-    let bytes = std::fs::read(&path).map_err(|e| ("map", format!("{}: {e}", path.display())))?;
+    let bytes = crate::files::read_input_of(
+        &path,
+        crate::formats::texture::MAX_FILE,
+        "a dome map (an OpenEXR image)",
+        &[crate::formats::texture::EXR],
+    )
+    .map_err(|e| match e {
+        // The map is one of the run's outputs: the output's fault.
+        Error::Param { what, .. } => (OUTPUT, what),
+        e => ("map", e.about(&path.display().to_string()).to_string()),
+    })?;
     let (w, h, texels) = crate::formats::exr::read::read_rgb_image(&bytes)
         .map_err(|e| ("map", format!("{}: {e}", path.display())))?;
     LatLong::new(w, h, texels, map)

@@ -134,7 +134,7 @@ impl Manifest {
         let io = |e: std::io::Error| Error::from(e).about(&name);
         let mut bytes = Vec::new();
         crate::files::open_input(&path)
-            .map_err(io)?
+            .map_err(|e| e.about(&name))?
             .take(MAX_MANIFEST_BYTES + 1)
             .read_to_end(&mut bytes)
             .map_err(io)?;

@@ -108,7 +108,7 @@ impl Request {
     /// has `ssM`).
     fn stage_reach(&self, path: &Path, params: &StageParams) -> Result<f64> {
         let name = &self.input_name;
-        let f = crate::files::open_input(path).map_err(|e| Error::from(e).about(name))?;
+        let f = crate::files::open_input(path).map_err(|e| e.about(name))?;
         let head = PlyChunks::new(BufReader::new(f)).map_err(|e| e.about(name))?;
         let has_ssm = head.header().elements.iter().any(|e| {
             e.name == crate::cloud::POINTS

@@ -22,6 +22,7 @@ mod follow;
 mod frames;
 mod fuzz_replay;
 mod hostile;
+mod hostile4;
 mod illum;
 mod inputs_kept;
 mod layers;

@@ -310,6 +310,7 @@ fn read_mesh_unguarded(path: &Path, root: Option<&str>) -> Result<StageMesh> {
     }
     let mut cloud = merge(&prims, mesh)?;
     cloud.set_frame(&stage::frame(&stage, mesh)?);
+    stage::finish(&stage)?;
     Ok(StageMesh { cloud, warnings })
 }
 

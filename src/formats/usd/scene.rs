@@ -246,6 +246,7 @@ fn lights_unguarded(path: &Path) -> Result<String> {
     let mut o = Map::new();
     o.insert("lights".into(), Value::Array(lights));
     frame_keys(&frame, &mut o);
+    stage::finish(&stage)?;
     Ok(Value::Object(o).to_string())
 }
 
@@ -315,5 +316,6 @@ fn camera_unguarded(path: &Path, height: u32) -> Result<String> {
     o.insert("width".into(), json!(width));
     o.insert("height".into(), json!(height));
     frame_keys(&frame, &mut o);
+    stage::finish(&stage)?;
     Ok(Value::Object(o).to_string())
 }

@@ -84,11 +84,69 @@ pub fn is_usd(head: &[u8]) -> bool {
 /// was not written for) made an error naming the file's reader, so that
 /// a bad stage is one line and an exit status, not an abort.
 pub fn guarded<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|_| {
+    quiet_panics();
+    QUIET.with(|q| q.set(q.get() + 1));
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(q.get() - 1));
+    r.unwrap_or_else(|_| {
         Err(Error::invalid(
             "USD: the reader (openusd) failed on this file: not a stage it can read",
         ))
     })
+}
+
+thread_local! {
+    /// How many [`guarded`] reads this thread is inside: a panic there is
+    /// an error line of ours, so the panic's own message is not printed.
+    static QUIET: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Installs, once, a panic hook that stays silent inside [`guarded`]
+/// reads and is the hook there was everywhere else.
+fn quiet_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let before = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if QUIET.with(|q| q.get()) == 0 {
+                before(info);
+            }
+        }));
+    });
+}
+
+/// After a read: every layer the stage opened is one of the run's inputs
+/// (an output may not be one: [`crate::files::note_input`]), and a layer
+/// an arc names that is missing or unreadable (a sublayer, a reference,
+/// a payload, or the prim or default prim a reference names) is an
+/// error naming it: a stage read without it is not the scene.
+pub fn finish(stage: &usd::Stage) -> Result<()> {
+    use openusd::pcp::Error as Pcp;
+    for e in stage.composition_errors() {
+        if matches!(
+            e,
+            Pcp::UnresolvedLayer { .. }
+                | Pcp::MalformedLayer { .. }
+                | Pcp::UnresolvedSublayer { .. }
+                | Pcp::MalformedSublayer { .. }
+                | Pcp::UnresolvedPrimPath { .. }
+                | Pcp::MissingDefaultPrim { .. }
+                | Pcp::InvalidDefaultPrim { .. }
+        ) {
+            return Err(Error::invalid(format!(
+                "USD: {e}: the stage is not whole without it"
+            )));
+        }
+    }
+    for id in stage.layer_identifiers() {
+        // A package's inner layer (`a.usdz[b.usda]`): the package is the file.
+        let file = id.split('[').next().unwrap_or(&id);
+        let path = Path::new(file);
+        if let Ok(meta) = std::fs::metadata(path) {
+            crate::files::note_input(&meta, path)?;
+        }
+    }
+    Ok(())
 }
 
 /// Opens a stage.
@@ -443,7 +501,9 @@ pub fn world_transform(file: &Path, prim: &str) -> Result<DMat4> {
     guarded(|| {
         let stage = open(file)?;
         let p = sdf::Path::new(prim).map_err(|e| at(prim, format!("not a prim path ({e})")))?;
-        world(&stage, &p)
+        let m = world(&stage, &p)?;
+        finish(&stage)?;
+        Ok(m)
     })
 }
 

@@ -194,16 +194,12 @@ pub fn load(arg: &str) -> Result<Material> {
 /// A material file.
 fn read(path: &Path) -> Result<Material> {
     let name = path.display().to_string();
-    let at = |e: Error| e.about(&name);
-    let len = std::fs::metadata(path)
-        .map_err(|e| at(Error::from(e)))?
-        .len();
-    if len > MAX_FILE {
-        return Err(at(Error::invalid(format!(
-            "{len} bytes: a material file is a few keys (at most {MAX_FILE} bytes)"
-        ))));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| at(Error::from(e)))?;
+    // (What is read is capped, not what the file says its size is: a
+    // device's is 0.)
+    let bytes = crate::files::read_input(path, MAX_FILE, "a material file (a few keys)")
+        .map_err(|e| e.about(&name))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| Error::invalid("not UTF-8 text: not a material file").about(&name))?;
     parse(&text, &name)
 }
 

@@ -1,0 +1,356 @@
+//! Hostile input and outputs, round four (issue 56's classes): files an
+//! input names are inputs too, standard output is an output, what `-o
+//! LINK` writes, `/dev/null` opened on purpose, reads with a ceiling.
+//! Each test names its class, and checks both sides: the bad use is
+//! refused with one line and the exit status, the valid one still works.
+
+use std::os::unix::fs::symlink;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+use crate::util::*;
+use pcsss::{Cloud, Role};
+
+/// Points with `P` and `N` (up), as a binary PLY in `dir`.
+fn cloud_file(dir: &Path, name: &str) -> String {
+    let mut c = Cloud::with_points(3);
+    let p = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut()
+        .set_vec3("N", Role::Normal, &[[0.0f32, 0.0, 1.0]; 3])
+        .unwrap();
+    let f = dir.join(name);
+    std::fs::write(&f, to_bytes(&c, LE)).unwrap();
+    f.display().to_string()
+}
+
+/// A dome light's lights file and its map (a 4 x 2 OpenEXR image).
+fn dome(dir: &Path) -> (String, std::path::PathBuf) {
+    let map = dir.join("map.exr");
+    exr::prelude::write_rgb_file(&map, 4, 2, |_, _| (1.0f32, 1.0, 1.0)).unwrap();
+    let lights = dir.join("dome.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"name": "sky", "type": "dome", "map": "map.exr", "samples": 4}]}"#,
+    )
+    .unwrap();
+    (lights.display().to_string(), map)
+}
+
+/// Runs `cmd` with bash in `dir`; its output, whatever its status.
+fn bash(dir: &Path, cmd: &str) -> std::process::Output {
+    Command::new("bash")
+        .args(["-c", cmd])
+        .current_dir(dir)
+        .env(
+            "PATH",
+            format!(
+                "{}:/usr/bin:/bin",
+                bin("pcinfo").parent().unwrap().display()
+            ),
+        )
+        .output()
+        .unwrap()
+}
+
+/// One line on stderr saying what `what` says, the exit status `code`.
+fn refused(o: &std::process::Output, code: i32, says: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(code), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(says), "{err}");
+}
+
+#[test]
+fn class_1_a_file_an_input_names_is_an_input() {
+    let d = tempdir();
+    let cloud = cloud_file(d.path(), "cloud.ply");
+    let (lights, map) = dome(d.path());
+    let before = std::fs::read(&map).unwrap();
+    // The dome map the lights file names, as illum's output: refused
+    // before any work, naming -o; the map untouched.
+    let o = run(
+        "illum",
+        &[
+            &cloud,
+            "--lights",
+            &lights,
+            "--no-shadows",
+            "-o",
+            map.to_str().unwrap(),
+        ],
+        b"",
+    );
+    refused(&o, 2, "is also an input");
+    assert!(
+        stderr(&o).contains("--output") || stderr(&o).contains("-o"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&map).unwrap(), before);
+    // Through a link to it: the same file.
+    let link = d.path().join("link.exr");
+    symlink(&map, &link).unwrap();
+    let o = run(
+        "illum",
+        &[
+            &cloud,
+            "--lights",
+            &lights,
+            "--no-shadows",
+            "-o",
+            link.to_str().unwrap(),
+        ],
+        b"",
+    );
+    refused(&o, 2, "is also an input");
+    assert_eq!(std::fs::read(&map).unwrap(), before);
+    // The valid use: the same run to another file.
+    let out = d.path().join("lit.ply");
+    let o = run(
+        "illum",
+        &[
+            &cloud,
+            "--lights",
+            &lights,
+            "--no-shadows",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // A sublayer of the stage read.
+    std::fs::write(
+        d.path().join("sub.usda"),
+        "#usda 1.0\n\ndef Mesh \"m\"\n{\n    point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.path().join("top.usda"),
+        "#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\n",
+    )
+    .unwrap();
+    let sub = std::fs::read(d.path().join("sub.usda")).unwrap();
+    let o = run_in(
+        Some(d.path()),
+        "pcconvert",
+        &["top.usda", "-o", "sub.usda"],
+        b"",
+    );
+    refused(&o, 2, "is also an input");
+    assert_eq!(std::fs::read(d.path().join("sub.usda")).unwrap(), sub);
+    let o = run_in(
+        Some(d.path()),
+        "pcconvert",
+        &["top.usda", "-o", "flat.ply"],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A sublayer that is not there: named, not skipped.
+    std::fs::write(
+        d.path().join("gone.usda"),
+        "#usda 1.0\n(\n    subLayers = [@./sub.usda@, @./missing.usda@]\n)\n",
+    )
+    .unwrap();
+    let o = run_in(
+        Some(d.path()),
+        "pcconvert",
+        &["gone.usda", "-o", "x.ply"],
+        b"",
+    );
+    refused(&o, 1, "missing.usda");
+}
+
+#[test]
+fn class_2_standard_output_is_an_output_and_a_link_leads_to_its_file() {
+    let d = tempdir();
+    let cloud = cloud_file(d.path(), "in.ply");
+    let before = std::fs::read(&cloud).unwrap();
+    // Stdout opened on the input, read-write (no truncation by the shell).
+    let o = bash(d.path(), "pcconvert in.ply 1<>in.ply");
+    refused(&o, 2, "<stdout>");
+    assert_eq!(std::fs::read(&cloud).unwrap(), before);
+    // Stdin and stdout the same file.
+    let o = bash(d.path(), "pcconvert < in.ply 1<>in.ply");
+    refused(&o, 2, "<stdout>");
+    assert_eq!(std::fs::read(&cloud).unwrap(), before);
+    // `-o /dev/stdout` is standard output, whatever it is: a file here.
+    let o = bash(
+        d.path(),
+        "pcconvert in.ply --format ply -o /dev/stdout > out.ply",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.path().join("out.ply")).unwrap(), before);
+    assert!(std::fs::symlink_metadata("/dev/stdout")
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    // ... and appended to when the shell appends.
+    let o = bash(
+        d.path(),
+        "pcconvert in.ply --format ply -o /dev/stdout >> out.ply",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(d.path().join("out.ply")).unwrap().len(),
+        2 * before.len()
+    );
+    // A pipe through /dev/fd/1.
+    let o = bash(
+        d.path(),
+        "pcconvert in.ply --format ply -o /dev/fd/1 | cat > piped.ply",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.path().join("piped.ply")).unwrap(), before);
+    // A link to a file: the file is written, the link stays.
+    std::fs::write(d.path().join("real.ply"), b"old").unwrap();
+    symlink("real.ply", d.path().join("link.ply")).unwrap();
+    let o = bash(d.path(), "pcconvert in.ply -o link.ply");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::symlink_metadata(d.path().join("link.ply"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_eq!(std::fs::read(d.path().join("real.ply")).unwrap(), before);
+    // A link to nothing yet: the file it names is made.
+    symlink("made.ply", d.path().join("ahead.ply")).unwrap();
+    let o = bash(d.path(), "pcconvert in.ply -o ahead.ply");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.path().join("made.ply")).unwrap(), before);
+    // No temp file left anywhere.
+    let left: Vec<String> = std::fs::read_dir(d.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("pcsss"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn class_3_dev_null_opened_on_purpose_is_an_output_a_closed_stdout_is_not() {
+    let d = tempdir();
+    let cloud = cloud_file(d.path(), "in.ply");
+    for name in ["pcconvert", "pcinfo"] {
+        // As Python's subprocess.DEVNULL opens it: read and write.
+        let null = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open("/dev/null")
+            .unwrap();
+        let o = Command::new(bin(name))
+            .arg(&cloud)
+            .stdout(Stdio::from(null))
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+    }
+    // Closed: refused, as before.
+    let o = bash(d.path(), "pcconvert in.ply >&-");
+    refused(&o, 1, "closed");
+}
+
+#[test]
+fn class_5_reads_have_a_ceiling_whatever_the_file_says_its_size_is() {
+    let d = tempdir();
+    let cloud = cloud_file(d.path(), "cloud.ply");
+    // /dev/zero as a dome map, a material file and a texture.
+    std::fs::write(
+        d.path().join("zero.json"),
+        r#"{"lights": [{"name": "sky", "type": "dome", "map": "/dev/zero"}]}"#,
+    )
+    .unwrap();
+    let o = run_in(
+        Some(d.path()),
+        "illum",
+        &["cloud.ply", "--lights", "zero.json", "--no-shadows"],
+        b"",
+    );
+    refused(&o, 1, "not a dome map");
+    let o = run_in(
+        Some(d.path()),
+        "ssmulti",
+        &["cloud.ply", "--material", "/dev/zero", "-o", "x.ply"],
+        b"",
+    );
+    refused(&o, 1, "larger than");
+    let mesh = fixtures().join("mesh/cube.obj");
+    let o = run_in(
+        Some(d.path()),
+        "texture",
+        &[
+            &cloud,
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--image",
+            "/dev/zero",
+            "--as",
+            "Cd",
+            "-o",
+            "x.ply",
+        ],
+        b"",
+    );
+    refused(&o, 1, "not a texture image");
+    // A FIFO that goes on past a material file's ceiling.
+    let fifo = d.path().join("fifo.json");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let feeder = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            use std::io::Write;
+            if let Ok(mut f) = std::fs::OpenOptions::new().write(true).open(&fifo) {
+                let block = vec![b' '; 1 << 16];
+                for _ in 0..64 {
+                    if f.write_all(&block).is_err() {
+                        break;
+                    }
+                }
+            }
+        })
+    };
+    let o = run_in(
+        Some(d.path()),
+        "ssmulti",
+        &[
+            "cloud.ply",
+            "--material",
+            fifo.to_str().unwrap(),
+            "-o",
+            "x.ply",
+        ],
+        b"",
+    );
+    refused(&o, 1, "larger than");
+    feeder.join().unwrap();
+    // The valid use: a material file.
+    std::fs::write(
+        d.path().join("m.json"),
+        r#"{"mfp": [1, 1, 1], "albedo": [0.8, 0.8, 0.8]}"#,
+    )
+    .unwrap();
+    let mut c = from_bytes(&std::fs::read(&cloud).unwrap());
+    c.points_mut()
+        .set_vec3("illum", Role::Color, &[[1.0f32; 3]; 3])
+        .unwrap();
+    c.points_mut()
+        .set(pcsss::Attribute::scalar(
+            "ptarea",
+            pcsss::Column::F32(vec![0.5; 3]),
+        ))
+        .unwrap();
+    std::fs::write(d.path().join("lit.ply"), to_bytes(&c, LE)).unwrap();
+    let o = run_in(
+        Some(d.path()),
+        "ssmulti",
+        &["lit.ply", "--material", "m.json", "-o", "x.ply"],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
