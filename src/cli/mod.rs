@@ -27,6 +27,7 @@ pub use args::{
 use std::io::{self, BufReader, IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::OnceLock;
 
 use anyhow::Context;
 
@@ -783,8 +784,68 @@ pub fn check_environment() -> crate::Result<()> {
     // variable itself.)
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let n = if n == 0 { cores } else { n };
-    let _ = rayon::ThreadPoolBuilder::new()
-        .num_threads(n)
-        .build_global();
+    start_threads(n);
     Ok(())
+}
+
+/// The address space a worker thread takes: its stack (Rust's default, 2
+/// MiB) and what the allocator and the thread's own data take beside it.
+const THREAD_SPACE: u64 = 4 << 20;
+
+/// The process's address-space limit (`ulimit -v`), if it has one.
+fn address_limit() -> Option<u64> {
+    let mut r = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit fills the struct it is given, and nothing else.
+    let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
+    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+}
+
+/// The pool the stages run in when the global one could not start: the
+/// machine refused `RAYON_NUM_THREADS` threads (an address-space limit),
+/// and rayon builds its global pool once, so a failed start would make
+/// the first parallel loop panic. The thread that starts it is one of
+/// its workers, so every parallel loop it runs runs there.
+static FALLBACK_POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
+
+/// Starts `n` worker threads as rayon's global pool; when the machine
+/// refuses them, as many as it gives (halving the count) in a pool the
+/// calling thread joins, with one line saying so.
+fn start_threads(n: usize) {
+    // Under an address-space limit, threads whose stacks would take more
+    // than a quarter of it are not asked for: past that the machine gives
+    // the threads and then refuses the memory they need (glibc aborts).
+    let most = address_limit().map_or(usize::MAX, |a| (a / 4 / THREAD_SPACE).max(1) as usize);
+    let n = if n > most {
+        say(format_args!(
+            "RAYON_NUM_THREADS: {n} threads would take more than a quarter of the address space this process may use; running on {most}"
+        ));
+        most
+    } else {
+        n
+    };
+    let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() else {
+        return;
+    };
+    // Built already (an earlier run in this process) is no failure.
+    if FALLBACK_POOL.get().is_some() || e.to_string().contains("already") {
+        return;
+    }
+    let mut k = n / 2;
+    while k >= 1 {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(k)
+            .use_current_thread()
+            .build();
+        if let Ok(pool) = pool {
+            say(format_args!(
+                "RAYON_NUM_THREADS: {n} threads could not be started ({e}); running on {k}"
+            ));
+            let _ = FALLBACK_POOL.set(pool);
+            return;
+        }
+        k /= 2;
+    }
 }

@@ -41,8 +41,17 @@ fn the_fuzz_corpus_and_past_crashes_replay_cleanly() {
         ] {
             for f in files(&dir) {
                 let data = std::fs::read(&f).unwrap();
+                let caught = pcsss::formats::usd::stage::panics_caught();
                 let done = std::panic::catch_unwind(|| run(&data));
                 assert!(done.is_ok(), "{}: panicked", f.display());
+                // A panic the USD reader's guard turned into an error is
+                // a bug of the reader all the same.
+                assert_eq!(
+                    pcsss::formats::usd::stage::panics_caught(),
+                    caught,
+                    "{}: the USD reader panicked",
+                    f.display()
+                );
                 total += 1;
             }
         }

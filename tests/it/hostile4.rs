@@ -354,3 +354,28 @@ fn class_5_reads_have_a_ceiling_whatever_the_file_says_its_size_is() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn class_6_many_threads_under_an_address_limit_run_on_fewer() {
+    let d = tempdir();
+    cloud_file(d.path(), "cloud.ply");
+    let mesh = fixtures().join("mesh/cube.obj");
+    std::fs::write(
+        d.path().join("sun.json"),
+        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [0, 0, -1]}]}"#,
+    )
+    .unwrap();
+    for n in ["1000", "1024", "500"] {
+        let cmd = format!(
+            "ulimit -v 2000000; RAYON_NUM_THREADS={n} illum cloud.ply --lights sun.json --mesh {} -o lit.ply",
+            mesh.display()
+        );
+        let o = bash(d.path(), &cmd);
+        assert!(o.status.success(), "{n}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains("running on") && !err.contains("panicked"), "{n}: {err}");
+    }
+    // Without a limit, what was asked for.
+    let o = bash(d.path(), &format!("RAYON_NUM_THREADS=64 illum cloud.ply --lights sun.json --mesh {} -o lit.ply", mesh.display()));
+    assert!(o.status.success() && !stderr(&o).contains("running on"), "{}", stderr(&o));
+}
