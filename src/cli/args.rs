@@ -148,6 +148,31 @@ pub struct MaterialArgs {
     /// the physical model: its reflectance table) [default: 1.3].
     #[arg(long)]
     pub eta: Option<f64>,
+    /// The length of the scene's unit in millimetres, from the cloud's
+    /// recorded `meters_per_unit`: a preset's millimetres follow it
+    /// ([`MaterialArgs::in_frame`]); not an option.
+    #[arg(skip)]
+    pub scene_unit_mm: Option<f64>,
+}
+
+impl MaterialArgs {
+    /// The options for a cloud in `frame`: a preset's lengths follow the
+    /// frame's unit. Returns the line to say when a preset is used and
+    /// neither the scene nor the material says how long a unit is (its
+    /// millimetres are then the scene's units).
+    pub fn in_frame(&mut self, frame: &crate::frame::Frame) -> anyhow::Result<Option<String>> {
+        self.scene_unit_mm = frame.meters_per_unit.map(|m| m * 1000.0);
+        let Some(arg) = &self.material else {
+            return Ok(None);
+        };
+        let m = medium::material::load_in(arg, self.scene_unit_mm)?;
+        Ok(m.unit_assumed.then(|| {
+            format!(
+                "{}: the scene records no unit (meters_per_unit): the preset's lengths, in millimetres, are taken in the scene's units (1 unit = 1 mm); record the unit (scatter --meters-per-unit, or a USD stage's metersPerUnit) or give the material file's unit_length",
+                m.source
+            )
+        }))
+    }
 }
 
 /// The recipe of merged options whose distance is `dist` (`diffuse`).
@@ -226,7 +251,7 @@ impl MaterialArgs {
         recorded: Option<&medium::material::Material>,
     ) -> anyhow::Result<Material> {
         let given = match &self.material {
-            Some(m) => Some(medium::material::load(m)?),
+            Some(m) => Some(medium::material::load_in(m, self.scene_unit_mm)?),
             None => None,
         };
         let seed = self.model == Some(Model::Seed);
@@ -389,7 +414,7 @@ impl MaterialArgs {
     pub fn per_point(&self) -> anyhow::Result<ssmulti::per_point::PerPoint> {
         Ok(match &self.material {
             Some(m) => {
-                let m = medium::material::load(m)?;
+                let m = medium::material::load_in(m, self.scene_unit_mm)?;
                 ssmulti::per_point::PerPoint {
                     attrs: m.per_point,
                     levels: m.levels,

@@ -826,7 +826,10 @@ fn start_threads(n: usize) {
     } else {
         n
     };
-    let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() else {
+    let Err(e) = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+    else {
         return;
     };
     // Built already (an earlier run in this process) is no failure.

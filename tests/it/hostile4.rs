@@ -373,9 +373,156 @@ fn class_6_many_threads_under_an_address_limit_run_on_fewer() {
         let o = bash(d.path(), &cmd);
         assert!(o.status.success(), "{n}: {}", stderr(&o));
         let err = stderr(&o);
-        assert!(err.contains("running on") && !err.contains("panicked"), "{n}: {err}");
+        assert!(
+            err.contains("running on") && !err.contains("panicked"),
+            "{n}: {err}"
+        );
     }
     // Without a limit, what was asked for.
-    let o = bash(d.path(), &format!("RAYON_NUM_THREADS=64 illum cloud.ply --lights sun.json --mesh {} -o lit.ply", mesh.display()));
-    assert!(o.status.success() && !stderr(&o).contains("running on"), "{}", stderr(&o));
+    let o = bash(
+        d.path(),
+        &format!(
+            "RAYON_NUM_THREADS=64 illum cloud.ply --lights sun.json --mesh {} -o lit.ply",
+            mesh.display()
+        ),
+    );
+    assert!(
+        o.status.success() && !stderr(&o).contains("running on"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// A sphere of radius `r` as a USD stage in units of `mpu` metres, lit by
+/// a distant light and seen by a camera `4 r` away: the same scene
+/// whatever `mpu` is, when `r` is in that unit.
+fn sphere_stage(path: &Path, r: f64, mpu: f64) {
+    let m = uv_sphere(24, 48, r, [0.0, 0.0, 0.0]);
+    let p = m.points().vec3_f64("P").unwrap();
+    let polys = pcsss::geom::mesh::Polygons::of(&m).unwrap();
+    let counts: Vec<String> = (0..polys.len())
+        .map(|f| polys.polygon(f).len().to_string())
+        .collect();
+    let idx: Vec<String> = (0..polys.len())
+        .flat_map(|f| {
+            polys
+                .polygon(f)
+                .iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let pts: Vec<String> = p
+        .iter()
+        .map(|q| format!("({}, {}, {})", q[0], q[1], q[2]))
+        .collect();
+    let text = format!(
+        r#"#usda 1.0
+(
+    metersPerUnit = {mpu}
+    upAxis = "Y"
+)
+
+def Mesh "Ball"
+{{
+    int[] faceVertexCounts = [{}]
+    int[] faceVertexIndices = [{}]
+    point3f[] points = [{}]
+    uniform token subdivisionScheme = "none"
+}}
+
+def DistantLight "Sun"
+{{
+    float inputs:intensity = 2
+    float3 xformOp:rotateXYZ = (-40, 30, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}}
+
+def Camera "Eye"
+{{
+    float focalLength = 50
+    float horizontalAperture = 36
+    float verticalAperture = 36
+    double3 xformOp:translate = (0, 0, {})
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+"#,
+        counts.join(", "),
+        idx.join(", "),
+        pts.join(", "),
+        6.0 * r
+    );
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn class_7_a_preset_s_lengths_follow_the_scene_s_unit() {
+    let d = tempdir();
+    // The same ball, 2 cm across, in centimetres and in millimetres.
+    sphere_stage(&d.path().join("cm.usda"), 1.0, 0.01);
+    sphere_stage(&d.path().join("mm.usda"), 10.0, 0.001);
+    let pipelines = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    for name in ["cm", "mm"] {
+        let stage = d.path().join(format!("{name}.usda"));
+        let s = stage.display();
+        let cmd = format!(
+            "make -s -C {} bake MESH={s} LIGHTS={s} CAMERA={s} MATERIAL=skin1 COUNT=4000 SINGLE=0 OUT={} BIN={}",
+            pipelines.display(),
+            d.path().join(name).display(),
+            bin("pcinfo").parent().unwrap().display()
+        );
+        let o = bash(d.path(), &cmd);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+    }
+    // The cloud's mean free path is the preset's millimetres in the
+    // scene's unit: a tenth of it in centimetres.
+    let cloud = |name: &str| {
+        from_bytes(&std::fs::read(d.path().join(name).join(format!("{name}_ss.ply"))).unwrap())
+    };
+    let mfp = |c: &Cloud| c.detail("ssmulti_mfp").unwrap().components();
+    let (cm, mm) = (mfp(&cloud("cm")), mfp(&cloud("mm")));
+    for c in 0..3 {
+        assert!((cm[c] * 10.0 / mm[c] - 1.0).abs() < 1e-9, "{cm:?} {mm:?}");
+    }
+    // The same picture: every pixel both see, to the noise of two bakes
+    // of points placed alike.
+    let pic = |name: &str| {
+        from_bytes(&std::fs::read(d.path().join(name).join(format!("{name}.exr"))).unwrap())
+    };
+    let (a, b) = (pic("cm"), pic("mm"));
+    let (ea, eb) = (
+        a.points().vec3_f64("beauty").unwrap(),
+        b.points().vec3_f64("beauty").unwrap(),
+    );
+    assert_eq!(ea.len(), eb.len());
+    let (mut sum, mut diff) = (0.0, 0.0);
+    for (x, y) in ea.iter().zip(&eb) {
+        for c in 0..3 {
+            sum += x[c].abs();
+            diff += (x[c] - y[c]).abs();
+        }
+    }
+    assert!(
+        sum > 0.0 && diff / sum < 1e-3,
+        "the pictures differ by {} of their light",
+        diff / sum
+    );
+    // A preset in a scene that records no unit: said once.
+    let mesh = fixtures().join("mesh/cube.obj");
+    let c = d.path().join("c.ply");
+    let o = bash(
+        d.path(),
+        &format!(
+            "scatter {} -n 200 | facet --mesh {} | illum --lights {}/cm.usda --no-shadows -o {}",
+            mesh.display(),
+            mesh.display(),
+            d.path().display(),
+            c.display()
+        ),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bash(d.path(), "ssmulti c.ply --material skin1 -o m.ply");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert_eq!(err.matches("records no unit").count(), 1, "{err}");
 }

@@ -68,7 +68,7 @@ pub struct Args {
 }
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
     if let Some(e) = args.exposure {
@@ -77,10 +77,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let cloud_name = cli::display_name(Some(&args.cloud));
-    let multi = args.ss.params(&args.material)?;
+    args.ss.params(&args.material)?;
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    // The camera's eye and the lights are moved into the cloud's frame.
+    // The camera's eye and the lights are moved into the cloud's frame,
+    // and a preset's lengths follow its unit.
     let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
+    if let Some(line) = args.material.in_frame(&frame)? {
+        msg.warn(line);
+    }
+    let multi = args.ss.params(&args.material)?;
     // Lazy single scattering: its parameters, lights and mesh.
     let single = match &args.single_lights {
         None => None,

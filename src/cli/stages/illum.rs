@@ -7,7 +7,7 @@ use crate::formats::Select;
 use crate::stages::illum;
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("illum");
     let name = args.io.input_name();
     let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
@@ -41,8 +41,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .read(&Select::only(&["P", "N", "sourceprim", "ssM"]))?,
         None => args.io.read(&Select::only(&["P", "N", "sourceprim"]))?,
     };
-    // The lights are moved into the cloud's frame.
-    let used = lights_file.in_frame(&cloud.frame().map_err(cli::at(&name))?);
+    // The lights are moved into the cloud's frame, and a preset's lengths
+    // follow its unit.
+    let frame = cloud.frame().map_err(cli::at(&name))?;
+    let used = lights_file.in_frame(&frame);
+    if medium.is_some() {
+        if let Some(line) = args.material.in_frame(&frame)? {
+            msg.warn(line);
+        }
+    }
+    let medium = args.material.medium()?;
     let progress = msg.progress();
     let passage = medium.as_ref().map(|m| illum::Passage {
         sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),

@@ -87,7 +87,7 @@ pub struct Args {
 }
 
 /// Runs `render` on its command line.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.msg.messages("render");
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         let what = format!("{}: must be > 0", args.exposure);
@@ -120,7 +120,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     .validate()?;
     let cam_file = cli::read_camera(&args.camera)?;
-    let lazy = args.ss.params(&args.material)?;
+    args.ss.params(&args.material)?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
@@ -139,8 +139,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let cloud_name = args.cloud.display().to_string();
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
-    // The camera and the lights are moved into the cloud's frame.
+    // The camera and the lights are moved into the cloud's frame, and a
+    // preset's lengths follow its unit.
     let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
+    if let Some(line) = args.material.in_frame(&frame)? {
+        msg.warn(line);
+    }
+    let lazy = args.ss.params(&args.material)?;
     let cam = cam_file.in_frame(&frame);
     let lights_used = lights_file.map(|f| f.in_frame(&frame));
     let single = match &single_file {

@@ -22,21 +22,31 @@ pub struct Args {
 }
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("ssmulti");
     let name = args.io.input_name();
-    let Some(params) = args.ss.params(&args.material)? else {
-        let why = "required by --model seed (the scattering distance; or --model physical)";
-        return Err(crate::Error::param("sd", why).into());
+    let params = |args: &Args| -> anyhow::Result<ssmulti::Params> {
+        let Some(params) = args.ss.params(&args.material)? else {
+            let why = "required by --model seed (the scattering distance; or --model physical)";
+            return Err(crate::Error::param("sd", why).into());
+        };
+        ssmulti::validate(&params)?;
+        Ok(params)
     };
     // Parameters before reading: an absurd one fails fast.
-    ssmulti::validate(&params)?;
+    let before = params(&args)?;
     let per_point = args
         .per_point
-        .resolve(&args.material, params.medium.is_some())?;
+        .resolve(&args.material, before.medium.is_some())?;
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
     wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
     let mut cloud = args.io.read(&Select::only(&wanted))?;
+    // A preset's lengths in the cloud's unit.
+    let frame = cloud.frame().map_err(cli::at(&name))?;
+    if let Some(line) = args.material.in_frame(&frame)? {
+        msg.warn(line);
+    }
+    let params = params(&args)?;
     let progress = msg.progress();
     let base = match args.material.recipe()? {
         Some(recipe) => ssmulti::per_point::Base::Physical(recipe),

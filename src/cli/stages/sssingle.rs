@@ -6,7 +6,7 @@ use crate::formats::Select;
 use crate::stages::sssingle;
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("sssingle");
     let name = args.io.input_name();
     let given_eye = match &args.eye {
@@ -28,6 +28,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // The lights and the camera are moved into the cloud's frame.
     let frame = cloud.frame().map_err(cli::at(&name))?;
     let lights = lights_file.in_frame(&frame);
+    if let Some(line) = args.material.in_frame(&frame)? {
+        msg.warn(line);
+    }
     let eye = match (given_eye, camera) {
         (Some(e), _) => e,
         (None, Some(cam)) => cam.in_frame(&frame).position,

@@ -37,6 +37,9 @@ pub struct Material {
     /// Per-point values rounded on a grid of this many levels (a
     /// texture's many values into few groups; `ssmulti::per_point`).
     pub levels: Option<u32>,
+    /// A preset's millimetres were taken as the scene's units: neither the
+    /// scene nor the material said how long a unit is.
+    pub unit_assumed: bool,
 }
 
 /// The most levels a per-point value may be rounded to.
@@ -175,11 +178,27 @@ const MAX_FILE: u64 = 1 << 20;
 /// preset (at unit length 1: millimetres). An error names the file and
 /// the key at fault, or lists the presets.
 pub fn load(arg: &str) -> Result<Material> {
+    load_in(arg, None)
+}
+
+/// [`load`] for a scene whose unit is `unit_mm` millimetres long (from the
+/// cloud's recorded `meters_per_unit`): a preset's lengths, in
+/// millimetres, are divided by it (a material file's own `unit_length`
+/// wins). With no unit from either, the preset's millimetres are the
+/// scene's units, and the material says so ([`Material::unit_assumed`]).
+pub fn load_in(arg: &str, unit_mm: Option<f64>) -> Result<Material> {
     let path = Path::new(arg);
     if path.exists() {
-        return read(path);
+        return read(path, unit_mm);
     }
-    preset(arg, 1.0).ok_or_else(|| {
+    let found = preset(arg, unit_mm.unwrap_or(1.0)).map(|mut m| {
+        m.unit_assumed = unit_mm.is_none();
+        if let Some(u) = unit_mm {
+            m.source = format!("{} (a scene unit of {u} mm)", m.source);
+        }
+        m
+    });
+    found.ok_or_else(|| {
         let names: Vec<&str> = PRESETS.iter().map(|p| p.0).collect();
         Error::param(
             "material",
@@ -192,7 +211,7 @@ pub fn load(arg: &str) -> Result<Material> {
 }
 
 /// A material file.
-fn read(path: &Path) -> Result<Material> {
+fn read(path: &Path, unit_mm: Option<f64>) -> Result<Material> {
     let name = path.display().to_string();
     // (What is read is capped, not what the file says its size is: a
     // device's is 0.)
@@ -200,11 +219,17 @@ fn read(path: &Path) -> Result<Material> {
         .map_err(|e| e.about(&name))?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::invalid("not UTF-8 text: not a material file").about(&name))?;
-    parse(&text, &name)
+    parse_in(&text, &name, unit_mm)
 }
 
 /// A material file's text; `name` for its `source`.
 pub fn parse(text: &str, name: &str) -> Result<Material> {
+    parse_in(text, name, None)
+}
+
+/// [`parse`] for a scene whose unit is `unit_mm` millimetres long (see
+/// [`load_in`]).
+pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material> {
     let de = &mut serde_json::Deserializer::from_str(text);
     let f: File = serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
@@ -219,7 +244,7 @@ pub fn parse(text: &str, name: &str) -> Result<Material> {
             ));
         }
     }
-    let unit = f.unit_length.unwrap_or(1.0);
+    let unit = f.unit_length.or(unit_mm).unwrap_or(1.0);
     if !(unit.is_finite() && unit > 0.0) {
         return Err(bad(
             "unit_length",
@@ -248,6 +273,7 @@ pub fn parse(text: &str, name: &str) -> Result<Material> {
         Some(p) => format!("{name} (preset {p})"),
         None => name.to_string(),
     };
+    m.unit_assumed = f.preset.is_some() && f.unit_length.is_none() && unit_mm.is_none();
     if f.albedo.is_some() && f.color.is_some() {
         return Err(bad("color", "give albedo or color, not both".into()));
     }
