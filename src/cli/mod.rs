@@ -800,7 +800,7 @@ fn address_limit() -> Option<u64> {
     };
     // SAFETY: getrlimit fills the struct it is given, and nothing else.
     let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
 }
 
 /// The pool the stages run in when the global one could not start: the
