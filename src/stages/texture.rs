@@ -66,6 +66,14 @@ pub fn texture(
             format!("'{name}' is not an attribute name"),
         ));
     }
+    // A colour written over what another stage made (positions, normals,
+    // areas, light) would pass on as that, wrong.
+    if let Some(maker) = crate::names::made_by(name) {
+        return Err(Error::param(
+            "name",
+            format!("'{name}' is {maker}'s attribute, not a texture's: name another (Cd)"),
+        ));
+    }
     if uvs.len() != mesh.positions.len() {
         return Err(Error::invalid(format!(
             "{} texture coordinates for {} vertices",
@@ -84,26 +92,42 @@ pub fn texture(
     let uv = pts.vec3_f64("sourceuv")?;
     mesh.source_faces(&prim)?;
     let repeat = wrap == Wrap::Repeat;
+    // A coordinate that is not a number has no colour: refused, naming
+    // the point or the mesh's vertex (as `follow` refuses them).
     let rows: Vec<[f32; 3]> = (0..pos.len())
         .into_par_iter()
         .map(|i| {
+            if !(uv[i][0].is_finite() && uv[i][1].is_finite()) {
+                return Err(Error::invalid(format!(
+                    "point {i}: sourceuv is {:?}, not finite",
+                    &uv[i][..2]
+                )));
+            }
             let f = prim[i] as usize;
             let w = [1.0 - uv[i][0] - uv[i][1], uv[i][0], uv[i][1]];
             let p = DVec3::from_array(pos[i]);
             let Some(t) = mesh.triangle_at(f, w, p) else {
-                return [0.0; 3];
+                return Ok([0.0; 3]);
             };
             let k = mesh.tris[t];
-            let c = k.map(|corner| uvs[mesh.vertex(corner)]);
+            let v = k.map(|corner| mesh.vertex(corner));
+            let c = v.map(|v| uvs[v]);
+            if let Some(j) = (0..3).find(|&j| !(c[j][0].is_finite() && c[j][1].is_finite())) {
+                return Err(Error::invalid(format!(
+                    "the mesh's vertex {}: texture coordinate {:?}, not finite",
+                    v[j], c[j]
+                )));
+            }
             let s = w[0] * c[0][0] + w[1] * c[1][0] + w[2] * c[2][0];
             let q = w[0] * c[0][1] + w[1] * c[1][1] + w[2] * c[2][1];
-            if s.is_finite() && q.is_finite() {
-                tex.sample(s, q, repeat)
-            } else {
-                [0.0; 3]
+            if !(s.is_finite() && q.is_finite()) {
+                return Err(Error::invalid(format!(
+                    "point {i}: its texture coordinate ({s}, {q}) is not finite"
+                )));
             }
+            Ok(tex.sample(s, q, repeat))
         })
-        .collect();
+        .collect::<Result<_>>()?;
     cloud.points_mut().set_vec3(name, Role::Color, &rows)?;
     let prefix = format!("texture_{name}_");
     let key = |k: &str| format!("{prefix}{k}");

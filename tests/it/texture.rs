@@ -152,3 +152,74 @@ fn a_texture_drives_a_per_point_material_through_the_binaries() {
         mean(0.1, 0.3)
     );
 }
+
+#[test]
+fn a_texture_over_another_stage_s_attribute_or_at_no_coordinate_is_refused() {
+    let d = tempdir();
+    std::fs::write(d.path().join("seam.obj"), SEAM_OBJ).unwrap();
+    // The same quads with one texture coordinate that is not a number.
+    std::fs::write(
+        d.path().join("nan.obj"),
+        SEAM_OBJ.replacen("vt 0.5 0\n", "vt nan 0\n", 1),
+    )
+    .unwrap();
+    gradient_png(&d.path().join("grad.png"), 8, 4);
+    let b = |n: &str| bin(n).display().to_string();
+    shell(
+        d.path(),
+        &format!("{s} seam.obj -n 200 --seed 3 -o pts.ply", s = b("scatter")),
+    );
+    let run = |args: &[&str]| {
+        std::process::Command::new(bin("texture"))
+            .current_dir(d.path())
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    // Positions written as a colour would pass on as positions.
+    let o = run(&[
+        "pts.ply", "--mesh", "seam.obj", "--image", "grad.png", "--as", "P", "-o", "x.ply",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("'P'") && e.contains("scatter"), "{e}");
+    assert!(!d.path().join("x.ply").exists());
+    // A coordinate that is not a number has no colour: not black, refused.
+    let o = run(&[
+        "pts.ply", "--mesh", "nan.obj", "--image", "grad.png", "--as", "Cd", "-o", "x.ply",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("not finite") && e.contains("vertex"), "{e}");
+    // A point whose sourceuv is not a number, the same.
+    let mut c = from_bytes(&std::fs::read(d.path().join("pts.ply")).unwrap());
+    let mut uv = c.points().vec3_f64("sourceuv").unwrap();
+    uv[7][0] = f64::NAN;
+    c.points_mut()
+        .set_vec3("sourceuv", pcsss::Role::Vector, &uv)
+        .unwrap();
+    std::fs::write(
+        d.path().join("nanuv.ply"),
+        to_bytes(&c, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let o = run(&[
+        "nanuv.ply",
+        "--mesh",
+        "seam.obj",
+        "--image",
+        "grad.png",
+        "--as",
+        "Cd",
+        "-o",
+        "x.ply",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("point 7") && e.contains("sourceuv"), "{e}");
+    // The valid run beside them still works.
+    let o = run(&[
+        "pts.ply", "--mesh", "seam.obj", "--image", "grad.png", "--as", "Cd", "-o", "x.ply",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

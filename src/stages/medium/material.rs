@@ -427,6 +427,18 @@ mod tests {
         }
         let e = load("no such material").unwrap_err().to_string();
         assert!(e.contains("skin1") && e.contains("no such material"), "{e}");
-        assert_eq!(load("ketchup").unwrap(), preset("ketchup", 1.0).unwrap());
+        // A preset by name with no scene unit takes millimetres, and says so.
+        let ketchup = load("ketchup").unwrap();
+        assert!(ketchup.unit_assumed);
+        assert_eq!(
+            ketchup,
+            Material {
+                unit_assumed: true,
+                ..preset("ketchup", 1.0).unwrap()
+            }
+        );
+        let cm = load_in("ketchup", Some(10.0)).unwrap();
+        assert!(!cm.unit_assumed);
+        assert_eq!(cm.mfp, preset("ketchup", 10.0).unwrap().mfp);
     }
 }
