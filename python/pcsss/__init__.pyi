@@ -29,7 +29,12 @@ class Cloud:
         """Points from arrays of N (a scalar) or N x 3 (a 3-vector; `P` a
         point, `N` a normal, `Cd`, `illum`, `ssM`, `ssS` colours), each
         copied into the toolkit's columns with its dtype; with `faces`
-        (F x k point indices, or a list of index lists) a mesh."""
+        (F x k point indices, or a list of index lists) a mesh.
+
+        Points, normals and colours given as integers are converted to
+        float64. Other integers wider than 32 bits become int32 when
+        every value fits and are refused (ValueError) when one does not;
+        float16 becomes float32 and longdouble float64."""
     def __len__(self) -> int: ...
     def __contains__(self, name: str) -> bool: ...
     def __getitem__(self, name: str) -> np.ndarray:

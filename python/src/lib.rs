@@ -110,7 +110,11 @@ macro_rules! scalar_from {
                 let a = a.readonly();
                 let a = a.as_array();
                 if a.ncols() != 3 {
-                    return Err(PyValueError::new_err(format!("{}: an N x {} array; an attribute is N or N x 3", $name, a.ncols())));
+                    let hint = if a.nrows() == 3 { " (transpose it: .T)" } else { "" };
+                    return Err(PyValueError::new_err(format!(
+                        "{}: an array of shape ({}, {}); an attribute is N or N x 3{hint}",
+                        $name, a.nrows(), a.ncols()
+                    )));
                 }
                 // Straight into the rows the module keeps a 3-vector in
                 // (one copy; see `interleaved`).
@@ -126,20 +130,48 @@ macro_rules! scalar_from {
     }};
 }
 
+/// An array as an attribute. Positions, normals and colours (by name,
+/// [`role_of`]) are floats: integer ones are converted to float64, which
+/// holds every integer up to 2^53 exactly, rather than kept as whole
+/// numbers the stages would read as int32. Other integers keep their
+/// dtype up to 32 bits; wider ones become int32 when every value fits and
+/// are refused when one does not. Floats of another width (float16,
+/// longdouble) become float32 or float64.
 fn attribute(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Attribute> {
     let np = v.py().import("numpy")?;
-    let arr = np.call_method1("asarray", (v,))?;
+    let mut arr = np.call_method1("asarray", (v,))?;
+    let dtype = arr.getattr("dtype")?;
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    let size: usize = dtype.getattr("itemsize")?.extract()?;
+    let integral = kind == "i" || kind == "u" || kind == "b";
+    if integral && role_of(name) != Role::Vector {
+        arr = arr.call_method1("astype", ("float64",))?;
+    } else if integral && size > 4 {
+        let fits = if arr.getattr("size")?.extract::<usize>()? == 0 {
+            true
+        } else {
+            let lo: i128 = arr.call_method0("min")?.extract()?;
+            let hi: i128 = arr.call_method0("max")?.extract()?;
+            lo >= i32::MIN as i128 && hi <= i32::MAX as i128
+        };
+        if !fits {
+            return Err(PyValueError::new_err(format!(
+                "{name}: integers past int32's range (the formats' widest integer); \
+                 give them as floats (astype(float64)) if that is what they are"
+            )));
+        }
+        arr = arr.call_method1("astype", ("int32",))?;
+    }
     scalar_from!(arr, name,
         f32 => F32, f64 => F64, u8 => U8, i8 => I8, u16 => U16, i16 => I16, u32 => U32, i32 => I32);
-    // Python ints and other types: as int32 if integral, else float32.
-    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
-    let cast = if kind == "i" || kind == "u" || kind == "b" {
-        "int32"
-    } else {
-        "float32"
+    let cast = match (kind.as_str(), size) {
+        ("b", _) => "uint8",
+        ("f", s) if s > 4 => "float64",
+        ("f", _) => "float32",
+        _ => return Err(PyTypeError::new_err(format!("{name}: not a numeric array"))),
     };
     let arr = arr.call_method1("astype", (cast,))?;
-    scalar_from!(arr, name, f32 => F32, i32 => I32);
+    scalar_from!(arr, name, f32 => F32, f64 => F64, u8 => U8);
     Err(PyTypeError::new_err(format!("{name}: not a numeric array")))
 }
 

@@ -201,3 +201,26 @@ def test_the_gil_is_released_while_a_stage_runs(lit):
     # Held, the GIL would keep this thread from running while a stage runs.
     inside = sum(any(a < s < b for a, b in calls) for s in spins)
     assert inside >= 5, (inside, len(spins), calls)
+
+
+def test_integer_positions_become_floats_and_wide_integers_are_checked():
+    # Positions given as int64 (np.arange's default) are positions, not
+    # whole-number codes: converted to float64, exactly.
+    p = np.arange(30, dtype=np.int64).reshape(10, 3) * 1000003
+    c = pcsss.Cloud.from_arrays({"P": p, "Cd": np.ones((10, 3), dtype=np.int64)})
+    assert c["P"].dtype == np.float64 and np.array_equal(c["P"], p.astype(np.float64))
+    assert c["Cd"].dtype == np.float64
+    # Other integers keep their values: int64 that fit become int32 ...
+    c["id"] = np.arange(10, dtype=np.int64)
+    assert c["id"].dtype == np.int32 and list(c["id"]) == list(range(10))
+    # ... and ones past int32 are refused, not wrapped.
+    with pytest.raises(ValueError, match="id2.*int32"):
+        c["id2"] = np.arange(10, dtype=np.int64) + 2**40
+    # Floats of any width: float16 as float32, longdouble as float64.
+    c["h"] = np.ones(10, dtype=np.float16)
+    assert c["h"].dtype == np.float32
+    c["l"] = np.ones(10, dtype=np.longdouble)
+    assert c["l"].dtype == np.float64
+    # A 3 x N array names its shape and the fix.
+    with pytest.raises(ValueError, match=r"\(3, 10\).*\.T"):
+        pcsss.Cloud.from_arrays({"P": np.zeros((3, 10))})

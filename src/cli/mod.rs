@@ -622,6 +622,7 @@ fn check_paths(
     if stdout && has_output && outputs.is_empty() {
         files::check_stdout_open()?;
     }
+    check_output_formats(cmd, m)?;
     let stdout = stdout && outputs.is_empty();
     let outs: Vec<files::Output> = outputs
         .iter()
@@ -630,6 +631,40 @@ fn check_paths(
     let mut ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     ins.extend_from_slice(more_inputs);
     Ok(files::check_outputs_to(&outs, &ins, stdout)?)
+}
+
+/// A cloud output whose name has an extension the writers do not know
+/// (`x.usdc`, `x.bgeo`) is refused before any work, unless `--format`
+/// says what to write under it: written as PLY, the file would lie about
+/// what it holds. A name without an extension is PLY.
+fn check_output_formats(cmd: &clap::Command, m: &clap::ArgMatches) -> crate::Result<()> {
+    if let Some((name, sub)) = m.subcommand() {
+        if let Some(c) = cmd.find_subcommand(name) {
+            check_output_formats(c, sub)?;
+        }
+    }
+    let has_format = cmd.get_arguments().any(|a| a.get_id() == "format");
+    if !has_format || matches!(m.try_get_raw("format"), Ok(Some(_))) {
+        return Ok(());
+    }
+    let Ok(Some(values)) = m.try_get_raw("output") else {
+        return Ok(());
+    };
+    for path in values.map(Path::new) {
+        let Some(ext) = path.extension() else {
+            continue;
+        };
+        if path != Path::new("-") && Format::from_path(path).is_none() {
+            let why = format!(
+                "{}: the writers do not know '.{}' (they write .ply, .exr and .usda): \
+                 name one of them, or give --format to write one under this name",
+                path.display(),
+                ext.to_string_lossy()
+            );
+            return Err(crate::Error::param("output", why));
+        }
+    }
+    Ok(())
 }
 
 /// Runs a stage's body: on error prints `stage: context: error` on one line
