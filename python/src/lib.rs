@@ -539,6 +539,7 @@ impl PyCloud {
 #[pyfunction]
 fn read(py: Python<'_>, path: PathBuf) -> PyResult<PyCloud> {
     let name = path.display().to_string();
+    pcsss::files::begin_run();
     py.detach(|| formats::read_cloud_file(&path, &Select::only(&[])))
         .map(PyCloud::new)
         .map_err(|e| Error::new_err(format!("{name}: {e}")))
@@ -551,10 +552,13 @@ fn read(py: Python<'_>, path: PathBuf) -> PyResult<PyCloud> {
 fn write(py: Python<'_>, cloud: &PyCloud, path: PathBuf, format: Option<&str>) -> PyResult<()> {
     let f = match format {
         Some(f) => f.parse::<Format>().map_err(ParameterError::new_err)?,
-        None => Format::from_path(&path).unwrap_or(Format::DEFAULT),
+        None => Format::for_output(&path).map_err(ParameterError::new_err)?,
     };
     let c = cloud.get();
     let name = path.display().to_string();
+    // A call is a run of its own: what an earlier call read is not this
+    // one's input (its inode may be a new file's by now).
+    pcsss::files::begin_run();
     py.detach(|| pcsss::files::write_output(Some(&path), |w| formats::write_cloud(w, &c, f)))
         .map_err(|e| lib_err(format!("{name}: {e}")))
 }

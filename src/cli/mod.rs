@@ -650,19 +650,8 @@ fn check_output_formats(cmd: &clap::Command, m: &clap::ArgMatches) -> crate::Res
     let Ok(Some(values)) = m.try_get_raw("output") else {
         return Ok(());
     };
-    for path in values.map(Path::new) {
-        let Some(ext) = path.extension() else {
-            continue;
-        };
-        if path != Path::new("-") && Format::from_path(path).is_none() {
-            let why = format!(
-                "{}: the writers do not know '.{}' (they write .ply, .exr and .usda): \
-                 name one of them, or give --format to write one under this name",
-                path.display(),
-                ext.to_string_lossy()
-            );
-            return Err(crate::Error::param("output", why));
-        }
+    for path in values.map(Path::new).filter(|p| *p != Path::new("-")) {
+        Format::for_output(path).map_err(|why| crate::Error::param("output", why))?;
     }
     Ok(())
 }

@@ -44,6 +44,22 @@ impl Format {
         }
     }
 
+    /// The format an output file's name asks for: by its extension, PLY
+    /// when it has none. An extension the writers do not know (`.usdc`,
+    /// `.bgeo`) is an error, not PLY under that name.
+    pub fn for_output(p: &Path) -> std::result::Result<Format, String> {
+        match (p.extension(), Format::from_path(p)) {
+            (_, Some(f)) => Ok(f),
+            (None, None) => Ok(Format::DEFAULT),
+            (Some(ext), None) => Err(format!(
+                "{}: the writers do not know '.{}' (they write .ply, .exr and .usda): \
+                 name one of them, or give the format to write one under this name",
+                p.display(),
+                ext.to_string_lossy()
+            )),
+        }
+    }
+
     /// The names accepted by `--format`.
     pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr, usda";
 }

@@ -196,6 +196,9 @@ pub(super) enum Kernels {
     Burley([BurleyKernel; 3]),
 }
 
+/// The shortest kernel distance the pair loop takes (scene units).
+pub(super) const MIN_KERNEL: f64 = 1e-18;
+
 impl Kernels {
     /// The kernels at distances `ld` (`ld1` when `single`), each taken
     /// no longer than `size` (the cloud's diagonal) times [`CAP_SMOOTH`]
@@ -206,10 +209,16 @@ impl Kernels {
                 Falloff::Smooth => CAP_SMOOTH,
                 Falloff::Exp { sigma: k } | Falloff::Burley { kappa: k } => CAP_EXP * k.max(1.0),
             };
-        // (A cap of 0, a cloud of one position, only shortens kernels
-        // whose every pair is at r = 0.)
-        let d =
-            |c: usize| (if single { ld1 } else { ld[c] }).min(cap.max(f64::MIN_POSITIVE)) as f32;
+        // No kernel is shorter than `MIN_KERNEL`: `1 / D^2` stays an f32
+        // (a kernel capped by a cloud only 1e-25 wide made it inf, and
+        // `0 * inf` a NaN weight, read as 0). The pairs of such a cloud
+        // are all closer than f32 distances resolve (their squares are
+        // 0), so they weigh what a pair at r = 0 does, as the points of a
+        // cloud of one position do.
+        let d = |c: usize| {
+            let l = if single { ld1 } else { ld[c] };
+            l.min(cap).max(MIN_KERNEL) as f32
+        };
         let safe = |d: f32| if d > 0.0 { d } else { 1.0 };
         match f {
             Falloff::Smooth => Kernels::Smooth([0, 1, 2].map(|c| {

@@ -244,3 +244,38 @@ fn points_spread_over_every_scale_give_finite_sums() {
         }
     }
 }
+
+/// Two points closer than f32 distances resolve weigh what two points at
+/// one position do, whatever the gap and however short the kernel the
+/// cloud's size caps (1e-25 apart once gave the smooth kernel an
+/// infinite `1 / D^2`, a NaN weight and ssM 0).
+#[test]
+fn two_points_a_hair_apart_give_what_two_at_one_position_give() {
+    let n = [[0.0, 0.0, 1.0]; 2];
+    for falloff in falloffs() {
+        let p = Params {
+            rd: [0.9, 0.5, 0.3],
+            sd: 0.3,
+            falloff,
+            tolerance: 0.0,
+            ..Params::default()
+        };
+        let at = |gap: f64| {
+            let c = cloud_of(&[[0.0; 3], [gap, 0.0, 0.0]], &n, &[0.01; 2], &[[1.0; 3]; 2]);
+            run(&c, &p)
+        };
+        let want = at(0.0);
+        assert!(want[0][0] > 0.0, "{falloff:?}: {want:?}");
+        for gap in [1e-46, 1e-30, 1e-25, 4e-25, 1e-24, 1e-20] {
+            let got = at(gap);
+            for (g, w) in got.iter().zip(&want) {
+                for ch in 0..3 {
+                    assert!(
+                        rel_err(g[ch], w[ch]) < 1e-6,
+                        "{falloff:?} gap {gap}: {g:?} vs {w:?}"
+                    );
+                }
+            }
+        }
+    }
+}
