@@ -263,7 +263,12 @@ macro_rules! impl_scalar {
         }
     }};
     (@parse $t:ty, $s:ident, true) => {{
-        <$t>::plain($s).or_else(|| $s.parse::<$t>().ok())
+        // A number spelled in digits that the type cannot hold (1e39 as
+        // a float) is not a valid value: parsed, it would be an infinity
+        // nobody wrote. "inf" and "nan" spelled out stay what they say.
+        <$t>::plain($s)
+            .or_else(|| $s.parse::<$t>().ok())
+            .filter(|v| v.is_finite() || !$s.bytes().any(|b| b.is_ascii_digit()))
     }};
     (@fmt $v:ident, $out:ident, false) => {{
         let _ = write!($out, "{}", $v);

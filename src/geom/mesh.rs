@@ -317,6 +317,50 @@ impl TriMesh {
         }
     }
 
+    /// [`Self::source_faces`], and each point of `pos` lies on its face:
+    /// within `1e-4` of the mesh's size plus the f32 rounding of its
+    /// coordinates (scatter places points on their faces, relaxed or not,
+    /// and `follow` moves them with them). A cloud scattered on another
+    /// mesh with as many faces passes the count and fails this: its
+    /// points lie off their faces. The error names the first such point.
+    pub fn source_faces_at(&self, prim: &[f64], pos: &[[f64; 3]]) -> Result<()> {
+        self.source_faces(prim)?;
+        let (lo, hi) = self.positions.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let size = (hi - lo).length();
+        if !size.is_finite() {
+            return Ok(());
+        }
+        let far = |i: usize| -> Option<f64> {
+            let p = DVec3::from_array(pos[i]);
+            let f = prim[i] as usize;
+            let d = (self.face_tris[f]..self.face_tris[f + 1])
+                .map(|t| {
+                    let [a, b, c] = self.tri(t as usize);
+                    (geom::blend(geom::closest_on_triangle(p, a, b, c), a, b, c) - p).length()
+                })
+                .fold(f64::INFINITY, f64::min);
+            let tol = 1e-4 * size + 1e-6 * p.abs().max_element();
+            // (A NaN distance, a non-finite point, is the stage's own
+            // error to name.)
+            (d > tol && d.is_finite()).then_some(d)
+        };
+        let bad = (0..prim.len().min(pos.len()))
+            .into_par_iter()
+            .find_first(|&i| far(i).is_some());
+        match bad {
+            Some(i) => Err(Error::invalid(format!(
+                "point {i} lies {:.3e} from its face {} (sourceprim) on a mesh {size:.3e} across: \
+                 is the mesh the one it was scattered on?",
+                far(i).unwrap_or(0.0),
+                prim[i]
+            ))),
+            None => Ok(()),
+        }
+    }
+
     /// The face a triangle belongs to.
     pub fn tri_faces(&self) -> Vec<u32> {
         let mut out = vec![0u32; self.tris.len()];

@@ -198,7 +198,7 @@ pub fn facet_points(cloud: &mut Cloud, mesh: &TriMesh, p: &Params) -> Result<Rep
     };
     let source = if pts.has("sourceprim") {
         let prim = pts.scalar_f64("sourceprim")?;
-        mesh.source_faces(&prim)?;
+        mesh.source_faces_at(&prim, &pos)?;
         let uv = match (p.mode, pts.has("sourceuv")) {
             (Mode::Smooth, true) => Some(pts.vec3_f64("sourceuv")?),
             (Mode::Smooth, false) => {

@@ -90,7 +90,7 @@ pub fn texture(
     let pos = pts.vec3_f64("P")?;
     let prim = pts.scalar_f64("sourceprim")?;
     let uv = pts.vec3_f64("sourceuv")?;
-    mesh.source_faces(&prim)?;
+    mesh.source_faces_at(&prim, &pos)?;
     let repeat = wrap == Wrap::Repeat;
     // A coordinate that is not a number has no colour: refused, naming
     // the point or the mesh's vertex (as `follow` refuses them).

@@ -526,3 +526,71 @@ fn class_7_a_preset_s_lengths_follow_the_scene_s_unit() {
     let err = stderr(&o);
     assert_eq!(err.matches("records no unit").count(), 1, "{err}");
 }
+
+#[test]
+fn class_7_outputs_whose_extension_no_writer_knows_are_refused() {
+    let d = tempdir();
+    let input = cloud_file(d.path(), "in.ply");
+    for out in ["x.usdc", "x.bgeo", "x.vdb", "x.PLY.gz"] {
+        let o = bash(d.path(), &format!("pcconvert {input} -o {out}"));
+        refused(&o, 2, "the writers do not know");
+        assert!(!d.path().join(out).exists(), "{out}");
+        // Before any work: a stage that would read stdin says so first.
+        let o = bash(d.path(), &format!("ssmulti --sd 0.5 -o {out} < /dev/null"));
+        refused(&o, 2, out);
+    }
+    // The names the writers know, any case, no extension, and a name
+    // given its format.
+    for (out, args, magic) in [
+        ("a.PLY", "", &b"ply\n"[..]),
+        ("a.exr", "", &[0x76, 0x2f, 0x31, 0x01][..]),
+        ("a.usda", "", &b"#usda"[..]),
+        ("noext", "", &b"ply\n"[..]),
+        ("a.usdc", "--format exr", &[0x76, 0x2f, 0x31, 0x01][..]),
+    ] {
+        let o = bash(d.path(), &format!("pcconvert {input} {args} -o {out}"));
+        assert!(o.status.success(), "{out}: {}", stderr(&o));
+        let bytes = std::fs::read(d.path().join(out)).unwrap();
+        assert!(bytes.starts_with(magic), "{out}");
+    }
+}
+
+#[test]
+fn class_7_a_cloud_from_another_mesh_with_as_many_faces_is_refused() {
+    let d = tempdir();
+    let cube = fixtures().join("mesh/cube.obj");
+    // The cube moved and squashed: the same faces, other places.
+    let moved: String = std::fs::read_to_string(&cube)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let x: Vec<f64> = v.split_whitespace().map(|t| t.parse().unwrap()).collect();
+                format!("v {} {} {}\n", x[0] * 3.0 + 5.0, x[1], x[2] * 0.5)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(d.path().join("moved.obj"), moved).unwrap();
+    let c = cube.display();
+    let o = bash(
+        d.path(),
+        &format!("scatter {c} -n 500 --seed 1 --relax 4 -o pts.ply"),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for mode in ["flat", "smooth"] {
+        let o = bash(
+            d.path(),
+            &format!("facet pts.ply --mesh moved.obj --mode {mode} -o n.ply"),
+        );
+        refused(&o, 1, "is the mesh the one it was scattered on?");
+        assert!(stderr(&o).contains("sourceprim"), "{}", stderr(&o));
+        // On its own mesh, relaxed points and all, it works.
+        let o = bash(
+            d.path(),
+            &format!("facet pts.ply --mesh {c} --mode {mode} -o n.ply"),
+        );
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+    }
+    // (texture's side: tests/it/texture.rs.)
+}

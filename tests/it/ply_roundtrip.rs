@@ -342,3 +342,31 @@ fn ascii_rows_not_one_a_line_still_read_and_errors_name_the_same_line() {
         }
     }
 }
+
+/// A float spelled in digits past its type's range is refused, naming
+/// the line; "inf" and "nan" spelled out, the largest finite float and
+/// the same digits in a double are read as written.
+#[test]
+fn an_ascii_float_past_its_range_is_refused_not_made_infinite() {
+    let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty double y\nend_header\n";
+    for bad in ["1e39", "-1e39", "3.5e38", "1e400"] {
+        let (mapped, streamed) = mapped_and_streamed(format!("{head}0 0\n{bad} 1\n").as_bytes());
+        for e in [mapped.unwrap_err(), streamed.unwrap_err()] {
+            let e = e.to_string();
+            assert!(
+                e.contains(&format!("'{bad}' is not a valid float (past its range)"))
+                    && e.contains("line"),
+                "{bad}: {e}"
+            );
+        }
+    }
+    let (mapped, streamed) =
+        mapped_and_streamed(format!("{head}inf 1e39\n3.4e38 -inf\n").as_bytes());
+    for c in [mapped.unwrap(), streamed.unwrap()] {
+        let x = c.points().scalar_f64("x").unwrap();
+        let y = c.points().scalar_f64("y").unwrap();
+        assert_eq!(x[0], f64::INFINITY);
+        assert_eq!(x[1], 3.4e38f32 as f64);
+        assert_eq!((y[0], y[1]), (1e39, f64::NEG_INFINITY));
+    }
+}

@@ -217,6 +217,32 @@ fn a_texture_over_another_stage_s_attribute_or_at_no_coordinate_is_refused() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(e.contains("point 7") && e.contains("sourceuv"), "{e}");
+    // The same quads moved: as many faces, but the points lie off them.
+    std::fs::write(
+        d.path().join("moved.obj"),
+        SEAM_OBJ
+            .replace("v 0 ", "v 7 ")
+            .replace("v 1 ", "v 8 ")
+            .replace("v 2 ", "v 9 "),
+    )
+    .unwrap();
+    let o = run(&[
+        "pts.ply",
+        "--mesh",
+        "moved.obj",
+        "--image",
+        "grad.png",
+        "--as",
+        "Cd",
+        "-o",
+        "x.ply",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("is the mesh the one it was scattered on?"),
+        "{e}"
+    );
     // The valid run beside them still works.
     let o = run(&[
         "pts.ply", "--mesh", "seam.obj", "--image", "grad.png", "--as", "Cd", "-o", "x.ply",

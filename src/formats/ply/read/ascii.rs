@@ -315,8 +315,14 @@ pub(super) fn read_ascii<R: BufRead>(
     for row in rows.clone() {
         for (pd, p) in def.props.iter().zip(props.iter_mut()) {
             let bad = |t: &str, ty: ScalarType, line: usize| {
+                // (A float's only invalid number is one past its range.)
+                let past = if ty.is_float() && t.parse::<f64>().is_ok() {
+                    " (past its range)"
+                } else {
+                    ""
+                };
                 Error::invalid(format!(
-                    "body line {line}: element '{}' row {row} property '{}': '{t}' is not a valid {}",
+                    "body line {line}: element '{}' row {row} property '{}': '{t}' is not a valid {}{past}",
                     def.name,
                     pd.name,
                     ty.ply_name()

@@ -379,6 +379,13 @@ impl Path {
     /// ""            -> None
     /// ```
     pub fn parent(&self) -> Option<Path> {
+        // pcsss: a parent is strictly shorter, or there is none: a malformed path
+        // ("/A.b:c}" with a `}` no `{` opens) must not be its own parent,
+        // which made every walk up its ancestors loop forever.
+        self.parent_unchecked().filter(|p| p.path.len() < self.path.len())
+    }
+
+    fn parent_unchecked(&self) -> Option<Path> {
         if self.path.is_empty() || self.path == "/" {
             return None;
         }
