@@ -6,6 +6,8 @@ SHELL := bash
 PYENV := target/pyenv
 PY := $(PYENV)/bin/python
 export PCSSS_PYTHON := $(abspath $(PY))
+# Paths with spaces or shell characters: refused on one line.
+include pipelines/paths.mk
 
 .PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build build-and-tools pywheel exrtools slurm lint
 
@@ -113,16 +115,17 @@ demo:
 ## Your own asset: make bake MESH=... LIGHTS=... CAMERA=... [MATERIAL=...]
 ## [UP_AXIS=y|z] [OUT=dir] and any variable of pipelines/Makefile; paths
 ## are taken from where make runs (the sub-make runs in pipelines/).
-absolute = $(if $(wildcard $(1)),$(abspath $(1)),$(1))
+## (OUT need not exist yet: it is always a path.)
+absolute = $(if $(or $(wildcard $(1)),$(filter OUT,$(2))),$(abspath $(1)),$(1))
 bake:
 	$(MAKE) -C pipelines bake \
-	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT TEXTURE,$(if $($(v)),$(v)=$(call absolute,$($(v)))))
+	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT TEXTURE,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v))))
 
 ## An animation: make frames FRAMES=anim/frame.####.obj LIGHTS=... CAMERA=...
 ## (one cloud scattered on the first frame, or REST=, followed through all).
 frames:
 	$(MAKE) -C pipelines frames \
-	  $(foreach v,LIGHTS CAMERA MATERIAL DIRECT OUT REST,$(if $($(v)),$(v)=$(call absolute,$($(v))))) \
+	  $(foreach v,LIGHTS CAMERA MATERIAL DIRECT OUT REST,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v)))) \
 	  $(if $(FRAMES),FRAMES=$(abspath $(FRAMES)))
 
 lint:

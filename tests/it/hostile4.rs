@@ -594,3 +594,53 @@ fn class_7_a_cloud_from_another_mesh_with_as_many_faces_is_refused() {
     }
     // (texture's side: tests/it/texture.rs.)
 }
+
+#[test]
+fn class_8_a_dry_run_writes_nothing_and_unsafe_paths_are_refused_on_one_line() {
+    let d = tempdir();
+    let pipelines = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let cube = fixtures().join("mesh/cube.obj");
+    for k in 1..=2 {
+        std::fs::copy(&cube, d.path().join(format!("f.000{k}.obj"))).unwrap();
+    }
+    std::fs::create_dir(d.path().join("out")).unwrap();
+    let times = d.path().join("out/frames.txt");
+    std::fs::write(&times, "the timings of a real run\n").unwrap();
+    let make = |args: &str| {
+        bash(
+            d.path(),
+            &format!(
+                "make -C {} {args} BIN={}",
+                pipelines.display(),
+                bin("pcinfo").parent().unwrap().display()
+            ),
+        )
+    };
+    let o = make(&format!(
+        "-n frames FRAMES={dir}/f.####.obj OUT={dir}/out COUNT=300",
+        dir = d.path().display()
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(&times).unwrap(),
+        "the timings of a real run\n"
+    );
+    assert!(!d.path().join("out/rest_cloud.ply").exists());
+    // A path make or the shell would split or read: one line, exit 2,
+    // nothing made.
+    for (var, value) in [
+        ("MESH", "my mesh.obj"),
+        ("OUT", "out dir"),
+        ("OUT", "it's"),
+        ("MESH", "a;b.obj"),
+        ("LIGHTS", "l(1).json"),
+    ] {
+        let o = make(&format!("-s bake {var}=\"{value}\""));
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.contains("***")).collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        assert!(lines[0].contains(&format!("{var}={value}")), "{err}");
+        assert!(!d.path().join(value).exists());
+    }
+}
