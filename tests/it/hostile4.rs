@@ -120,6 +120,28 @@ fn class_1_a_file_an_input_names_is_an_input() {
         b"",
     );
     assert!(o.status.success(), "{}", stderr(&o));
+    // render's direct light names the same map: its picture is refused
+    // over it too.
+    let cube = fixtures().join("mesh/cube.obj");
+    let camera = fixtures().join("cameras/bunny.json");
+    let o = run(
+        "render",
+        &[
+            "--mesh",
+            cube.to_str().unwrap(),
+            "--camera",
+            camera.to_str().unwrap(),
+            "--cloud",
+            &cloud,
+            "--direct",
+            &lights,
+            "-o",
+            map.to_str().unwrap(),
+        ],
+        b"",
+    );
+    refused(&o, 2, "is also an input");
+    assert_eq!(std::fs::read(&map).unwrap(), before);
 
     // A sublayer of the stage read.
     std::fs::write(
