@@ -1,6 +1,6 @@
 //! Writes `src/stages/medium/slab_table/`, the physical medium's table
 //! for thin parts (`docs/DESIGN.md#thickness`): a random walk
-//! (`pcsss::stages::medium::walk::walk_faces`) into a slab of each
+//! (`pcsss::medium::walk::walk_faces`) into a slab of each
 //! thickness in [`THICKNESS`] mean free paths, lit along its normal, at
 //! each node of phase asymmetry `g` and relative index `eta` (those of
 //! `src/stages/medium/table/`), its histograms of scattering events of the
@@ -16,8 +16,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pcsss::stages::medium::table::{ETA, G};
-use pcsss::stages::medium::walk::{edges, walk_faces};
+use pcsss::medium::table::{ETA, G};
+use pcsss::medium::walk::{edges, walk_faces};
 
 #[path = "shared/tables.rs"]
 mod tables;

@@ -1,6 +1,6 @@
 //! Writes `src/stages/medium/table/`, the physical medium's reflectance
 //! table (`docs/DESIGN.md#physical-medium`): a random walk
-//! (`pcsss::stages::medium::walk`) at each node of phase asymmetry `g`,
+//! (`pcsss::medium::walk`) at each node of phase asymmetry `g`,
 //! relative index `eta` and cosine `mu` of the light's arrival outside, its
 //! histogram of scattering events; one file per node of `g`.
 //!
@@ -14,7 +14,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pcsss::stages::medium::walk::{edges, walk_from};
+use pcsss::medium::walk::{edges, walk_from};
 
 #[path = "shared/tables.rs"]
 mod tables;

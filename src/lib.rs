@@ -10,27 +10,33 @@
 //! - Leaves: [`names`] (attribute names and the stage that makes each),
 //!   [`maths`] (smoothstep, seeded uniform streams), [`optics`]
 //!   (refraction, Fresnel, Henyey-Greenstein), [`radix`] (radix
-//!   sorts), [`progress`] (progress bars, phase times),
-//!   [`alloc`](mod@alloc) (the binaries' allocator).
+//!   sorts), `disjoint` (writes to disjoint parts of a slice from
+//!   threads), [`progress`] (progress bars, phase times),
+//!   [`alloc`](mod@alloc) (the binaries' allocator), [`frame`] (a
+//!   scene's up axis and unit, and the change between two).
 //! - [`column`](mod@column): scalar types and (lazily decoded) columns.
 //! - [`cloud`]: the point cloud: elements, attributes, detail, faces;
 //!   [`error`]: the library's error; [`memory`]: memory asked for before
 //!   the work; [`image`]: image clouds, shade points that remember their
 //!   pixels; [`halo`]: the points of a tile a stage computes; [`files`]:
-//!   atomic output files.
+//!   atomic output files, and the run's record of what it opened.
 //! - [`formats`]: PLY (all encodings), OBJ input, OpenEXR point clouds and
-//!   shade-point images, format sniffing; [`geom`]: triangle and polygon
-//!   measures, sampling, closest points; meshes ([`geom::mesh`]), rays
-//!   against them ([`geom::bvh`]), neighbour search over points
-//!   ([`geom::grid`], [`geom::kdtree`]).
+//!   shade-point images, USD stages in and USD text out
+//!   ([`formats::usd`]), texture images, format sniffing; [`geom`]:
+//!   triangle and polygon measures, sampling, closest points; meshes
+//!   ([`geom::mesh`]), rays against them ([`geom::bvh`]), neighbour search
+//!   over points ([`geom::grid`], [`geom::kdtree`]).
 //! - [`lights`]: the lights file, light masks, light arriving at a point,
-//!   and whether it arrives: shadow rays ([`lights::shadow`]).
-//! - [`stages`]: measure, promote, scatter, facet, illum, ssmulti,
-//!   sssingle, filter, render.
+//!   and whether it arrives: shadow rays ([`lights::shadow`]); [`medium`]:
+//!   the physical medium (a material file or preset, its albedo, mean
+//!   free path, `g` and `eta`), the random walk in a slab and its tables,
+//!   the light a thin part lets through.
+//! - [`stages`]: measure, promote, scatter, facet, follow, texture, illum,
+//!   ssmulti, sssingle, filter, render.
 //! - [`tiles`]: `pctile`'s split and merge, the halo a stage needs;
-//!   [`tools`]: `pcinfo` and `pcdiff`.
+//!   [`tools`]: `pcinfo` and `pcdiff`, what the fuzz targets run.
 //! - [`cli`]: what every binary shares (I/O paths, messages, errors,
-//!   options several stages take).
+//!   options several stages take) and each stage's command line.
 //!
 //! What each stage computes is in the repository's `docs/DESIGN.md`; the on-disk
 //! conventions in `formats/`.
@@ -49,6 +55,7 @@ pub mod halo;
 pub mod image;
 pub mod lights;
 pub mod maths;
+pub mod medium;
 pub mod memory;
 pub mod names;
 pub mod optics;

@@ -10,7 +10,7 @@ use clap::Parser;
 
 use super::{env_flag, IoArgs};
 use crate::stages::filter::{self, SingleSetup};
-use crate::stages::medium::{self, Medium, Model};
+use crate::medium::{self, Medium, Model};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle;
 

@@ -664,3 +664,46 @@ pub fn offset_ray(p: Vec3A, n: Vec3A) -> Vec3A {
     };
     Vec3A::new(one(p.x, n.x), one(p.y, n.y), one(p.z, n.z))
 }
+/// Closest-point queries on a mesh's triangles, through the ray tracer's
+/// BVH (this module's): boxes nearest first, pruned by the best distance so
+/// far. (A k-d tree of triangle centroids, searched outwards until no
+/// triangle could be closer, degrades when huge triangles sit among tiny
+/// ones: every centroid within the huge one's radius is a candidate.)
+/// Triangles of no area are never the answer.
+pub struct ClosestPoint<'a> {
+    mesh: &'a TriMesh,
+    bvh: Occluder,
+}
+
+/// A closest-point answer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Triangle index.
+    pub tri: usize,
+    /// Barycentric weights on it.
+    pub bary: [f64; 3],
+    /// Distance.
+    pub dist: f64,
+}
+
+impl<'a> ClosestPoint<'a> {
+    /// Builds the index; `None` for a mesh without triangles of non-zero
+    /// area.
+    pub fn new(mesh: &'a TriMesh) -> Option<Self> {
+        let bvh = Occluder::new(mesh);
+        if bvh.triangle_count() == 0 {
+            return None;
+        }
+        Some(ClosestPoint { mesh, bvh })
+    }
+
+    /// The closest point of the mesh to `p`.
+    pub fn query(&self, p: DVec3) -> Hit {
+        let (tri, bary, dist) = self
+            .bvh
+            .closest_point(self.mesh, p)
+            .expect("a BVH with triangles has a closest one");
+        Hit { tri, bary, dist }
+    }
+}
+

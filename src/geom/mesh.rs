@@ -605,49 +605,6 @@ impl Adjacency {
     }
 }
 
-/// Closest-point queries on a mesh's triangles, through the ray tracer's
-/// BVH (`geom::bvh`): boxes nearest first, pruned by the best distance so
-/// far. (A k-d tree of triangle centroids, searched outwards until no
-/// triangle could be closer, degrades when huge triangles sit among tiny
-/// ones: every centroid within the huge one's radius is a candidate.)
-/// Triangles of no area are never the answer.
-pub struct ClosestPoint<'a> {
-    mesh: &'a TriMesh,
-    bvh: crate::geom::bvh::Occluder,
-}
-
-/// A closest-point answer.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    /// Triangle index.
-    pub tri: usize,
-    /// Barycentric weights on it.
-    pub bary: [f64; 3],
-    /// Distance.
-    pub dist: f64,
-}
-
-impl<'a> ClosestPoint<'a> {
-    /// Builds the index; `None` for a mesh without triangles of non-zero
-    /// area.
-    pub fn new(mesh: &'a TriMesh) -> Option<Self> {
-        let bvh = crate::geom::bvh::Occluder::new(mesh);
-        if bvh.triangle_count() == 0 {
-            return None;
-        }
-        Some(ClosestPoint { mesh, bvh })
-    }
-
-    /// The closest point of the mesh to `p`.
-    pub fn query(&self, p: DVec3) -> Hit {
-        let (tri, bary, dist) = self
-            .bvh
-            .closest_point(self.mesh, p)
-            .expect("a BVH with triangles has a closest one");
-        Hit { tri, bary, dist }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

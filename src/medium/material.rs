@@ -344,7 +344,7 @@ pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::medium::Medium;
+    use crate::medium::Medium;
 
     /// The presets against RenderMan's own chart of them (its surface
     /// colours and diffuse mean free paths in millimetres, for the same

@@ -208,7 +208,7 @@ impl Thinness {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::medium::walk;
+    use crate::medium::walk;
 
     /// A slab lets through unscattered `e^-T` of the light along its
     /// normal at eta 1, and a white one returns all the rest through its

@@ -25,7 +25,8 @@ use rayon::prelude::*;
 
 use crate::cloud::{Cloud, DetailValue, Role};
 use crate::error::{Error, Result};
-use crate::geom::mesh::{ClosestPoint, TriMesh};
+use crate::geom::bvh::ClosestPoint;
+use crate::geom::mesh::TriMesh;
 use crate::geom::unit_or_zero;
 
 /// Flat or smooth.

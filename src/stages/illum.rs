@@ -40,7 +40,7 @@ use crate::geom::columns::{self, Columns};
 use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
 use crate::progress::Progress;
-use crate::stages::medium::Medium;
+use crate::medium::Medium;
 
 /// What `illum` did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -310,8 +310,8 @@ pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Resu
 /// `--indirect` gathers the light of the medium ssmulti ran with: a
 /// different one given to illum is an error naming both.
 fn same_medium(cloud: &Cloud, m: &Medium) -> Result<()> {
-    let recorded = crate::stages::medium::material::recorded(cloud);
-    match recorded.and_then(|r| crate::stages::medium::material::mismatch(&r, m)) {
+    let recorded = crate::medium::material::recorded(cloud);
+    match recorded.and_then(|r| crate::medium::material::mismatch(&r, m)) {
         None => Ok(()),
         Some(what) => Err(Error::param(
             "indirect",

@@ -6,7 +6,6 @@ pub mod filter;
 pub mod follow;
 pub mod illum;
 pub mod measure;
-pub mod medium;
 pub mod promote;
 pub mod render;
 pub mod scatter;

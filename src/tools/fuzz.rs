@@ -45,7 +45,7 @@ pub fn json(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    let _ = crate::stages::medium::material::parse(text, "fuzz");
+    let _ = crate::medium::material::parse(text, "fuzz");
     if let Ok(file) = crate::lights::parse_file(text, "fuzz") {
         for up in [crate::frame::UpAxis::Y, crate::frame::UpAxis::Z] {
             let _ = file.in_frame(&crate::frame::Frame {

@@ -5,7 +5,8 @@
 //! degenerate faces, far-apart parts, far from the origin).
 
 use crate::util::*;
-use pcsss::geom::mesh::{ClosestPoint, TriMesh};
+use pcsss::geom::bvh::ClosestPoint;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::scatter::{self, Amount, Params, PtareaMode, Spacing};
 use pcsss::Cloud;
 

@@ -163,7 +163,7 @@ fn closest_points_through_the_bvh_match_brute_force_on_mixed_triangle_sizes() {
     faces.push(vec![b, b + 1, b + 1]);
     let cloud = mesh_from(&p, &faces);
     let mesh = TriMesh::from_cloud(&cloud).unwrap();
-    let cp = pcsss::geom::mesh::ClosestPoint::new(&mesh).unwrap();
+    let cp = pcsss::geom::bvh::ClosestPoint::new(&mesh).unwrap();
     let area = |t: usize| {
         let [a, b, c] = mesh.tri(t);
         pcsss::geom::tri_area(a, b, c)

@@ -5,7 +5,8 @@
 use glam::DVec3;
 
 use crate::util::*;
-use pcsss::geom::mesh::{ClosestPoint, TriMesh};
+use pcsss::geom::bvh::ClosestPoint;
+use pcsss::geom::mesh::TriMesh;
 use pcsss::stages::facet::{self, Mode, Weight};
 use pcsss::stages::follow;
 use pcsss::stages::scatter::PtareaMode;

@@ -787,8 +787,8 @@ fn under_a_glowing_square(half: f64, h: f64, m: [f64; 3], away: bool) -> (Cloud,
 }
 
 /// The medium of the indirect-light tests.
-fn medium() -> pcsss::stages::medium::Medium {
-    pcsss::stages::medium::Medium::new([0.95, 0.8, 0.5], [0.1; 3], 1.0, 0.0).unwrap()
+fn medium() -> pcsss::medium::Medium {
+    pcsss::medium::Medium::new([0.95, 0.8, 0.5], [0.1; 3], 1.0, 0.0).unwrap()
 }
 
 /// `illum --indirect`: the light the rest of the surface sends. Under a

@@ -44,7 +44,7 @@ fn a_preset_or_a_file_gives_what_its_options_give() {
     let d = tempdir();
     let lit = lit(d.path());
     // Skim milk in a scene whose unit is a centimetre.
-    let p = pcsss::stages::medium::material::preset("skimmilk", 10.0).unwrap();
+    let p = pcsss::medium::material::preset("skimmilk", 10.0).unwrap();
     let list = |v: [f64; 3]| format!("{:?},{:?},{:?}", v[0], v[1], v[2]);
     let (albedo, mfp) = (list(p.albedo.unwrap()), list(p.mfp.unwrap()));
     let by_options = ssm(
@@ -89,7 +89,7 @@ fn a_preset_or_a_file_gives_what_its_options_give() {
         )
     );
     // A preset by name: millimetres.
-    let p = pcsss::stages::medium::material::preset("ketchup", 1.0).unwrap();
+    let p = pcsss::medium::material::preset("ketchup", 1.0).unwrap();
     let (albedo, mfp) = (list(p.albedo.unwrap()), list(p.mfp.unwrap()));
     assert_eq!(
         ssm(d.path(), &lit, &["--material", "Ketchup"]),

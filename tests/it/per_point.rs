@@ -5,7 +5,7 @@
 
 use crate::util::*;
 use pcsss::cloud::Role;
-use pcsss::stages::medium::Medium;
+use pcsss::medium::Medium;
 use pcsss::stages::scatter::PtareaMode;
 use pcsss::Cloud;
 

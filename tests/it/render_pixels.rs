@@ -360,7 +360,7 @@ fn the_physical_models_ssm_is_filtered_over_two_spacings() {
     physical.set_detail("ssmulti_model", DetailValue::Str("physical".into()));
     physical.set_detail("ssmulti_distances", DetailValue::V3D([4.0, 2.0, 1.0]));
     assert_eq!(reach(&physical, None), Reach::Radius(2.0 * h));
-    let medium = pcsss::stages::medium::Medium::new([0.9; 3], [1.0; 3], 1.0, 0.0).unwrap();
+    let medium = pcsss::medium::Medium::new([0.9; 3], [1.0; 3], 1.0, 0.0).unwrap();
     let lazy = pcsss::stages::ssmulti::Params {
         medium: Some(medium),
         ..Default::default()

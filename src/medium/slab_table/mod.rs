@@ -1,5 +1,5 @@
 //! The physical medium's table for thin parts, written by `cargo run --release
-//! --example medium_slab_table -- src/stages/medium/slab_table` (do not edit): at
+//! --example medium_slab_table -- src/medium/slab_table` (do not edit): at
 //! each node of `table::G` and `table::ETA` and each slab thickness in
 //! [`THICKNESS`] mean free paths, a random walk of [`PATHS`] paths along the
 //! normal into a slab that absorbs nothing, the share of the light refracted in

@@ -1,5 +1,5 @@
 //! The physical medium's reflectance table, written by `cargo run --release
-//! --example medium_table -- src/stages/medium/table` (do not edit): at each node
+//! --example medium_table -- src/medium/table` (do not edit): at each node
 //! of [`G`], [`ETA`] and [`MU`], a random walk of [`PATHS`] paths along the normal,
 //! [`PATHS_OBLIQUE`] at the other cosines, into a medium that absorbs nothing, the
 //! share of the light refracted in that leaves after `n` scattering events in each

@@ -311,7 +311,7 @@ fn area_scale(atot: f64) -> f64 {
 /// Returns which of the three were there.
 pub(super) fn weigh_light(
     cloud: &Cloud,
-    medium: &crate::stages::medium::Medium,
+    medium: &crate::medium::Medium,
     kernel: (f64, [f64; 3]),
     inp: &mut Inputs,
 ) -> Result<(bool, bool, bool)> {
@@ -379,7 +379,7 @@ fn is_grey(inp: &Inputs) -> bool {
 /// was there.
 fn indirect_single(
     cloud: &Cloud,
-    medium: &crate::stages::medium::Medium,
+    medium: &crate::medium::Medium,
     inp: &mut Inputs,
 ) -> Result<bool> {
     let pts = cloud.points();
@@ -429,7 +429,7 @@ fn indirect_single(
 fn through_the_far_face(
     cloud: &Cloud,
     thick: &ReadColumn,
-    thin: &crate::stages::medium::Thinness,
+    thin: &crate::medium::Thinness,
     kernel: (f64, [f64; 3]),
     inp: &mut Inputs,
 ) -> Result<()> {

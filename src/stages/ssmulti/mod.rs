@@ -63,7 +63,7 @@ use crate::column::Scalar;
 use crate::disjoint::Disjoint;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::stages::medium::Medium;
+use crate::medium::Medium;
 
 use self::columns::build;
 use self::gather::Gathered;

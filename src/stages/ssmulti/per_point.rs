@@ -17,7 +17,7 @@ use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::Scalar;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::stages::medium::Recipe;
+use crate::medium::Recipe;
 
 /// The most groups of distinct per-point values a run takes.
 pub const MAX_GROUPS: usize = 256;
@@ -55,7 +55,7 @@ impl PerPoint {
             return Err(Error::param("per_point", "names no parameter"));
         }
         if let Some(l) = levels {
-            let max = crate::stages::medium::material::MAX_LEVELS;
+            let max = crate::medium::material::MAX_LEVELS;
             if !(2..=max).contains(&l) {
                 return Err(Error::param("levels", format!("{l}: not in 2..={max}")));
             }

@@ -47,7 +47,7 @@ use self::optics::*;
 /// the refracted path, HG scaled to peak 1) or the physical one (Jensen
 /// et al. 2001: albedo and mean free path per channel, exponential
 /// attenuation, HG normalised).
-pub use crate::stages::medium::Model;
+pub use crate::medium::Model;
 
 /// The most samples a point may ask for.
 pub const MAX_SAMPLES: u32 = 4096;

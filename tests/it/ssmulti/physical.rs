@@ -8,7 +8,7 @@
 
 use super::*;
 use pcsss::cloud::DetailValue;
-use pcsss::stages::medium::Medium;
+use pcsss::medium::Medium;
 
 fn physical(medium: Medium) -> Params {
     Params {
