@@ -129,10 +129,18 @@ fn run(args: Args) -> anyhow::Result<()> {
                         .map(String::from)
                         .collect();
                     let params = stage_args::parse(&stage, &words)?;
+                    let (s, w) = (stage.clone(), words.clone());
+                    let in_unit: tiles::request::InUnit = std::sync::Arc::new(move |mm| {
+                        stage_args::parse_in(&s, &w, Some(mm)).map_err(|e| {
+                            e.downcast::<pcsss::Error>()
+                                .unwrap_or_else(|e| pcsss::Error::invalid(e.to_string()))
+                        })
+                    });
                     Some(ForRequest {
                         stage,
                         args: words,
                         params,
+                        in_unit: Some(in_unit),
                     })
                 }
                 None => None,
@@ -181,13 +189,6 @@ fn run(args: Args) -> anyhow::Result<()> {
                     .map(|t| from.as_deref().unwrap_or(&dir).join(&t.file))
                     .collect(),
             };
-            let format = format
-                .or_else(|| out.as_deref().and_then(Format::from_path))
-                .unwrap_or(Format::DEFAULT);
-            let Format::Ply(enc) = format else {
-                let why = "merge writes PLY (streaming); convert with pcconvert";
-                return Err(pcsss::Error::param("format", why).into());
-            };
             // The output is none of what the merge reads: the manifest,
             // the rest file, any tile.
             let out = out.filter(|p| p != std::path::Path::new("-"));
@@ -198,6 +199,17 @@ fn run(args: Args) -> anyhow::Result<()> {
                 inputs.extend(files.iter().map(|f| f.as_path()));
                 files::check_outputs(&[files::Output::file(o)], &inputs)?;
             }
+            let format = match (format, out.as_deref()) {
+                (Some(f), _) => f,
+                (None, Some(o)) => {
+                    Format::for_output(o).map_err(|why| pcsss::Error::param("output", why))?
+                }
+                (None, None) => Format::DEFAULT,
+            };
+            let Format::Ply(enc) = format else {
+                let why = "merge writes PLY (streaming); convert with pcconvert";
+                return Err(pcsss::Error::param("format", why).into());
+            };
             let mut m = None;
             files::write_output(out.as_deref(), |w| {
                 m = Some(tiles::merge(&dir, &files, w, enc, &progress)?);

@@ -9,8 +9,8 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use super::{env_flag, IoArgs};
-use crate::stages::filter::{self, SingleSetup};
 use crate::medium::{self, Medium, Model};
+use crate::stages::filter::{self, SingleSetup};
 use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
 use crate::stages::sssingle;
 

@@ -622,7 +622,6 @@ fn check_paths(
     if stdout && has_output && outputs.is_empty() {
         files::check_stdout_open()?;
     }
-    check_output_formats(cmd, m)?;
     let stdout = stdout && outputs.is_empty();
     let outs: Vec<files::Output> = outputs
         .iter()
@@ -630,19 +629,17 @@ fn check_paths(
         .collect();
     let mut ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     ins.extend_from_slice(more_inputs);
-    Ok(files::check_outputs_to(&outs, &ins, stdout)?)
+    // (An output that is an input first: that one would lose data.)
+    files::check_outputs_to(&outs, &ins, stdout)?;
+    Ok(check_output_formats(cmd, m)?)
 }
 
 /// A cloud output whose name has an extension the writers do not know
 /// (`x.usdc`, `x.bgeo`) is refused before any work, unless `--format`
 /// says what to write under it: written as PLY, the file would lie about
 /// what it holds. A name without an extension is PLY.
+/// (A subcommand's output, `pctile merge -o`, is its own to check.)
 fn check_output_formats(cmd: &clap::Command, m: &clap::ArgMatches) -> crate::Result<()> {
-    if let Some((name, sub)) = m.subcommand() {
-        if let Some(c) = cmd.find_subcommand(name) {
-            check_output_formats(c, sub)?;
-        }
-    }
     let has_format = cmd.get_arguments().any(|a| a.get_id() == "format");
     if !has_format || matches!(m.try_get_raw("format"), Ok(Some(_))) {
         return Ok(());

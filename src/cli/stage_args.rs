@@ -43,6 +43,12 @@ struct Filter {
 /// The parameters of `stage` given `args` (its words); an error is about
 /// `--stage-args` (or `--for`, for a stage it does not know).
 pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
+    parse_in(stage, args, None)
+}
+
+/// [`parse`] in a scene whose unit is `unit_mm` millimetres long (a
+/// preset's lengths in it: [`MaterialArgs::in_frame`]).
+pub fn parse_in(stage: &str, args: &[String], unit_mm: Option<f64>) -> anyhow::Result<StageParams> {
     let bad = |e: clap::Error| {
         let text = e.render().to_string();
         let line = text.lines().next().unwrap_or("");
@@ -51,7 +57,8 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
     };
     Ok(match stage {
         "ssmulti" => {
-            let a = Multi::try_parse_from(args).map_err(bad)?;
+            let mut a = Multi::try_parse_from(args).map_err(bad)?;
+            a.mat.scene_unit_mm = unit_mm;
             match a.ss.params(&a.mat).map_err(|e| within(stage, e))? {
                 Some(p) => {
                     // (Checked as ssmulti checks them; a group's reach
@@ -72,7 +79,8 @@ pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
             }
         }
         "filter" => {
-            let a = Filter::try_parse_from(args).map_err(bad)?;
+            let mut a = Filter::try_parse_from(args).map_err(bad)?;
+            a.mat.scene_unit_mm = unit_mm;
             StageParams::Filter {
                 nfp: a.nfp,
                 radius: a.radius,

@@ -706,4 +706,3 @@ impl<'a> ClosestPoint<'a> {
         Hit { tri, bary, dist }
     }
 }
-

@@ -39,8 +39,8 @@ use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::columns::{self, Columns};
 use crate::geom::mesh::TriMesh;
 use crate::lights::{Arrival, Light, Shape};
-use crate::progress::Progress;
 use crate::medium::Medium;
+use crate::progress::Progress;
 
 /// What `illum` did.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -16,12 +16,35 @@ use crate::formats::ply::read::PlyChunks;
 use crate::progress::Progress;
 
 /// The stage a halo is for (`--for`), its words (`--stage-args`) and
-/// the parameters they set.
-#[derive(Clone, Debug, PartialEq)]
+/// the parameters they set; `in_unit`, the same words' parameters in a
+/// scene whose unit is that many millimetres long (a preset's lengths
+/// follow the cloud's recorded `meters_per_unit`, as the stage's own run
+/// on each tile will take them).
+#[derive(Clone)]
 pub struct ForRequest {
     pub stage: String,
     pub args: Vec<String>,
     pub params: StageParams,
+    pub in_unit: Option<InUnit>,
+}
+
+/// [`ForRequest::in_unit`].
+pub type InUnit = std::sync::Arc<dyn Fn(f64) -> Result<StageParams> + Send + Sync>;
+
+impl std::fmt::Debug for ForRequest {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ForRequest")
+            .field("stage", &self.stage)
+            .field("args", &self.args)
+            .field("params", &self.params)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PartialEq for ForRequest {
+    fn eq(&self, o: &Self) -> bool {
+        (&self.stage, &self.args, &self.params) == (&o.stage, &o.args, &o.params)
+    }
 }
 
 /// A split as asked for.
@@ -64,7 +87,7 @@ impl Request {
         };
         let for_stage = match &self.for_stage {
             Some(f) => {
-                let reach = self.stage_reach(path, &f.params)?;
+                let reach = self.stage_reach(path, f)?;
                 if !reach.is_finite() {
                     let what = format!(
                         "{}'s reach with these arguments is {reach}: no halo holds it",
@@ -103,18 +126,29 @@ impl Request {
         split(path, &self.input_name, &self.dir, &opt, progress)
     }
 
-    /// The reach of the stage `params` on the cloud at `path` (its
-    /// header: the details a filter radius may come from, and whether it
-    /// has `ssM`).
-    fn stage_reach(&self, path: &Path, params: &StageParams) -> Result<f64> {
+    /// The reach of the stage `f` asks for on the cloud at `path` (its
+    /// header: the details a filter radius may come from, the scene's
+    /// unit, and whether it has `ssM`).
+    fn stage_reach(&self, path: &Path, f: &ForRequest) -> Result<f64> {
         let name = &self.input_name;
-        let f = crate::files::open_input(path).map_err(|e| e.about(name))?;
-        let head = PlyChunks::new(BufReader::new(f)).map_err(|e| e.about(name))?;
+        let file = crate::files::open_input(path).map_err(|e| e.about(name))?;
+        let head = PlyChunks::new(BufReader::new(file)).map_err(|e| e.about(name))?;
+        let detail = &head.header().detail;
         let has_ssm = head.header().elements.iter().any(|e| {
             e.name == crate::cloud::POINTS
                 && e.props.iter().any(|p| p.name == "ssM_r" || p.name == "ssM")
         });
-        reach_for(params, &head.header().detail, has_ssm)
+        let frame = crate::cloud::Cloud {
+            detail: detail.clone(),
+            ..crate::cloud::Cloud::default()
+        }
+        .frame()
+        .map_err(|e| e.about(name))?;
+        let params = match (frame.meters_per_unit, &f.in_unit) {
+            (Some(m), Some(in_unit)) => in_unit(m * 1000.0)?,
+            _ => f.params.clone(),
+        };
+        reach_for(&params, detail, has_ssm)
     }
 }
 

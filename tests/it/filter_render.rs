@@ -352,8 +352,7 @@ fn lazy_equals_eager_and_does_only_the_work_the_view_needs() {
 #[test]
 fn lazy_physical_ssm_equals_the_stored_one() {
     let cloud = sphere(20_000);
-    let m =
-        pcsss::medium::Medium::new([0.95, 0.9, 0.8], [0.01, 0.02, 0.03], 1.3, 0.2).unwrap();
+    let m = pcsss::medium::Medium::new([0.95, 0.9, 0.8], [0.01, 0.02, 0.03], 1.3, 0.2).unwrap();
     let sp = ssmulti::Params {
         medium: Some(m),
         ..Default::default()

@@ -840,3 +840,48 @@ fn tiled_per_point_ssmulti_equals_the_untiled() {
     let e = worst(&read(&tiled), &read(&whole), "ssM");
     assert!(e < 1e-6, "levels: {e}");
 }
+
+/// A preset's lengths follow the cloud's recorded unit in the split's
+/// halo as in the stage's run on each tile: in a scene of 0.1 mm units
+/// skin1's reach is ten times its reach in millimetres (a halo in
+/// millimetres would be a tenth of what the tiles' ssmulti reads), and
+/// the tiles still equal the whole bake.
+#[test]
+fn the_halo_of_a_preset_follows_the_scene_s_unit() {
+    let d = tempdir();
+    let mm = d.path().join("mm.ply");
+    let fine = d.path().join("fine.ply");
+    // The wavy sheet is 1 unit across: skin1's longest mean free path in
+    // 0.1 mm units (a few units) reaches across it; scaled down to keep
+    // the pairs few.
+    let c = crate::ssmulti::wavy(3000, DVec3::new(3.0, -2.0, 1.0), 1.0, 11);
+    write(&mm, &c);
+    let mut f = c.clone();
+    f.set_detail("meters_per_unit", pcsss::DetailValue::F64(1e-4));
+    write(&fine, &f);
+    let halo = |input: &Path, name: &str| {
+        let dir = d.path().join(name);
+        ok(
+            &split(
+                input,
+                &dir,
+                &[
+                    "--tiles",
+                    "2",
+                    "--for",
+                    "ssmulti",
+                    "--stage-args",
+                    "--material skin1",
+                ],
+            ),
+            "split",
+        );
+        Manifest::read(&dir).unwrap().halo
+    };
+    let (h_mm, h_fine) = (halo(&mm, "t_mm"), halo(&fine, "t_fine"));
+    assert!((h_fine / h_mm - 10.0).abs() < 1e-9, "{h_mm} {h_fine}");
+    let ss = ["--material", "skin1"];
+    let (whole, tiled, _) = whole_and_tiled(d.path(), "fine", &fine, &ss, 2);
+    let e = worst(&read(&tiled), &read(&whole), "ssM");
+    assert!(e < 1e-6, "{e}");
+}

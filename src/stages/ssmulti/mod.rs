@@ -62,8 +62,8 @@ use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::Scalar;
 use crate::disjoint::Disjoint;
 use crate::error::{Error, Result};
-use crate::progress::Progress;
 use crate::medium::Medium;
+use crate::progress::Progress;
 
 use self::columns::build;
 use self::gather::Gathered;

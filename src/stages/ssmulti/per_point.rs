@@ -16,8 +16,8 @@ use super::{record, ssmulti, ssmulti_values, Params, Report};
 use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::Scalar;
 use crate::error::{Error, Result};
-use crate::progress::Progress;
 use crate::medium::Recipe;
+use crate::progress::Progress;
 
 /// The most groups of distinct per-point values a run takes.
 pub const MAX_GROUPS: usize = 256;
