@@ -38,6 +38,18 @@ impl Role {
         }
     }
 
+    /// The role of a well-known 3-vector attribute by its name: `P` a
+    /// point, `N` a normal, the stages' colours ([`crate::names::COLOURS`])
+    /// colours; any other a vector.
+    pub fn of_attribute(name: &str) -> Role {
+        match name {
+            "P" => Role::Point,
+            "N" => Role::Normal,
+            n if crate::names::COLOURS.contains(&n) => Role::Color,
+            _ => Role::Vector,
+        }
+    }
+
     /// Parses [`Role::name`].
     pub fn from_name(s: &str) -> Option<Self> {
         Some(match s {

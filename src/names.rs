@@ -61,6 +61,12 @@ pub const MAKERS: &[(&str, &str)] = &[
     (D_HALO, "pctile split"),
 ];
 
+/// The colours the stages make and read: 3-vectors with the colour role
+/// (PLY writes them `NAME_r NAME_g NAME_b`, USD as `color3f`). A
+/// 3-column array given to the Python module under one of these names is
+/// a colour; `P` is a point and `N` a normal.
+pub const COLOURS: &[&str] = &["Cd", "illum", "ssM", "ssS", "beauty", "Rd", "albedo"];
+
 /// The stage that makes attribute `name`, if one does.
 pub fn made_by(name: &str) -> Option<&'static str> {
     MAKERS.iter().find(|m| m.0 == name).map(|m| m.1)

@@ -87,16 +87,9 @@ fn lib_err(e: impl std::fmt::Display) -> PyErr {
     Error::new_err(e.to_string())
 }
 
-/// The role a 3-column array takes by its name (as PLY's reader gives it).
+/// The role a 3-column array takes by its name (the library's table).
 fn role_of(name: &str) -> Role {
-    match name {
-        "P" => Role::Point,
-        "N" => Role::Normal,
-        // The colours the stages make and read (formats/PLY.md writes
-        // them as `NAME_r NAME_g NAME_b`).
-        "Cd" | "illum" | "ssM" | "ssS" | "beauty" | "Rd" | "albedo" => Role::Color,
-        _ => Role::Vector,
-    }
+    Role::of_attribute(name)
 }
 
 macro_rules! scalar_from {

@@ -183,18 +183,16 @@ fn run(args: Args) -> anyhow::Result<()> {
         } => {
             let files = match (from, files.is_empty()) {
                 (None, false) => files,
-                (from, _) => tiles::Manifest::read(&dir)?
-                    .tiles
-                    .iter()
-                    .map(|t| from.as_deref().unwrap_or(&dir).join(&t.file))
-                    .collect(),
+                (from, _) => {
+                    tiles::Manifest::read(&dir)?.tile_files(from.as_deref().unwrap_or(&dir))
+                }
             };
             // The output is none of what the merge reads: the manifest,
             // the rest file, any tile.
             let out = out.filter(|p| p != std::path::Path::new("-"));
             if let Some(o) = &out {
                 let manifest = dir.join(tiles::MANIFEST);
-                let rest = dir.join("rest.ply");
+                let rest = dir.join(tiles::REST);
                 let mut inputs: Vec<&std::path::Path> = vec![&manifest, &rest];
                 inputs.extend(files.iter().map(|f| f.as_path()));
                 files::check_outputs(&[files::Output::file(o)], &inputs)?;

@@ -95,7 +95,7 @@ pub fn merge(
 ) -> Result<Manifest> {
     let m = Manifest::read(dir)?;
     let files: Vec<PathBuf> = if files.is_empty() {
-        m.tiles.iter().map(|t| dir.join(&t.file)).collect()
+        m.tile_files(dir)
     } else {
         files.to_vec()
     };

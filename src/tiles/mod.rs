@@ -24,6 +24,7 @@ pub mod request;
 pub mod split;
 
 use std::io::Read;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -40,6 +41,9 @@ pub use crate::names::{D_HALO, D_SPLIT, D_TILE, HALO, INDEX};
 pub const FORMAT: &str = "pcsss-tiles 2";
 /// The manifest's file name in the tile directory.
 pub const MANIFEST: &str = "manifest.json";
+/// The file of a split's other elements (faces, ...), which no tile
+/// holds, in the tile directory.
+pub const REST: &str = "rest.ply";
 /// The most tiles a split makes (each is an open file while it is
 /// written).
 pub const MAX_TILES: usize = 4096;
@@ -112,6 +116,12 @@ pub struct Manifest {
 }
 
 impl Manifest {
+    /// The tile files the manifest lists, in tile order, in `dir` (or in
+    /// `from`, where a stage wrote its output tiles under the same names).
+    pub fn tile_files(&self, dir: &Path) -> Vec<PathBuf> {
+        self.tiles.iter().map(|t| dir.join(&t.file)).collect()
+    }
+
     /// The checksum of everything but `split`: 64-bit FNV-1a of the
     /// manifest's JSON with `split` empty, in hex.
     pub fn checksum(&self) -> String {

@@ -462,7 +462,7 @@ pub fn split(
                 count: e.count,
             })
             .collect(),
-        rest: (!others.is_empty()).then(|| "rest.ply".to_string()),
+        rest: (!others.is_empty()).then(|| super::REST.to_string()),
         tiles: plan
             .boxes
             .iter()
