@@ -836,12 +836,15 @@ static FALLBACK_POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
 /// calling thread joins, with one line saying so.
 fn start_threads(n: usize) {
     // Under an address-space limit, threads whose stacks would take more
-    // than a quarter of it are not asked for: past that the machine gives
-    // the threads and then refuses the memory they need (glibc aborts).
-    let most = address_limit().map_or(usize::MAX, |a| (a / 4 / THREAD_SPACE).max(1) as usize);
+    // than an eighth of it are not asked for: past that the machine gives
+    // the threads and then refuses the memory they need (glibc aborts),
+    // and the allocators' per-thread reservations (glibc's arenas,
+    // mimalloc's) take much of the rest (at a quarter, one run in many
+    // under load still ended without a word).
+    let most = address_limit().map_or(usize::MAX, |a| (a / 8 / THREAD_SPACE).max(1) as usize);
     let n = if n > most {
         say(format_args!(
-            "RAYON_NUM_THREADS: {n} threads would take more than a quarter of the address space this process may use; running on {most}"
+            "RAYON_NUM_THREADS: {n} threads would take more than an eighth of the address space this process may use; running on {most}"
         ));
         most
     } else {

@@ -393,7 +393,7 @@ fn class_6_many_threads_under_an_address_limit_run_on_fewer() {
             mesh.display()
         );
         let o = bash(d.path(), &cmd);
-        assert!(o.status.success(), "{n}: {}", stderr(&o));
+        assert!(o.status.success(), "{n}: {:?} {}", o.status, stderr(&o));
         let err = stderr(&o);
         assert!(
             err.contains("running on") && !err.contains("panicked"),
