@@ -71,9 +71,10 @@ enum Cmd {
         /// sssingle, illum) with --stage-args, plus 1e-5 of it for the
         /// stages' float rounding; with --halo too, the halo is checked to
         /// be wide enough.
-        #[arg(long = "for", value_name = "STAGE")]
-        for_stage: Option<String>,
-        /// The stage's arguments, as one string ("--sd 0.6 --rd 0.9,0.5,0.3").
+        #[arg(long = "for", value_name = "STAGE", value_enum)]
+        for_stage: Option<tiles::reach::Stage>,
+        /// The stage's arguments, as one string ("--sd 0.6 --rd 0.9,0.5,0.3"),
+        /// split into words as a shell splits them (quotes kept together).
         #[arg(
             long,
             value_name = "ARGS",
@@ -122,16 +123,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         } => {
             let for_stage = match for_stage {
                 Some(stage) => {
-                    let words: Vec<String> = stage_args
-                        .as_deref()
-                        .unwrap_or("")
-                        .split_whitespace()
-                        .map(String::from)
-                        .collect();
-                    let params = stage_args::parse(&stage, &words)?;
-                    let (s, w) = (stage.clone(), words.clone());
+                    let words = tiles::reach::stage_words(stage_args.as_deref().unwrap_or(""))?;
+                    let params = stage_args::parse(stage, &words)?;
+                    let w = words.clone();
                     let in_unit: tiles::request::InUnit = std::sync::Arc::new(move |mm| {
-                        stage_args::parse_in(&s, &w, Some(mm)).map_err(|e| {
+                        stage_args::parse_in(stage, &w, Some(mm)).map_err(|e| {
                             e.downcast::<pcsss::Error>()
                                 .unwrap_or_else(|e| pcsss::Error::invalid(e.to_string()))
                         })
@@ -224,13 +220,11 @@ fn main() -> ExitCode {
     let (args, matches) = cli::parse_matches::<Args>("pctile");
     // A stage's parameter is named as its option within --stage-args.
     let stage = match &args.cmd {
-        Cmd::Split { for_stage, .. } => for_stage.clone(),
+        Cmd::Split { for_stage, .. } => *for_stage,
         Cmd::Merge { .. } => None,
     };
     let cmd = Args::command();
-    let flag = |name: &str| {
-        cli::flag_of(&cmd, name).or_else(|| stage_args::flag_of(stage.as_deref()?, name))
-    };
+    let flag = |name: &str| cli::flag_of(&cmd, name).or_else(|| stage_args::flag_of(stage?, name));
     cli::main_of("pctile", &flag, || {
         cli::check_named_paths(&cmd, &matches, &[])?;
         run(args)

@@ -6,7 +6,7 @@ use clap::{CommandFactory, Parser};
 
 use super::args::{MaterialArgs, PerPointArgs, SsArgs};
 use crate::error::Error;
-use crate::tiles::reach::{StageParams, STAGES};
+use crate::tiles::reach::{Stage, StageParams};
 
 /// `ssmulti`'s options.
 #[derive(Parser, Debug)]
@@ -42,21 +42,25 @@ struct Filter {
 
 /// The parameters of `stage` given `args` (its words); an error is about
 /// `--stage-args` (or `--for`, for a stage it does not know).
-pub fn parse(stage: &str, args: &[String]) -> anyhow::Result<StageParams> {
+pub fn parse(stage: Stage, args: &[String]) -> anyhow::Result<StageParams> {
     parse_in(stage, args, None)
 }
 
 /// [`parse`] in a scene whose unit is `unit_mm` millimetres long (a
 /// preset's lengths in it: [`MaterialArgs::in_frame`]).
-pub fn parse_in(stage: &str, args: &[String], unit_mm: Option<f64>) -> anyhow::Result<StageParams> {
+pub fn parse_in(
+    stage: Stage,
+    args: &[String],
+    unit_mm: Option<f64>,
+) -> anyhow::Result<StageParams> {
     let bad = |e: clap::Error| {
         let text = e.render().to_string();
         let line = text.lines().next().unwrap_or("");
         let line = line.trim_start_matches("error: ");
-        Error::param("stage_args", format!("{stage}: {line}"))
+        Error::param("stage_args", format!("{}: {line}", stage.name()))
     };
     Ok(match stage {
-        "ssmulti" => {
+        Stage::Ssmulti => {
             let mut a = Multi::try_parse_from(args).map_err(bad)?;
             a.mat.scene_unit_mm = unit_mm;
             match a.ss.params(&a.mat).map_err(|e| within(stage, e))? {
@@ -78,7 +82,7 @@ pub fn parse_in(stage: &str, args: &[String], unit_mm: Option<f64>) -> anyhow::R
                 }
             }
         }
-        "filter" => {
+        Stage::Filter => {
             let mut a = Filter::try_parse_from(args).map_err(bad)?;
             a.mat.scene_unit_mm = unit_mm;
             StageParams::Filter {
@@ -90,17 +94,13 @@ pub fn parse_in(stage: &str, args: &[String], unit_mm: Option<f64>) -> anyhow::R
         // Their reach is 0 whatever they are given, but what they are
         // given must be theirs: parsed by their own command lines (the
         // input, output and files they name may be left out).
-        "sssingle" => {
+        Stage::Sssingle => {
             checked::<super::SssingleArgs>(args, &["view"]).map_err(bad)?;
             StageParams::Local
         }
-        "illum" => {
+        Stage::Illum => {
             checked::<super::IllumArgs>(args, &["shadows"]).map_err(bad)?;
             StageParams::Local
-        }
-        _ => {
-            let what = format!("unknown stage '{stage}' (one of: {STAGES})");
-            return Err(Error::param("for_stage", what).into());
         }
     })
 }
@@ -120,27 +120,27 @@ fn checked<T: clap::Parser>(args: &[String], groups: &[&str]) -> Result<(), clap
 }
 
 /// The option of `stage` that sets its parameter `name` (`--radius`).
-fn stage_flag(stage: &str, name: &str) -> Option<String> {
+fn stage_flag(stage: Stage, name: &str) -> Option<String> {
     let cmd = match stage {
-        "ssmulti" => Multi::command(),
-        "filter" => Filter::command(),
-        _ => return None,
+        Stage::Ssmulti => Multi::command(),
+        Stage::Filter => Filter::command(),
+        Stage::Sssingle | Stage::Illum => return None,
     };
     super::flag_of(&cmd, name)
 }
 
 /// The option of `stage` that sets its parameter `name`, as
 /// `--stage-args --radius`: how `pctile` names a stage's parameter.
-pub fn flag_of(stage: &str, name: &str) -> Option<String> {
+pub fn flag_of(stage: Stage, name: &str) -> Option<String> {
     stage_flag(stage, name).map(|f| format!("--stage-args {f}"))
 }
 
 /// A stage's parameter error, as an error about `--stage-args`.
-fn within(stage: &str, e: anyhow::Error) -> anyhow::Error {
+fn within(stage: Stage, e: anyhow::Error) -> anyhow::Error {
     match e.downcast::<Error>() {
         Ok(mut lib) => {
             lib.rename_params(&|name| stage_flag(stage, name));
-            Error::param("stage_args", format!("{stage}: {lib}")).into()
+            Error::param("stage_args", format!("{}: {lib}", stage.name())).into()
         }
         Err(e) => e,
     }

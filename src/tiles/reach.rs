@@ -14,8 +14,47 @@ use crate::stages::ssmulti;
 /// the exp and Burley falloffs, truncated with a step, it would count.
 pub const MARGIN: f64 = 1e-5;
 
-/// The stages `--for` knows.
-pub const STAGES: &str = "ssmulti, filter, sssingle, illum";
+/// The stages a split can be for (`pctile split --for`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Stage {
+    Ssmulti,
+    Filter,
+    Sssingle,
+    Illum,
+}
+
+impl Stage {
+    /// Every stage, in `--for`'s order.
+    pub const ALL: [Stage; 4] = [Stage::Ssmulti, Stage::Filter, Stage::Sssingle, Stage::Illum];
+
+    /// Its name: the binary's, and what a manifest records.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Ssmulti => "ssmulti",
+            Stage::Filter => "filter",
+            Stage::Sssingle => "sssingle",
+            Stage::Illum => "illum",
+        }
+    }
+
+    /// The stage a manifest names.
+    pub fn from_name(name: &str) -> Option<Stage> {
+        Stage::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// A split's `--stage-args`, split into the stage's words as a POSIX
+/// shell splits a line (quotes and backslashes: `--material "my
+/// skin.json"` is two words), which is how the tile's own run gets them
+/// through make, Slurm and Open Job Description (`tile-task.sh`).
+pub fn stage_words(args: &str) -> Result<Vec<String>> {
+    shlex::split(args).ok_or_else(|| {
+        Error::param(
+            "stage_args",
+            format!("{args:?}: a quote is not closed (or a backslash ends it)"),
+        )
+    })
+}
 
 /// A stage `--for` names, with the parameters that set its reach.
 #[derive(Clone, Debug, PartialEq)]

@@ -22,7 +22,7 @@ use crate::progress::Progress;
 /// on each tile will take them).
 #[derive(Clone)]
 pub struct ForRequest {
-    pub stage: String,
+    pub stage: super::reach::Stage,
     pub args: Vec<String>,
     pub params: StageParams,
     pub in_unit: Option<InUnit>,
@@ -91,12 +91,12 @@ impl Request {
                 if !reach.is_finite() {
                     let what = format!(
                         "{}'s reach with these arguments is {reach}: no halo holds it",
-                        f.stage
+                        f.stage.name()
                     );
                     return Err(Error::param("stage_args", what));
                 }
                 Some(ForStage {
-                    stage: f.stage.clone(),
+                    stage: f.stage.name().to_string(),
                     args: f.args.clone(),
                     reach,
                 })

@@ -51,9 +51,9 @@ pub const BASE_MEMORY: u64 = 32 << 20;
 /// Bytes a point at the peak of `stage` on a tile (its resident memory
 /// over its points, measured by `cargo bench --bench tiles`); `None` for
 /// a stage not measured.
-pub fn point_bytes(stage: &str) -> Option<u64> {
+pub fn point_bytes(stage: super::reach::Stage) -> Option<u64> {
     match stage {
-        "ssmulti" => Some(SSMULTI_POINT_BYTES),
+        super::reach::Stage::Ssmulti => Some(SSMULTI_POINT_BYTES),
         _ => None,
     }
 }
@@ -411,7 +411,11 @@ pub fn split(
     }
     if let TileCount::Memory { bytes, per_point } = opt.tiles {
         let per_point = per_point
-            .or_else(|| opt.for_stage.as_ref().and_then(|f| point_bytes(&f.stage)))
+            .or_else(|| {
+                opt.for_stage
+                    .as_ref()
+                    .and_then(|f| point_bytes(super::reach::Stage::from_name(&f.stage)?))
+            })
             .unwrap_or(DEFAULT_POINT_BYTES);
         tiles = tiles_for_memory(&sample, stride, (lo, hi), opt.halo, bytes, per_point)?;
     }

@@ -393,8 +393,50 @@ fn a_halo_narrower_than_the_stage_is_refused_naming_both() {
         &d.path().join("t4"),
         &["--tiles", "2", "--for", "render"],
     );
+    // (clap's own line: the value and the stages it may be.)
     assert!(
-        stderr(&o).contains("unknown stage 'render'"),
+        o.status.code() == Some(2)
+            && stderr(&o).contains("'render'")
+            && stderr(&o).contains("ssmulti, filter, sssingle, illum"),
+        "{}",
+        stderr(&o)
+    );
+    // --stage-args is split as a shell splits it: a material file whose
+    // name holds a space is one word; a quote left open is refused.
+    std::fs::write(
+        d.path().join("my skin.json"),
+        r#"{"albedo": 0.8, "mfp": 0.05, "g": 0.3, "eta": 1.3}"#,
+    )
+    .unwrap();
+    let skin = d.path().join("my skin.json").display().to_string();
+    let quoted = format!("--material \"{skin}\"");
+    let o = split(
+        &input,
+        &d.path().join("t5"),
+        &["--tiles", "2", "--for", "ssmulti", "--stage-args", &quoted],
+    );
+    ok(&o, "split with a quoted path");
+    let m = Manifest::read(&d.path().join("t5")).unwrap();
+    assert_eq!(
+        m.for_stage.as_ref().unwrap().args,
+        ["--material", skin.as_str()]
+    );
+    let o = split(
+        &input,
+        &d.path().join("t6"),
+        &[
+            "--tiles",
+            "2",
+            "--for",
+            "ssmulti",
+            "--stage-args",
+            r#"--material "my skin.json"#,
+        ],
+    );
+    assert!(
+        o.status.code() == Some(2)
+            && stderr(&o).contains("--stage-args")
+            && stderr(&o).contains("not closed"),
         "{}",
         stderr(&o)
     );
