@@ -770,6 +770,9 @@ pub fn add_vertex_colours(
     terms: &[(&str, f64)],
     exposure: Option<f64>,
 ) -> Result<()> {
+    if let Some(e) = exposure {
+        crate::stages::render::check_exposure(e)?;
+    }
     let mut v = vec![[0.0f64; 3]; shade.len()];
     for (name, k) in terms {
         for (acc, x) in v.iter_mut().zip(shade.points().vec3_f64(name)?) {

@@ -292,6 +292,9 @@ impl Pixels {
 pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report, filter::Report)> {
     let at_mesh = |e: Error| e.about(scene.mesh_name);
     scene.pixels.validate()?;
+    if let Some((_, kd)) = scene.direct {
+        check_kd(kd)?;
+    }
     let (mut shade, rep, at) = if scene.pixels.centres() {
         let (shade, rep) = render(scene.mesh, scene.camera).map_err(at_mesh)?;
         (shade, rep, None)
@@ -680,6 +683,29 @@ pub fn beauty(
     Ok(())
 }
 
+/// Checks a tone map's `exposure` (render's PNG, filter's vertex
+/// colours): finite and above 0.
+pub fn check_exposure(exposure: f64) -> Result<()> {
+    if exposure.is_finite() && exposure > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::param("exposure", format!("{exposure}: must be > 0")))
+    }
+}
+
+/// Checks the direct term's diffuse reflectance `kd`: finite and >= 0
+/// in each channel.
+pub fn check_kd(kd: [f64; 3]) -> Result<()> {
+    if kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "kd",
+            format!("{kd:?}: must be finite and >= 0"),
+        ))
+    }
+}
+
 /// An 8-bit sRGB picture of colour attribute `attr` of an image cloud,
 /// with coverage as alpha: `1 - exp(-exposure * x)` per channel (a soft
 /// shoulder instead of a clip) of the colour over its coverage (a PNG's
@@ -687,6 +713,7 @@ pub fn beauty(
 /// alpha the point's `A` (1 without it), pixels without a point 0.
 /// Returns (width, height, RGBA bytes).
 pub fn picture(shade: &Cloud, attr: &str, exposure: f64) -> Result<(u32, u32, Vec<u8>)> {
+    check_exposure(exposure)?;
     let Some(win) = image::data_window(shade)? else {
         return Err(Error::missing("detail", image::DATA_WINDOW));
     };

@@ -72,9 +72,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
     if let Some(e) = args.exposure {
-        if !(e.is_finite() && e > 0.0) {
-            return Err(crate::Error::param("exposure", format!("{e}: must be > 0")).into());
-        }
+        crate::stages::render::check_exposure(e)?;
     }
     let cloud_name = cli::display_name(Some(&args.cloud));
     args.ss.params(&args.material)?;

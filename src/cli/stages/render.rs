@@ -89,10 +89,7 @@ pub struct Args {
 /// Runs `render` on its command line.
 pub fn run(mut args: Args) -> anyhow::Result<()> {
     let msg = args.msg.messages("render");
-    if !(args.exposure.is_finite() && args.exposure > 0.0) {
-        let what = format!("{}: must be > 0", args.exposure);
-        return Err(Error::param("exposure", what).into());
-    }
+    render::check_exposure(args.exposure)?;
     // The outputs before any work: an OpenEXR and a PNG (cli::main checked
     // that they can be written and are no input).
     if let Some(out) = &args.output {
@@ -123,9 +120,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     args.ss.params(&args.material)?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
-    if !kd.iter().all(|k| k.is_finite() && *k >= 0.0) {
-        return Err(Error::param("kd", format!("{kd:?}: must be finite and >= 0")).into());
-    }
+    render::check_kd(kd)?;
     let lights_file = match &args.direct {
         Some(path) => Some(cli::read_lights(path, &args.lmask)?),
         None => None,
