@@ -380,6 +380,18 @@ enum Target {
     Descriptor(i32),
 }
 
+impl Target {
+    /// The target opened for writing in place: a device or a descriptor;
+    /// `None` for a file, which is written atomically instead.
+    fn open_direct(&self) -> Option<io::Result<File>> {
+        match self {
+            Target::File(_) => None,
+            Target::Direct(p) => Some(std::fs::OpenOptions::new().write(true).open(p)),
+            Target::Descriptor(fd) => Some(duplicate(*fd)),
+        }
+    }
+}
+
 /// The most symbolic links followed from an output's path (Linux's).
 const MAX_LINKS: usize = 40;
 
@@ -569,10 +581,8 @@ pub fn write_output(
 pub fn write_atomic(path: &Path, body: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     // A device or FIFO (`-o /dev/null`, a named pipe) or a descriptor
     // (`-o /dev/stdout`) is written directly.
-    let open = match target(path) {
-        Target::File(_) => return Staged::write(path, body)?.commit(),
-        Target::Direct(p) => std::fs::OpenOptions::new().write(true).open(p),
-        Target::Descriptor(fd) => duplicate(fd),
+    let Some(open) = target(path).open_direct() else {
+        return Staged::write(path, body)?.commit();
     };
     let direct = || -> Result<()> {
         let f = open?;
@@ -662,35 +672,27 @@ impl Staged {
     /// removed) when the target is an input this process opened.
     pub fn commit(self) -> Result<()> {
         let path = self.path;
-        let copy_to = |out: io::Result<File>, mut tmp: File| -> Result<()> {
+        if let Target::File(t) = &self.target {
+            if let Some(input) = opened_input(t) {
+                return Err(collision("output", &path, &input));
+            }
+            self.tmp
+                .persist(t)
+                .map_err(|e| e.error)
+                .map_err(io_at(&path))?;
+            return Ok(());
+        }
+        // A device or a descriptor: the temp file copied into it.
+        let copy = || -> Result<()> {
             use std::io::Seek;
+            let mut tmp = self.tmp.reopen()?;
             tmp.rewind()?;
-            let mut out = out?;
+            let mut out = self.target.open_direct().expect("not a file")?;
             io::copy(&mut tmp, &mut out)?;
             out.flush()?;
             Ok(())
         };
-        match self.target {
-            Target::File(t) => {
-                if let Some(input) = opened_input(&t) {
-                    return Err(collision("output", &path, &input));
-                }
-                self.tmp
-                    .persist(&t)
-                    .map_err(|e| e.error)
-                    .map_err(io_at(&path))?;
-            }
-            Target::Direct(p) => {
-                let out = std::fs::OpenOptions::new().write(true).open(p);
-                let tmp = self.tmp.reopen().map_err(io_at(&path))?;
-                copy_to(out, tmp).map_err(|e| e.about(&path.display().to_string()))?;
-            }
-            Target::Descriptor(fd) => {
-                let tmp = self.tmp.reopen().map_err(io_at(&path))?;
-                copy_to(duplicate(fd), tmp).map_err(|e| e.about(&path.display().to_string()))?;
-            }
-        }
-        Ok(())
+        copy().map_err(|e| e.about(&path.display().to_string()))
     }
 }
 

@@ -87,11 +87,6 @@ fn lib_err(e: impl std::fmt::Display) -> PyErr {
     Error::new_err(e.to_string())
 }
 
-/// The role a 3-column array takes by its name (the library's table).
-fn role_of(name: &str) -> Role {
-    Role::of_attribute(name)
-}
-
 macro_rules! scalar_from {
     ($arr:expr, $name:expr, $($t:ty => $v:ident),*) => {{
         $(
@@ -117,14 +112,14 @@ macro_rules! scalar_from {
                 for (x, out) in a.iter().zip(bytes.chunks_exact_mut(size)) {
                     x.write(out, big);
                 }
-                return Ok(rows_attribute($name, role_of($name), ScalarType::$v, bytes));
+                return Ok(rows_attribute($name, Role::of_attribute($name), ScalarType::$v, bytes));
             }
         )*
     }};
 }
 
 /// An array as an attribute. Positions, normals and colours (by name,
-/// [`role_of`]) are floats: integer ones are converted to float64, which
+/// `Role::of_attribute`) are floats: integer ones are converted to float64, which
 /// holds every integer up to 2^53 exactly, rather than kept as whole
 /// numbers the stages would read as int32. Other integers keep their
 /// dtype up to 32 bits; wider ones become int32 when every value fits and
@@ -137,7 +132,7 @@ fn attribute(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Attribute> {
     let kind: String = dtype.getattr("kind")?.extract()?;
     let size: usize = dtype.getattr("itemsize")?.extract()?;
     let integral = kind == "i" || kind == "u" || kind == "b";
-    if integral && role_of(name) != Role::Vector {
+    if integral && Role::of_attribute(name) != Role::Vector {
         arr = arr.call_method1("astype", ("float64",))?;
     } else if integral && size > 4 {
         let fits = if arr.getattr("size")?.extract::<usize>()? == 0 {

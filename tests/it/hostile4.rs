@@ -67,20 +67,21 @@ fn class_1_a_file_an_input_names_is_an_input() {
     let cloud = cloud_file(d.path(), "cloud.ply");
     let (lights, map) = dome(d.path());
     let before = std::fs::read(&map).unwrap();
-    // The dome map the lights file names, as illum's output: refused
-    // before any work, naming -o; the map untouched.
-    let o = run(
-        "illum",
-        &[
+    // illum lit by the dome, written to `out`.
+    let illum_to = |out: &Path| {
+        let args = [
             &cloud,
             "--lights",
             &lights,
             "--no-shadows",
             "-o",
-            map.to_str().unwrap(),
-        ],
-        b"",
-    );
+            out.to_str().unwrap(),
+        ];
+        run("illum", &args, b"")
+    };
+    // The dome map the lights file names, as illum's output: refused
+    // before any work, naming -o; the map untouched.
+    let o = illum_to(&map);
     refused(&o, 2, "is also an input");
     assert!(
         stderr(&o).contains("--output") || stderr(&o).contains("-o"),
@@ -91,34 +92,10 @@ fn class_1_a_file_an_input_names_is_an_input() {
     // Through a link to it: the same file.
     let link = d.path().join("link.exr");
     symlink(&map, &link).unwrap();
-    let o = run(
-        "illum",
-        &[
-            &cloud,
-            "--lights",
-            &lights,
-            "--no-shadows",
-            "-o",
-            link.to_str().unwrap(),
-        ],
-        b"",
-    );
-    refused(&o, 2, "is also an input");
+    refused(&illum_to(&link), 2, "is also an input");
     assert_eq!(std::fs::read(&map).unwrap(), before);
     // The valid use: the same run to another file.
-    let out = d.path().join("lit.ply");
-    let o = run(
-        "illum",
-        &[
-            &cloud,
-            "--lights",
-            &lights,
-            "--no-shadows",
-            "-o",
-            out.to_str().unwrap(),
-        ],
-        b"",
-    );
+    let o = illum_to(&d.path().join("lit.ply"));
     assert!(o.status.success(), "{}", stderr(&o));
     // render's direct light names the same map: its picture is refused
     // over it too.

@@ -169,27 +169,30 @@ fn a_texture_over_another_stage_s_attribute_or_at_no_coordinate_is_refused() {
         d.path(),
         &format!("{s} seam.obj -n 200 --seed 3 -o pts.ply", s = b("scatter")),
     );
-    let run = |args: &[&str]| {
+    // texture on `input` through `mesh`, written as attribute `name`.
+    let tex = |input: &str, mesh: &str, name: &str| {
         std::process::Command::new(bin("texture"))
             .current_dir(d.path())
-            .args(args)
+            .args([
+                input, "--mesh", mesh, "--image", "grad.png", "--as", name, "-o", "x.ply",
+            ])
             .output()
             .unwrap()
     };
+    // Refused with exit status `code`: its message.
+    let refused = |o: &std::process::Output, code: i32| {
+        let e = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(code), "{e}");
+        e
+    };
     // Positions written as a colour would pass on as positions.
-    let o = run(&[
-        "pts.ply", "--mesh", "seam.obj", "--image", "grad.png", "--as", "P", "-o", "x.ply",
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{e}");
+    let o = tex("pts.ply", "seam.obj", "P");
+    let e = refused(&o, 2);
     assert!(e.contains("'P'") && e.contains("scatter"), "{e}");
     assert!(!d.path().join("x.ply").exists());
     // A coordinate that is not a number has no colour: not black, refused.
-    let o = run(&[
-        "pts.ply", "--mesh", "nan.obj", "--image", "grad.png", "--as", "Cd", "-o", "x.ply",
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let o = tex("pts.ply", "nan.obj", "Cd");
+    let e = refused(&o, 1);
     assert!(e.contains("not finite") && e.contains("vertex"), "{e}");
     // A point whose sourceuv is not a number, the same.
     let mut c = from_bytes(&std::fs::read(d.path().join("pts.ply")).unwrap());
@@ -203,19 +206,8 @@ fn a_texture_over_another_stage_s_attribute_or_at_no_coordinate_is_refused() {
         to_bytes(&c, pcsss::formats::Format::DEFAULT),
     )
     .unwrap();
-    let o = run(&[
-        "nanuv.ply",
-        "--mesh",
-        "seam.obj",
-        "--image",
-        "grad.png",
-        "--as",
-        "Cd",
-        "-o",
-        "x.ply",
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let o = tex("nanuv.ply", "seam.obj", "Cd");
+    let e = refused(&o, 1);
     assert!(e.contains("point 7") && e.contains("sourceuv"), "{e}");
     // The same quads moved: as many faces, but the points lie off them.
     std::fs::write(
@@ -226,26 +218,13 @@ fn a_texture_over_another_stage_s_attribute_or_at_no_coordinate_is_refused() {
             .replace("v 2 ", "v 9 "),
     )
     .unwrap();
-    let o = run(&[
-        "pts.ply",
-        "--mesh",
-        "moved.obj",
-        "--image",
-        "grad.png",
-        "--as",
-        "Cd",
-        "-o",
-        "x.ply",
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let o = tex("pts.ply", "moved.obj", "Cd");
+    let e = refused(&o, 1);
     assert!(
         e.contains("is the mesh the one it was scattered on?"),
         "{e}"
     );
     // The valid run beside them still works.
-    let o = run(&[
-        "pts.ply", "--mesh", "seam.obj", "--image", "grad.png", "--as", "Cd", "-o", "x.ply",
-    ]);
+    let o = tex("pts.ply", "seam.obj", "Cd");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
