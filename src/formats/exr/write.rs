@@ -271,7 +271,9 @@ pub fn write_exr<W: Write + ?Sized>(w: &mut W, cloud: &Cloud, opt: &ExrOptions) 
     exr::prelude::WritableImage::write(&img)
         .to_buffered(&mut buf)
         .map_err(exr_error)?;
-    w.write_all(buf.get_ref())?;
+    let mut bytes = buf.into_inner();
+    sort_header(&mut bytes);
+    w.write_all(&bytes)?;
     Ok(())
 }
 
@@ -286,4 +288,50 @@ fn a_is_float(a: &Attribute) -> bool {
         AttrData::Vec3(_, c) => c[0].ty().is_float(),
         AttrData::List(_) => false,
     }
+}
+/// The header's attributes of a single-part OpenEXR file `bytes` put in
+/// order of their names, in place: the crate keeps them in a `HashMap`,
+/// whose order changes from one run to the next, and the same cloud must
+/// make the same bytes. The header keeps its length, so the offset table
+/// after it still points where it did. A file this cannot read as a
+/// single-part header is left as it is.
+fn sort_header(bytes: &mut [u8]) {
+    const MULTIPART: u32 = 0x1000;
+    let Some(flags) = bytes.get(4..8) else {
+        return;
+    };
+    if u32::from_le_bytes([flags[0], flags[1], flags[2], flags[3]]) & MULTIPART != 0 {
+        return;
+    }
+    let zero_after = |at: usize| bytes[at..].iter().position(|&b| b == 0).map(|k| at + k);
+    let mut attrs: Vec<(usize, usize, usize)> = Vec::new();
+    let mut at = 8;
+    loop {
+        let Some(name_end) = zero_after(at) else {
+            return;
+        };
+        if name_end == at {
+            break;
+        }
+        let Some(type_end) = zero_after(name_end + 1) else {
+            return;
+        };
+        let Some(size) = bytes.get(type_end + 1..type_end + 5) else {
+            return;
+        };
+        let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
+        let end = type_end + 5 + size.max(0) as usize;
+        if size < 0 || end > bytes.len() {
+            return;
+        }
+        attrs.push((at, name_end, end));
+        at = end;
+    }
+    let mut sorted = attrs.clone();
+    sorted.sort_by(|a, b| bytes[a.0..a.1].cmp(&bytes[b.0..b.1]));
+    let header: Vec<u8> = sorted
+        .iter()
+        .flat_map(|&(s, _, e)| bytes[s..e].iter().copied())
+        .collect();
+    bytes[8..at].copy_from_slice(&header);
 }
