@@ -9,9 +9,9 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use super::{env_flag, IoArgs};
-use crate::medium::{self, Medium, Model};
+use crate::medium::{self, Model};
 use crate::stages::filter::{self, SingleSetup};
-use crate::stages::ssmulti::{self, Falloff, FalloffKind, Norm, Params, Simd};
+use crate::stages::ssmulti::{self, FalloffKind, Norm, Simd};
 use crate::stages::sssingle;
 
 /// Which cloud points `filter` and `render` gather at a shade point.
@@ -148,43 +148,6 @@ pub struct MaterialArgs {
     /// the physical model: its reflectance table) [default: 1.3].
     #[arg(long)]
     pub eta: Option<f64>,
-    /// The length of the scene's unit in millimetres, from the cloud's
-    /// recorded `meters_per_unit`: a preset's millimetres follow it
-    /// ([`MaterialArgs::in_frame`]); not an option.
-    #[arg(skip)]
-    pub scene_unit_mm: Option<f64>,
-}
-
-impl MaterialArgs {
-    /// The options for a cloud in `frame`: a preset's lengths follow the
-    /// frame's unit. Returns the line to say when a preset is used and
-    /// neither the scene nor the material says how long a unit is (its
-    /// millimetres are then the scene's units).
-    pub fn in_frame(&mut self, frame: &crate::frame::Frame) -> anyhow::Result<Option<String>> {
-        self.scene_unit_mm = frame.meters_per_unit.map(|m| m * 1000.0);
-        let Some(arg) = &self.material else {
-            return Ok(None);
-        };
-        let m = medium::material::load_in(arg, self.scene_unit_mm)?;
-        Ok(m.unit_assumed.then(|| {
-            format!(
-                "{}: the scene records no unit (meters_per_unit): the preset's lengths, in millimetres, are taken in the scene's units (1 unit = 1 mm); record the unit (scatter --meters-per-unit, or a USD stage's metersPerUnit) or give the material file's unit_length",
-                m.source
-            )
-        }))
-    }
-}
-
-/// The recipe of merged options whose distance is `dist` (`diffuse`).
-fn recipe(m: &Material, dist: [f64; 3], diffuse: bool) -> medium::Recipe {
-    medium::Recipe {
-        albedo: m.albedo.0,
-        colour: m.albedo.1,
-        dist,
-        diffuse,
-        eta: m.eta,
-        g: m.g,
-    }
 }
 
 /// `ssmulti`'s per-point options (also read by `pctile split --for
@@ -203,256 +166,44 @@ pub struct PerPointArgs {
 }
 
 impl PerPointArgs {
-    /// The per-point parameters: the options' (seed model) or the
-    /// material's (physical model); `physical` says which model runs.
-    pub fn resolve(
-        &self,
-        material: &MaterialArgs,
-        physical: bool,
-    ) -> anyhow::Result<ssmulti::per_point::PerPoint> {
-        Ok(match &self.per_point {
-            None => material.per_point()?,
-            Some(_) if physical => {
-                let why = "is the seed model's: the physical model's per-point parameters are in the material file (per_point)";
-                return Err(crate::Error::param("per_point", why).into());
-            }
-            Some(list) => ssmulti::per_point::PerPoint::parse(list, self.levels)?,
-        })
+    /// The seed model's per-point parameters given (the physical model's
+    /// are in its material).
+    pub fn given(&self) -> anyhow::Result<Option<ssmulti::per_point::PerPoint>> {
+        let pp = self.per_point.as_deref();
+        Ok(pp
+            .map(|list| ssmulti::per_point::PerPoint::parse(list, self.levels))
+            .transpose()?)
     }
-}
-
-/// [`MaterialArgs`] with `--material` merged in and the defaults set.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Material {
-    pub model: Model,
-    /// The single-scattering albedo or the surface colour (`true`).
-    pub albedo: ([f64; 3], bool),
-    /// The mean free path or the diffuse one (`true`); `None` not given.
-    pub mfp: Option<([f64; 3], bool)>,
-    pub g: f64,
-    pub eta: f64,
 }
 
 impl MaterialArgs {
-    /// The options with the material file or preset merged in: an option
-    /// given on the command line that the material gives otherwise is an
-    /// error naming both.
-    pub fn merged(&self) -> anyhow::Result<Material> {
-        self.merged_with(None)
-    }
-
-    /// [`MaterialArgs::merged`], with the medium a cloud records
-    /// (`recorded`, [`medium::material::recorded`]) taken when no
-    /// `--material` and no `--model seed` is given: the options then
-    /// conflict with it as with a material's. With `--material` too, the
-    /// record must agree with the result.
-    pub fn merged_with(
-        &self,
-        recorded: Option<&medium::material::Material>,
-    ) -> anyhow::Result<Material> {
-        let given = match &self.material {
-            Some(m) => Some(medium::material::load_in(m, self.scene_unit_mm)?),
-            None => None,
-        };
-        let seed = self.model == Some(Model::Seed);
-        // Options of the medium given on the command line: checked against
-        // a record as the medium they make (a record holds the albedo and
-        // mean free path, the options may give a colour and a diffuse one).
-        let options = self.albedo.is_some()
-            || self.color.is_some()
-            || self.mfp.is_some()
-            || self.dmfp.is_some()
-            || self.eta.is_some()
-            || self.g.is_some();
-        // With options, the record's keys they give are theirs, and the
-        // medium that makes is held against the record's.
-        let over = |r: &medium::material::Material| {
-            let mut f = r.clone();
-            if self.albedo.is_some() || self.color.is_some() {
-                (f.albedo, f.color) = (None, None);
-            }
-            if self.mfp.is_some() || self.dmfp.is_some() {
-                (f.mfp, f.dmfp) = (None, None);
-            }
-            if self.eta.is_some() {
-                f.eta = None;
-            }
-            if self.g.is_some() {
-                f.g = None;
-            }
-            f
-        };
-        let (file, check) = match (given, recorded) {
-            (_, _) if seed => (None, None),
-            (Some(g), r) => (Some(g), r),
-            (None, Some(r)) if options => (Some(over(r)), Some(r)),
-            (None, Some(r)) => (Some(r.clone()), None),
-            (None, None) => (None, None),
-        };
-        let merged = self.merged_from(file)?;
-        let medium = match check {
-            Some(_) => self.medium_of(&merged)?,
-            None => None,
-        };
-        if let (Some(r), Some(md)) = (check, medium) {
-            if let Some(what) = medium::material::mismatch(r, &md) {
-                let first = [
-                    ("--albedo", self.albedo.is_some()),
-                    ("--color", self.color.is_some()),
-                    ("--mfp", self.mfp.is_some()),
-                    ("--dmfp", self.dmfp.is_some()),
-                    ("--eta", self.eta.is_some()),
-                    ("--g", self.g.is_some()),
-                ]
-                .into_iter()
-                .find_map(|(f, given)| given.then_some(f))
-                .unwrap_or("--model");
-                let (flag, what_gave) = match &self.material {
-                    Some(_) => ("--material", "the material"),
-                    None => (first, "the options"),
-                };
-                let why = format!(
-                    "{what_gave} make another medium than {} has: {what} given",
-                    r.source
-                );
-                return Err(crate::Error::param(flag, why).into());
-            }
-        }
-        Ok(merged)
-    }
-
-    fn merged_from(&self, file: Option<medium::material::Material>) -> anyhow::Result<Material> {
+    /// What the options give of the medium: the values parsed, the
+    /// material file read (once: a stage keeps what this returns). The
+    /// library decides the medium from it ([`medium::Given::resolve`]).
+    pub fn given(&self) -> anyhow::Result<medium::Given> {
         let rgb = |flag: &str, v: &Option<String>| -> anyhow::Result<Option<[f64; 3]>> {
             v.as_deref().map(|x| parse_rgb(flag, x)).transpose()
         };
-        let (albedo, color) = (rgb("--albedo", &self.albedo)?, rgb("--color", &self.color)?);
-        let (mfp, dmfp) = (rgb("--mfp", &self.mfp)?, rgb("--dmfp", &self.dmfp)?);
-        let Some(f) = file else {
-            return Ok(Material {
-                model: self.model.unwrap_or(Model::Seed),
-                albedo: match color {
-                    Some(c) => (c, true),
-                    None => (albedo.unwrap_or([0.8; 3]), false),
-                },
-                mfp: mfp.map(|m| (m, false)).or(dmfp.map(|d| (d, true))),
-                g: self.g.unwrap_or(0.0),
-                eta: self.eta.unwrap_or(1.3),
-            });
+        let options = medium::Spec {
+            source: "the options".into(),
+            albedo: rgb("--albedo", &self.albedo)?,
+            color: rgb("--color", &self.color)?,
+            mfp: rgb("--mfp", &self.mfp)?,
+            dmfp: rgb("--dmfp", &self.dmfp)?,
+            eta: self.eta,
+            g: self.g,
+            ..medium::Spec::default()
         };
-        let clash = |flag: &str, given: String, key: &str, theirs: String| -> anyhow::Error {
-            crate::Error::param(
-                flag,
-                format!(
-                    "{given} conflicts with the material's {key} {theirs} ({})",
-                    f.source
-                ),
-            )
-            .into()
-        };
-        let same = |a: &[f64], b: &[f64]| {
-            a.iter()
-                .zip(b)
-                .all(|(x, y)| (x - y).abs() <= 1e-12 * x.abs().max(y.abs()))
-        };
-        if self.model == Some(Model::Seed) {
-            let why = "seed conflicts with --material (the physical model's medium)";
-            return Err(crate::Error::param("--model", why).into());
-        }
-        // Each pair of options against the material's pair.
-        let pick = |flags: [&str; 2],
-                    given: [Option<[f64; 3]>; 2],
-                    keys: [&str; 2],
-                    theirs: [Option<[f64; 3]>; 2]|
-         -> anyhow::Result<Option<([f64; 3], bool)>> {
-            let mine = given.iter().position(Option::is_some);
-            let other = theirs.iter().position(Option::is_some);
-            match (mine, other) {
-                (Some(i), Some(j)) if i != j || !same(&given[i].unwrap(), &theirs[j].unwrap()) => {
-                    Err(clash(
-                        flags[i],
-                        format!("{} {:?}", flags[i], given[i].unwrap()),
-                        keys[j],
-                        format!("{:?}", theirs[j].unwrap()),
-                    ))
-                }
-                (Some(i), _) => Ok(Some((given[i].unwrap(), i == 1))),
-                (None, Some(j)) => Ok(Some((theirs[j].unwrap(), j == 1))),
-                (None, None) => Ok(None),
-            }
-        };
-        let a = pick(
-            ["--albedo", "--color"],
-            [albedo, color],
-            ["albedo", "color"],
-            [f.albedo, f.color],
-        )?;
-        let d = pick(
-            ["--mfp", "--dmfp"],
-            [mfp, dmfp],
-            ["mfp", "dmfp"],
-            [f.mfp, f.dmfp],
-        )?;
-        let scalar =
-            |flag: &str, given: Option<f64>, key: &str, theirs: Option<f64>, default: f64| match (
-                given, theirs,
-            ) {
-                (Some(x), Some(y)) if !same(&[x], &[y]) => {
-                    Err(clash(flag, format!("{flag} {x}"), key, format!("{y}")))
-                }
-                (x, y) => Ok(x.or(y).unwrap_or(default)),
-            };
-        Ok(Material {
-            model: Model::Physical,
-            albedo: a.unwrap_or(([0.8; 3], false)),
-            mfp: d,
-            g: scalar("--g", self.g, "g", f.g, 0.0)?,
-            eta: scalar("--eta", self.eta, "eta", f.eta, 1.3)?,
+        let material = self
+            .material
+            .as_deref()
+            .map(medium::material::load)
+            .transpose()?;
+        Ok(medium::Given {
+            model: self.model,
+            material,
+            options,
         })
-    }
-
-    /// The material's per-point parameters (none without `--material`).
-    pub fn per_point(&self) -> anyhow::Result<ssmulti::per_point::PerPoint> {
-        Ok(match &self.material {
-            Some(m) => {
-                let m = medium::material::load_in(m, self.scene_unit_mm)?;
-                ssmulti::per_point::PerPoint {
-                    attrs: m.per_point,
-                    levels: m.levels,
-                }
-            }
-            None => Default::default(),
-        })
-    }
-
-    /// How the physical model's medium is given; `None` for the seed
-    /// model.
-    pub fn recipe(&self) -> anyhow::Result<Option<medium::Recipe>> {
-        let m = self.merged()?;
-        Ok(match (m.model, m.mfp) {
-            (Model::Physical, Some((dist, diffuse))) => Some(recipe(&m, dist, diffuse)),
-            _ => None,
-        })
-    }
-
-    /// The physical model's medium; `None` for the seed model.
-    pub fn medium(&self) -> anyhow::Result<Option<Medium>> {
-        self.medium_of(&self.merged()?)
-    }
-
-    /// The medium of the merged options `m`; `None` for the seed model.
-    pub fn medium_of(&self, m: &Material) -> anyhow::Result<Option<Medium>> {
-        if m.model == Model::Seed {
-            return Ok(None);
-        }
-        let Some((dist, diffuse)) = m.mfp else {
-            return Err(crate::Error::param(
-                "--mfp",
-                "required by --model physical (the mean free path; or --dmfp, or --material)",
-            )
-            .into());
-        };
-        let medium = self::recipe(m, dist, diffuse).medium();
-        Ok(Some(medium?))
     }
 }
 
@@ -479,124 +230,70 @@ pub struct SingleArgs {
 }
 
 impl SingleArgs {
-    /// The parameters for the eye `eye`, with the material `mat` and the
-    /// seed model's `rd`, `sd` and `rgb`, checked (an error names the
-    /// option at fault), for the cloud `record` (its detail): what
-    /// it records of ssmulti's run is taken where nothing is given (the
-    /// physical medium, or the seed model's Rd, sd and t_rgb), and an
-    /// option that gives another value is an error naming both.
-    pub fn params_for(
+    /// What the options give, with the medium `medium` and the seed
+    /// model's `rd`, `sd` and `rgb` (ssmulti's options, or sssingle's
+    /// own); [`sssingle::Params::resolve`] decides.
+    pub fn given(
         &self,
-        mat: &MaterialArgs,
+        medium: medium::Given,
         rd: Option<&str>,
         sd: Option<f64>,
         rgb: bool,
-        eye: [f64; 3],
-        record: Option<&crate::cloud::Cloud>,
-    ) -> anyhow::Result<sssingle::Params> {
-        let recorded = record.and_then(medium::material::recorded);
-        let m = mat.merged_with(recorded.as_ref())?;
-        let medium = mat.medium_of(&m)?;
-        let (rd, sd, rgb) = seed_record(rd, sd, rgb, record)?;
-        let sd = match (m.model, sd) {
-            (Model::Seed, None) => {
-                return Err(crate::Error::param(
-                    "--sd",
-                    "required by --model seed (the scattering distance)",
-                )
-                .into())
-            }
-            (_, sd) => sd.unwrap_or(0.0),
-        };
-        let p = sssingle::Params {
-            model: m.model,
-            rd,
+    ) -> anyhow::Result<sssingle::Given> {
+        Ok(sssingle::Given {
+            medium,
+            rd: rd.map(|r| parse_rgb("--rd", r)).transpose()?,
             sd,
-            // (The seed model has no albedo.)
-            albedo: medium.map_or([0.8; 3], |m| m.albedo),
-            mfp: medium.map_or([1.0; 3], |m| m.mfp),
-            g: m.g,
-            eta: m.eta,
-            samples: self.samples,
             rgb,
+            samples: self.samples,
             seed: self.seed,
-            eye: glam::DVec3::from_array(eye),
             cusp: self.cusp,
             shadows: !self.no_shadows,
-        };
-        sssingle::validate(&p)?;
-        Ok(p)
+        })
+    }
+
+    /// Lazy `ssS` (filter's and render's): the parameters for the eye
+    /// `eye` from these options and the cloud's record of ssmulti's run
+    /// (ssmulti's `ss` options give the seed model's Rd, sd and t_rgb),
+    /// and the lights of `file` moved into `frame`.
+    pub fn lazy(
+        &self,
+        medium: &medium::Given,
+        ss: &SsArgs,
+        eye: [f64; 3],
+        cloud: &crate::cloud::Cloud,
+        file: &crate::lights::LightsFile,
+        frame: &crate::frame::Frame,
+    ) -> anyhow::Result<(sssingle::Params, Vec<crate::lights::Light>)> {
+        let given = self.given(medium.clone(), ss.rd.as_deref(), ss.sd, ss.rgb)?;
+        let record = ssmulti::Record::of(cloud);
+        let eye = glam::DVec3::from_array(eye);
+        let params = sssingle::Params::resolve(&given, eye, &record)?;
+        Ok((params, file.in_frame(frame)))
     }
 }
 
-/// The seed model's Rd, sd and t_rgb given, else those `record` holds
-/// from ssmulti's run (`ssmulti_rd`, `_sd`, `_rgb`), else Rd 1; a value
-/// given that differs from the record is an error naming both.
-fn seed_record(
-    rd: Option<&str>,
-    sd: Option<f64>,
-    rgb: bool,
-    record: Option<&crate::cloud::Cloud>,
-) -> anyhow::Result<([f64; 3], Option<f64>, bool)> {
-    let detail = |name: &str| record.and_then(|c| c.detail(name)).map(|d| d.components());
-    let (r_rd, r_sd, r_rgb) = (
-        detail("ssmulti_rd"),
-        detail("ssmulti_sd"),
-        detail("ssmulti_rgb"),
-    );
-    let clash = |flag: &str, given: String, key: &str, theirs: String| -> anyhow::Error {
-        crate::Error::param(
-            flag,
-            format!("{flag} {given} conflicts with the cloud's {key} {theirs} (ssmulti's run)"),
-        )
-        .into()
-    };
-    let given = rd.map(|g| parse_rgb("--rd", g)).transpose()?;
-    let rd = match (given, r_rd.as_deref()) {
-        (Some(v), Some(&[a, b, c])) => {
-            if v.iter()
-                .zip([a, b, c])
-                .any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(y.abs()))
-            {
-                let g = rd.unwrap_or_default().to_string();
-                return Err(clash("--rd", g, "ssmulti_rd", format!("{:?}", [a, b, c])));
-            }
-            v
-        }
-        (Some(v), _) => v,
-        (None, Some(&[a, b, c])) => [a, b, c],
-        (None, _) => [1.0; 3],
-    };
-    let sd = match (sd, r_sd.as_deref()) {
-        (Some(g), Some([r])) if (g - r).abs() > 1e-9 * g.abs().max(r.abs()) => {
-            return Err(clash("--sd", g.to_string(), "ssmulti_sd", r.to_string()))
-        }
-        (Some(g), _) => Some(g),
-        (None, Some([r])) => Some(*r),
-        (None, _) => None,
-    };
-    // (A flag cannot be given as off: the record's on stays on.)
-    let rgb = rgb || r_rgb.as_deref().is_some_and(|r| r == [1.0]);
-    Ok((rd, sd, rgb))
-}
-
 impl SsArgs {
-    /// The parameters with the material `mat`, `None` for the seed model
-    /// without `--sd`; checked. `PCSSS_NO_AVX2` in the environment forces
-    /// the baseline pair loop.
-    pub fn params(&self, mat: &MaterialArgs) -> anyhow::Result<Option<Params>> {
-        let medium = mat.medium()?;
-        let sd = match (self.sd, medium) {
-            (Some(sd), _) => sd,
-            (None, Some(_)) => 1.0,
-            (None, None) => return Ok(None),
-        };
-        let params = Params {
-            rd: parse_rgb("--rd", self.rd.as_deref().unwrap_or("1,1,1"))?,
-            sd,
+    /// What the options give, with the medium `medium` and the seed
+    /// model's per-point parameters `per_point`; [`ssmulti::Given::resolve`]
+    /// decides. `PCSSS_NO_AVX2` in the environment forces the baseline
+    /// pair loop.
+    pub fn given(
+        &self,
+        medium: medium::Given,
+        per_point: Option<ssmulti::per_point::PerPoint>,
+    ) -> anyhow::Result<ssmulti::Given> {
+        Ok(ssmulti::Given {
+            rd: self
+                .rd
+                .as_deref()
+                .map(|r| parse_rgb("--rd", r))
+                .transpose()?,
+            sd: self.sd,
             bounce: self.bounce,
             rgb: self.rgb,
-            falloff: Falloff::new(self.falloff, self.sigma),
+            falloff: self.falloff,
+            sigma: self.sigma,
             norm: self.norm,
             tolerance: self.tolerance,
             simd: if env_flag("PCSSS_NO_AVX2") {
@@ -605,9 +302,8 @@ impl SsArgs {
                 Simd::Auto
             },
             medium,
-        };
-        ssmulti::validate(&params)?;
-        Ok(Some(params))
+            per_point,
+        })
     }
 }
 

@@ -47,7 +47,7 @@ pub fn parse(stage: Stage, args: &[String]) -> anyhow::Result<StageParams> {
 }
 
 /// [`parse`] in a scene whose unit is `unit_mm` millimetres long (a
-/// preset's lengths in it: [`MaterialArgs::in_frame`]).
+/// preset's lengths in it: [`crate::medium::Given::in_scene`]).
 pub fn parse_in(
     stage: Stage,
     args: &[String],
@@ -61,34 +61,33 @@ pub fn parse_in(
     };
     Ok(match stage {
         Stage::Ssmulti => {
-            let mut a = Multi::try_parse_from(args).map_err(bad)?;
-            a.mat.scene_unit_mm = unit_mm;
-            match a.ss.params(&a.mat).map_err(|e| within(stage, e))? {
-                Some(p) => {
-                    // (Checked as ssmulti checks them; a group's reach
-                    // beyond these parameters' is refused by the tile's
-                    // halo check, naming both.)
-                    a.per_point
-                        .resolve(&a.mat, p.medium.is_some())
-                        .map_err(|e| within(stage, e))?;
-                    StageParams::Ssmulti(p)
-                }
-                None => {
+            let a = Multi::try_parse_from(args).map_err(bad)?;
+            let per_point = a.per_point.given().map_err(|e| within(stage, e))?;
+            let given = ss_given(&a.ss, &a.mat, per_point, unit_mm);
+            // (Checked as ssmulti checks them, its per-point parameters
+            // too; a group's reach beyond these parameters' is refused by
+            // the tile's halo check, naming both.)
+            match given.and_then(|g| Ok(g.resolve()?)) {
+                Ok(Some(plan)) => StageParams::Ssmulti(plan.params),
+                Ok(None) => {
                     return Err(Error::param(
                         "stage_args",
                         "ssmulti needs --sd (or --model physical)",
                     )
                     .into())
                 }
+                Err(e) => return Err(within(stage, e)),
             }
         }
         Stage::Filter => {
-            let mut a = Filter::try_parse_from(args).map_err(bad)?;
-            a.mat.scene_unit_mm = unit_mm;
+            let a = Filter::try_parse_from(args).map_err(bad)?;
+            let given = ss_given(&a.ss, &a.mat, None, unit_mm);
             StageParams::Filter {
                 nfp: a.nfp,
                 radius: a.radius,
-                multi: a.ss.params(&a.mat).map_err(|e| within(stage, e))?,
+                multi: given
+                    .and_then(|g| Ok(g.params()?))
+                    .map_err(|e| within(stage, e))?,
             }
         }
         // Their reach is 0 whatever they are given, but what they are
@@ -103,6 +102,19 @@ pub fn parse_in(
             StageParams::Local
         }
     })
+}
+
+/// ssmulti's options given, the material's lengths in a scene whose unit
+/// is `unit_mm` millimetres long.
+fn ss_given(
+    ss: &SsArgs,
+    mat: &MaterialArgs,
+    per_point: Option<crate::stages::ssmulti::per_point::PerPoint>,
+    unit_mm: Option<f64>,
+) -> anyhow::Result<crate::stages::ssmulti::Given> {
+    let mut medium = mat.given()?;
+    medium.in_scene(unit_mm);
+    ss.given(medium, per_point)
 }
 
 /// Parses `args` with `T`'s command line, nothing required (its required

@@ -17,30 +17,8 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::spec::Spec;
 use crate::error::{Error, Result};
-
-/// A medium's parameters as a material gives them: each `None` not
-/// given. `albedo` or `color`, `mfp` or `dmfp`.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Material {
-    /// Where it came from: the file, or `preset NAME`.
-    pub source: String,
-    pub albedo: Option<[f64; 3]>,
-    pub color: Option<[f64; 3]>,
-    pub mfp: Option<[f64; 3]>,
-    pub dmfp: Option<[f64; 3]>,
-    pub eta: Option<f64>,
-    pub g: Option<f64>,
-    /// Parameters taken per point from the cloud's attributes: (`albedo`,
-    /// `color`, `mfp` or `dmfp`, the attribute's name).
-    pub per_point: Vec<(String, String)>,
-    /// Per-point values rounded on a grid of this many levels (a
-    /// texture's many values into few groups; `ssmulti::per_point`).
-    pub levels: Option<u32>,
-    /// A preset's millimetres were taken as the scene's units: neither the
-    /// scene nor the material said how long a unit is.
-    pub unit_assumed: bool,
-}
 
 /// The most levels a per-point value may be rounded to.
 pub const MAX_LEVELS: u32 = 64;
@@ -66,64 +44,18 @@ pub const PRESET_ETA: f64 = 1.3;
 
 /// The preset `name` (any case) for a scene whose unit is `unit_length`
 /// millimetres long; `None` for an unknown name.
-pub fn preset(name: &str, unit_length: f64) -> Option<Material> {
+pub fn preset(name: &str, unit_length: f64) -> Option<Spec> {
     let (n, s, a) = PRESETS
         .iter()
         .find(|(n, _, _)| n.eq_ignore_ascii_case(name))?;
-    Some(Material {
+    Some(Spec {
         source: format!("preset {n}"),
         albedo: Some([0, 1, 2].map(|c| s[c] / (s[c] + a[c]))),
         mfp: Some([0, 1, 2].map(|c| 1.0 / (s[c] + a[c]) / unit_length)),
         eta: Some(PRESET_ETA),
         g: Some(0.0),
-        ..Material::default()
+        ..Spec::default()
     })
-}
-
-/// The medium the physical model's `ssmulti` recorded in `cloud`'s detail
-/// (`ssmulti_model physical`, `_albedo`, `_mfp`, `_eta`, `_g`): what a
-/// later stage takes when not told otherwise. `None` without that record,
-/// or with one that is not whole (a key missing or of the wrong length).
-pub fn recorded(cloud: &crate::cloud::Cloud) -> Option<Material> {
-    use crate::cloud::DetailValue;
-    if !matches!(cloud.detail("ssmulti_model"), Some(DetailValue::Str(m)) if m == "physical") {
-        return None;
-    }
-    let rgb = |name: &str| -> Option<[f64; 3]> {
-        let v = cloud.detail(name)?.components();
-        (v.len() == 3).then(|| [v[0], v[1], v[2]])
-    };
-    let one = |name: &str| cloud.detail(name)?.as_f64();
-    Some(Material {
-        source: "the cloud's ssmulti record".into(),
-        albedo: Some(rgb("ssmulti_albedo")?),
-        mfp: Some(rgb("ssmulti_mfp")?),
-        eta: Some(one("ssmulti_eta")?),
-        g: Some(one("ssmulti_g")?),
-        ..Material::default()
-    })
-}
-
-/// Where the medium `m` differs from the whole record `r` (albedo, mean
-/// free path, eta and g, to 1e-9 relative): the first key that does, as
-/// `key record-value against given-value`; `None` when they agree or the
-/// record is not whole.
-pub fn mismatch(r: &Material, m: &super::Medium) -> Option<String> {
-    let close = |x: &[f64], y: &[f64]| {
-        x.iter()
-            .zip(y)
-            .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()))
-    };
-    let (a, f, e, g) = (r.albedo?, r.mfp?, r.eta?, r.g?);
-    [
-        ("albedo", a.to_vec(), m.albedo.to_vec()),
-        ("mfp", f.to_vec(), m.mfp.to_vec()),
-        ("eta", vec![e], vec![m.eta]),
-        ("g", vec![g], vec![m.g]),
-    ]
-    .into_iter()
-    .find(|(_, have, want)| !close(have, want))
-    .map(|(key, have, want)| format!("{key} {have:?} against {want:?}"))
 }
 
 /// A colour: one number for all three channels, or three.
@@ -175,29 +107,15 @@ struct File {
 const MAX_FILE: u64 = 1 << 20;
 
 /// The material `arg` names: a JSON file when one is there, else a
-/// preset (at unit length 1: millimetres). An error names the file and
-/// the key at fault, or lists the presets.
-pub fn load(arg: &str) -> Result<Material> {
-    load_in(arg, None)
-}
-
-/// [`load`] for a scene whose unit is `unit_mm` millimetres long (from the
-/// cloud's recorded `meters_per_unit`): a preset's lengths, in
-/// millimetres, are divided by it (a material file's own `unit_length`
-/// wins). With no unit from either, the preset's millimetres are the
-/// scene's units, and the material says so ([`Material::unit_assumed`]).
-pub fn load_in(arg: &str, unit_mm: Option<f64>) -> Result<Material> {
+/// preset. An error names the file and the key at fault, or lists the
+/// presets. A preset's lengths are millimetres until
+/// [`Spec::in_scene`] puts them in the scene's unit.
+pub fn load(arg: &str) -> Result<Spec> {
     let path = Path::new(arg);
     if path.exists() {
-        return read(path, unit_mm);
+        return read(path);
     }
-    let found = preset(arg, unit_mm.unwrap_or(1.0)).map(|mut m| {
-        m.unit_assumed = unit_mm.is_none();
-        if let Some(u) = unit_mm {
-            m.source = format!("{} (a scene unit of {u} mm)", m.source);
-        }
-        m
-    });
+    let found = preset(arg, 1.0).map(|m| Spec { in_mm: true, ..m });
     found.ok_or_else(|| {
         let names: Vec<&str> = PRESETS.iter().map(|p| p.0).collect();
         Error::param(
@@ -211,7 +129,7 @@ pub fn load_in(arg: &str, unit_mm: Option<f64>) -> Result<Material> {
 }
 
 /// A material file.
-fn read(path: &Path, unit_mm: Option<f64>) -> Result<Material> {
+fn read(path: &Path) -> Result<Spec> {
     let name = path.display().to_string();
     // (What is read is capped, not what the file says its size is: a
     // device's is 0.)
@@ -219,17 +137,12 @@ fn read(path: &Path, unit_mm: Option<f64>) -> Result<Material> {
         .map_err(|e| e.about(&name))?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::invalid("not UTF-8 text: not a material file").about(&name))?;
-    parse_in(&text, &name, unit_mm)
+    parse(&text, &name)
 }
 
-/// A material file's text; `name` for its `source`.
-pub fn parse(text: &str, name: &str) -> Result<Material> {
-    parse_in(text, name, None)
-}
-
-/// [`parse`] for a scene whose unit is `unit_mm` millimetres long (see
-/// [`load_in`]).
-pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material> {
+/// A material file's text; `name` for its `source`. A preset without
+/// `unit_length` keeps its millimetres ([`Spec::in_mm`]).
+pub fn parse(text: &str, name: &str) -> Result<Spec> {
     let de = &mut serde_json::Deserializer::from_str(text);
     let f: File = serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
@@ -244,7 +157,7 @@ pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material
             ));
         }
     }
-    let unit = f.unit_length.or(unit_mm).unwrap_or(1.0);
+    let unit = f.unit_length.unwrap_or(1.0);
     if !(unit.is_finite() && unit > 0.0) {
         return Err(bad(
             "unit_length",
@@ -266,14 +179,14 @@ pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material
                     "scales a preset's millimetres; give lengths in the scene's units without a preset".into(),
                 ));
             }
-            Material::default()
+            Spec::default()
         }
     };
+    m.in_mm = f.preset.is_some() && f.unit_length.is_none();
     m.source = match &f.preset {
         Some(p) => format!("{name} (preset {p})"),
         None => name.to_string(),
     };
-    m.unit_assumed = f.preset.is_some() && f.unit_length.is_none() && unit_mm.is_none();
     if f.albedo.is_some() && f.color.is_some() {
         return Err(bad("color", "give albedo or color, not both".into()));
     }
@@ -286,8 +199,10 @@ pub fn parse_in(text: &str, name: &str, unit_mm: Option<f64>) -> Result<Material
         m.color = f.color.map(Rgb::get);
     }
     if f.mfp.is_some() || f.dmfp.is_some() {
+        // (In the scene's units: no longer a preset's millimetres.)
         m.mfp = f.mfp.map(Rgb::get);
         m.dmfp = f.dmfp.map(Rgb::get);
+        m.in_mm = false;
     }
     m.eta = f.eta.or(m.eta);
     m.g = f.g.or(m.g);
@@ -428,17 +343,22 @@ mod tests {
         let e = load("no such material").unwrap_err().to_string();
         assert!(e.contains("skin1") && e.contains("no such material"), "{e}");
         // A preset by name with no scene unit takes millimetres, and says so.
-        let ketchup = load("ketchup").unwrap();
+        let ketchup = load("ketchup").unwrap().in_scene(None);
         assert!(ketchup.unit_assumed);
         assert_eq!(
             ketchup,
-            Material {
+            Spec {
                 unit_assumed: true,
                 ..preset("ketchup", 1.0).unwrap()
             }
         );
-        let cm = load_in("ketchup", Some(10.0)).unwrap();
+        let cm = load("ketchup").unwrap().in_scene(Some(10.0));
         assert!(!cm.unit_assumed);
         assert_eq!(cm.mfp, preset("ketchup", 10.0).unwrap().mfp);
+        // A file's preset likewise; its own lengths are the scene's.
+        let file = parse(r#"{"preset": "ketchup"}"#, "m.json").unwrap();
+        assert_eq!(file.in_scene(Some(10.0)).mfp, cm.mfp);
+        let own = parse(r#"{"preset": "ketchup", "mfp": 2}"#, "m.json").unwrap();
+        assert_eq!(own.in_scene(Some(10.0)).mfp, Some([2.0; 3]));
     }
 }

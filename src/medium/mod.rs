@@ -11,7 +11,8 @@
 //! function's asymmetry, the relative index and the cosine, which gives
 //! every albedo at once; the single-scattering one the exact integral over
 //! exit directions. Thin parts (a slab's both faces) are in `thickness.rs`;
-//! material files and presets in [`material`]. The diffuse mean free path
+//! material files and presets in [`material`], and what a stage was
+//! given of the medium decided in [`spec`]. The diffuse mean free path
 //! is diffusion's (Grosjean's coefficient).
 
 use std::f64::consts::PI;
@@ -22,10 +23,12 @@ use walk::Histogram;
 
 pub mod material;
 pub mod slab_table;
+pub mod spec;
 pub mod table;
 mod thickness;
 pub mod walk;
 
+pub use spec::{Choice, Given, Spec};
 pub use thickness::Thinness;
 
 /// Which model a stage uses.

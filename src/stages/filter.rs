@@ -771,7 +771,7 @@ pub fn add_vertex_colours(
     exposure: Option<f64>,
 ) -> Result<()> {
     if let Some(e) = exposure {
-        crate::stages::render::check_exposure(e)?;
+        check_exposure(e)?;
     }
     let mut v = vec![[0.0f64; 3]; shade.len()];
     for (name, k) in terms {
@@ -796,4 +796,13 @@ pub fn add_vertex_colours(
         ))?;
     }
     Ok(())
+}
+/// Checks a tone map's `exposure` (render's PNG, filter's vertex
+/// colours): finite and above 0.
+pub fn check_exposure(exposure: f64) -> Result<()> {
+    if exposure.is_finite() && exposure > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::param("exposure", format!("{exposure}: must be > 0")))
+    }
 }

@@ -310,8 +310,8 @@ pub fn thickness(cloud: &mut Cloud, mesh: &TriMesh, progress: &Progress) -> Resu
 /// `--indirect` gathers the light of the medium ssmulti ran with: a
 /// different one given to illum is an error naming both.
 fn same_medium(cloud: &Cloud, m: &Medium) -> Result<()> {
-    let recorded = crate::medium::material::recorded(cloud);
-    match recorded.and_then(|r| crate::medium::material::mismatch(&r, m)) {
+    let recorded = crate::stages::ssmulti::Record::of(cloud).medium;
+    match recorded.and_then(|r| r.mismatch(m)) {
         None => Ok(()),
         Some(what) => Err(Error::param(
             "indirect",

@@ -683,15 +683,7 @@ pub fn beauty(
     Ok(())
 }
 
-/// Checks a tone map's `exposure` (render's PNG, filter's vertex
-/// colours): finite and above 0.
-pub fn check_exposure(exposure: f64) -> Result<()> {
-    if exposure.is_finite() && exposure > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::param("exposure", format!("{exposure}: must be > 0")))
-    }
-}
+pub use super::filter::check_exposure;
 
 /// Checks the direct term's diffuse reflectance `kd`: finite and >= 0
 /// in each channel.

@@ -99,8 +99,74 @@ pub fn merge(
     } else {
         files.to_vec()
     };
+    let mut tiles = open_tiles(&m, &files)?;
+    let (schema0, details0) = agreed(&mut tiles)?;
+    // The output's header: the elements in the input's order.
+    let mut vschema = schema0.clone();
+    vschema.remove(HALO);
+    vschema.remove(INDEX);
+    let mut rest = match &m.rest {
+        Some(f) => {
+            let path = dir.join(f);
+            Some(open(&path).map_err(|e| e.about(&path.display().to_string()))?)
+        }
+        None => None,
+    };
+    let elements = out_elements(&m, dir, &vschema, rest.as_ref())?;
+    let cloud = Cloud {
+        elements,
+        detail: details0,
+        comments: tiles[0].r.header().comments.clone(),
+        obj_info: tiles[0].r.header().obj_info.clone(),
+    };
+    let counts: Vec<u64> = m.elements.iter().map(|e| e.count).collect();
+    out.write_all(header_text_with(&cloud, enc, |i, _| counts[i])?.as_bytes())?;
+
+    progress.start("merge", m.points);
+    for e in &m.elements {
+        if e.name != POINTS {
+            let r = rest.as_mut().expect("checked above");
+            copy_rest(r, &m, e, out, enc)?;
+            continue;
+        }
+        let mut next = 0u64;
+        while next < m.points {
+            let end = (next + CHUNK as u64).min(m.points);
+            let el = owned_rows(&mut tiles, next, end)?;
+            write_body(out, &el, enc)?;
+            progress.inc(el.len() as u64);
+            next = end;
+        }
+        for c in tiles.iter_mut() {
+            while let Some((halo, idx)) = c.peek()? {
+                if !halo {
+                    return Err(bad(
+                        &c.name,
+                        format!("point index {idx}, but the input had {} points", m.points),
+                    ));
+                }
+                c.at += 1;
+            }
+        }
+    }
+    progress.finish();
+    if let Some(r) = rest.as_mut() {
+        if r.next_chunk(CHUNK)?.is_some() {
+            return Err(bad(
+                m.rest.as_deref().unwrap_or(""),
+                "more rows than the manifest says".to_string(),
+            ));
+        }
+    }
+    Ok(m)
+}
+
+/// The tile files opened, each checked against the manifest `m` (its
+/// split, its tile, its points), in the manifest's order; a tile missing
+/// or given twice is an error.
+fn open_tiles(m: &Manifest, files: &[PathBuf]) -> Result<Vec<Cursor>> {
     let mut by_tile: Vec<Option<Cursor>> = (0..m.tiles.len()).map(|_| None).collect();
-    for path in &files {
+    for path in files {
         let name = path.display().to_string();
         let r = open(path).map_err(|e| e.about(&name))?;
         let h = r.header();
@@ -171,9 +237,12 @@ pub fn merge(
             m.tiles.len()
         )));
     }
-    let mut tiles: Vec<Cursor> = by_tile.into_iter().flatten().collect();
+    Ok(by_tile.into_iter().flatten().collect())
+}
 
-    // One schema and one set of details for all.
+/// The tiles' one schema and one set of details (a tile that differs is
+/// named), with the halo flag and index checked.
+fn agreed(tiles: &mut [Cursor]) -> Result<(Element, Vec<Detail>)> {
     let schema0 = tiles[0].r.schema_of(0)?;
     for (a, ty) in [(HALO, "uchar"), (INDEX, "uint")] {
         match schema0.attr(a) {
@@ -234,17 +303,18 @@ pub fn merge(
         }
     }
 
-    // The output's header: the elements in the input's order.
-    let mut vschema = schema0.clone();
-    vschema.remove(HALO);
-    vschema.remove(INDEX);
-    let mut rest = match &m.rest {
-        Some(f) => {
-            let path = dir.join(f);
-            Some(open(&path).map_err(|e| e.about(&path.display().to_string()))?)
-        }
-        None => None,
-    };
+    Ok((schema0, details0))
+}
+
+/// The output's elements in the input's order: the vertices' schema
+/// `vschema`, the others' from the rest file, checked against the
+/// manifest.
+fn out_elements(
+    m: &Manifest,
+    dir: &Path,
+    vschema: &Element,
+    rest: Option<&Reader>,
+) -> Result<Vec<Element>> {
     let mut elements = Vec::with_capacity(m.elements.len());
     let mut rest_k = 0;
     for e in &m.elements {
@@ -252,7 +322,7 @@ pub fn merge(
             elements.push(vschema.gather(&[]));
             continue;
         }
-        let Some(r) = rest.as_ref() else {
+        let Some(r) = rest else {
             return Err(bad(
                 &dir.join(super::MANIFEST).display().to_string(),
                 format!("element '{}' but no rest file", e.name),
@@ -268,106 +338,80 @@ pub fn merge(
         elements.push(r.schema_of(rest_k)?);
         rest_k += 1;
     }
-    let cloud = Cloud {
-        elements,
-        detail: details0,
-        comments: tiles[0].r.header().comments.clone(),
-        obj_info: tiles[0].r.header().obj_info.clone(),
-    };
-    let counts: Vec<u64> = m.elements.iter().map(|e| e.count).collect();
-    out.write_all(header_text_with(&cloud, enc, |i, _| counts[i])?.as_bytes())?;
+    Ok(elements)
+}
 
-    progress.start("merge", m.points);
-    for e in &m.elements {
-        if e.name != POINTS {
-            let r = rest.as_mut().expect("checked above");
-            let mut done = 0;
-            while done < e.count {
-                let Some((_, el)) = r.next_chunk(CHUNK)? else {
-                    return Err(bad(
-                        m.rest.as_deref().unwrap_or(""),
-                        format!("ends inside element '{}'", e.name),
-                    ));
-                };
-                done += el.len() as u64;
-                write_body(out, &el, enc)?;
-            }
-            continue;
-        }
-        let mut next = 0u64;
-        while next < m.points {
-            let end = (next + CHUNK as u64).min(m.points);
-            let mut parts: Vec<Arc<Element>> = Vec::new();
-            // Row k of the output is input point next + k: each owned
-            // point goes straight to its slot, and a slot filled twice or
-            // left empty is a tile that does not match the manifest.
-            const EMPTY: (u32, u32) = (u32::MAX, u32::MAX);
-            let mut slots = vec![EMPTY; (end - next) as usize];
-            for c in tiles.iter_mut() {
-                // The part (in `parts`) of the tile's current chunk.
-                let mut part: Option<(*const Element, u32)> = None;
-                while let Some((halo, idx)) = c.peek()? {
-                    if !halo {
-                        if (idx as u64) >= end {
-                            break;
-                        }
-                        if c.last.is_some_and(|l| idx <= l) {
-                            return Err(bad(&c.name, format!("point index {idx} after {}: a tile's points must stay in the order the split wrote them", c.last.expect("checked"))));
-                        }
-                        c.last = Some(idx);
-                        let chunk = c.chunk.as_ref().expect("peeked");
-                        let p = match part {
-                            Some((ptr, p)) if ptr == Arc::as_ptr(chunk) => p,
-                            _ => {
-                                parts.push(chunk.clone());
-                                let p = parts.len() as u32 - 1;
-                                part = Some((Arc::as_ptr(chunk), p));
-                                p
-                            }
-                        };
-                        let slot = &mut slots[(idx as u64 - next) as usize];
-                        if *slot != EMPTY {
-                            return Err(bad(&c.name, format!("point {idx} is owned by two tiles")));
-                        }
-                        *slot = (p, c.at as u32);
-                    }
-                    c.at += 1;
-                }
-            }
-            if let Some(k) = slots.iter().position(|s| *s == EMPTY) {
-                return Err(Error::invalid(format!(
-                    "point {} is in no tile: the tiles do not match their manifest",
-                    next + k as u64
-                )));
-            }
-            let refs: Vec<&Element> = parts.iter().map(|p| p.as_ref()).collect();
-            let mut el = Element::gather_from(&refs, &slots);
-            el.remove(HALO);
-            el.remove(INDEX);
-            write_body(out, &el, enc)?;
-            progress.inc(el.len() as u64);
-            next = end;
-        }
-        for c in tiles.iter_mut() {
-            while let Some((halo, idx)) = c.peek()? {
-                if !halo {
-                    return Err(bad(
-                        &c.name,
-                        format!("point index {idx}, but the input had {} points", m.points),
-                    ));
-                }
-                c.at += 1;
-            }
-        }
-    }
-    progress.finish();
-    if let Some(r) = rest.as_mut() {
-        if r.next_chunk(CHUNK)?.is_some() {
+/// Element `e`'s rows copied from the rest file `r` to `out`.
+fn copy_rest(
+    r: &mut Reader,
+    m: &Manifest,
+    e: &super::ElementEntry,
+    out: &mut dyn Write,
+    enc: Encoding,
+) -> Result<()> {
+    let mut done = 0;
+    while done < e.count {
+        let Some((_, el)) = r.next_chunk(CHUNK)? else {
             return Err(bad(
                 m.rest.as_deref().unwrap_or(""),
-                "more rows than the manifest says".to_string(),
+                format!("ends inside element '{}'", e.name),
             ));
+        };
+        done += el.len() as u64;
+        write_body(out, &el, enc)?;
+    }
+    Ok(())
+}
+
+/// The output's rows `next..end`: each input point from the tile that owns
+/// it, without the halo flag and index.
+fn owned_rows(tiles: &mut [Cursor], next: u64, end: u64) -> Result<Element> {
+    let mut parts: Vec<Arc<Element>> = Vec::new();
+    // Row k of the output is input point next + k: each owned
+    // point goes straight to its slot, and a slot filled twice or
+    // left empty is a tile that does not match the manifest.
+    const EMPTY: (u32, u32) = (u32::MAX, u32::MAX);
+    let mut slots = vec![EMPTY; (end - next) as usize];
+    for c in tiles.iter_mut() {
+        // The part (in `parts`) of the tile's current chunk.
+        let mut part: Option<(*const Element, u32)> = None;
+        while let Some((halo, idx)) = c.peek()? {
+            if !halo {
+                if (idx as u64) >= end {
+                    break;
+                }
+                if c.last.is_some_and(|l| idx <= l) {
+                    return Err(bad(&c.name, format!("point index {idx} after {}: a tile's points must stay in the order the split wrote them", c.last.expect("checked"))));
+                }
+                c.last = Some(idx);
+                let chunk = c.chunk.as_ref().expect("peeked");
+                let p = match part {
+                    Some((ptr, p)) if ptr == Arc::as_ptr(chunk) => p,
+                    _ => {
+                        parts.push(chunk.clone());
+                        let p = parts.len() as u32 - 1;
+                        part = Some((Arc::as_ptr(chunk), p));
+                        p
+                    }
+                };
+                let slot = &mut slots[(idx as u64 - next) as usize];
+                if *slot != EMPTY {
+                    return Err(bad(&c.name, format!("point {idx} is owned by two tiles")));
+                }
+                *slot = (p, c.at as u32);
+            }
+            c.at += 1;
         }
     }
-    Ok(m)
+    if let Some(k) = slots.iter().position(|s| *s == EMPTY) {
+        return Err(Error::invalid(format!(
+            "point {} is in no tile: the tiles do not match their manifest",
+            next + k as u64
+        )));
+    }
+    let refs: Vec<&Element> = parts.iter().map(|p| p.as_ref()).collect();
+    let mut el = Element::gather_from(&refs, &slots);
+    el.remove(HALO);
+    el.remove(INDEX);
+    Ok(el)
 }

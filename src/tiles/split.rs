@@ -19,6 +19,7 @@ use crate::cloud::{Attribute, Cloud, DetailValue, Element, POINTS};
 use crate::column::Column;
 use crate::error::{Error, Result};
 use crate::files::Staged;
+use crate::formats::ply::header::Header;
 use crate::formats::ply::read::PlyChunks;
 use crate::formats::ply::write::{header_text_with, write_body};
 use crate::formats::Encoding;
@@ -320,6 +321,21 @@ fn schema(el: &Element) -> Element {
     el.gather(&[])
 }
 
+/// What the first pass finds: the vertex element's index and count, the
+/// box, a sample of every `stride`-th position, the points seen, and the
+/// hash of every byte.
+struct Survey {
+    header: Header,
+    v: usize,
+    count: u64,
+    lo: DVec3,
+    hi: DVec3,
+    sample: Vec<DVec3>,
+    stride: u64,
+    seen: u64,
+    input_hash: String,
+}
+
 /// Splits the PLY file at `input` (called `input_name` in messages and the
 /// manifest) into tiles in `dir` (made if missing): `tile_NNNN.ply` and
 /// `manifest.json`, and `rest.ply` for elements other than `vertex`. All
@@ -338,16 +354,58 @@ pub fn split(
     }
     let at = |e: Error| e.about(input_name);
     // Pass 1: the box and the sample, and the hash of every byte.
+    let mut survey = survey(input, progress).map_err(at)?;
+    let mut tiles = tile_count(opt, survey.count)?;
+    if let TileCount::Memory { bytes, per_point } = opt.tiles {
+        let per_point = per_point
+            .or_else(|| {
+                opt.for_stage
+                    .as_ref()
+                    .and_then(|f| point_bytes(super::reach::Stage::from_name(&f.stage)?))
+            })
+            .unwrap_or(DEFAULT_POINT_BYTES);
+        let (lo, hi) = (survey.lo, survey.hi);
+        tiles = tiles_for_memory(
+            &survey.sample,
+            survey.stride,
+            (lo, hi),
+            opt.halo,
+            bytes,
+            per_point,
+        )?;
+    }
+    ensure_open_files(tiles)?;
+    let plan = Plan::new(&mut survey.sample, survey.lo, survey.hi, tiles);
+    survey.sample = Vec::new();
+    // Pass 2: the counts, for the headers and the manifest.
+    let counts = count(input, &survey, &plan, opt.halo, progress).map_err(at)?;
+    let manifest = manifest_of(input_name, &survey, &plan, &counts, opt);
+    // Pass 3: the tiles, when the disk holds them.
+    std::fs::create_dir_all(dir).map_err(|e| Error::from(e).about(&dir.display().to_string()))?;
+    let input_bytes = std::fs::metadata(input).map_or(0, |m| m.len());
+    check_disk(dir, &manifest, input_bytes)?;
+    let staged = write_tiles(input, input_name, dir, &survey, &plan, &manifest, progress)?;
+    let text = serde_json::to_string_pretty(&manifest).expect("a manifest serialises") + "\n";
+    let m = Staged::write(&dir.join(MANIFEST), |w| Ok(w.write_all(text.as_bytes())?))?;
+    for s in staged.into_iter().chain([m]) {
+        s.commit()?;
+    }
+    Ok(manifest)
+}
+
+/// The first pass: the header checked (a `vertex` element, not a tile
+/// already, at most `u32::MAX` points), the box, the sample and the hash.
+fn survey(input: &Path, progress: &Progress) -> Result<Survey> {
     let hash = Rc::new(RefCell::new(Xxh3::new()));
     let hashing = |f| Hashing {
         inner: f,
         hash: hash.clone(),
     };
-    let mut r = open_through(input, hashing).map_err(at)?;
+    let mut r = open_through(input, hashing)?;
     let header = r.header().clone();
     let Some(v) = header.elements.iter().position(|e| e.name == POINTS) else {
         let what = format!("no '{POINTS}' element: nothing to tile");
-        return Err(at(Error::invalid(what)));
+        return Err(Error::invalid(what));
     };
     let count = header.elements[v].count;
     if count > u32::MAX as u64 {
@@ -355,7 +413,7 @@ pub fn split(
             "{count} points; a split holds at most {} (its index is a uint)",
             u32::MAX
         );
-        return Err(at(Error::unsupported(what)));
+        return Err(Error::unsupported(what));
     }
     if let Some(p) = header.elements[v]
         .props
@@ -363,24 +421,7 @@ pub fn split(
         .find(|p| p.name == HALO || p.name == INDEX)
     {
         let what = format!("already a tile (it has '{}'): merge it first", p.name);
-        return Err(at(Error::invalid(what)));
-    }
-    let mut tiles = match opt.tiles {
-        TileCount::Tiles(n) => n,
-        TileCount::Size(0) => return Err(Error::param("tile_size", "must be at least 1 point")),
-        TileCount::Size(s) => count.div_ceil(s).max(1) as usize,
-        TileCount::Memory {
-            per_point: Some(0), ..
-        } => return Err(Error::param("point_bytes", "must be at least 1")),
-        TileCount::Memory { .. } => 1,
-    };
-    if !(1..=MAX_TILES).contains(&tiles) {
-        let name = match opt.tiles {
-            TileCount::Tiles(_) => "tiles",
-            _ => "tile_size",
-        };
-        let what = format!("{tiles} tiles: must make 1 to {MAX_TILES}");
-        return Err(Error::param(name, what));
+        return Err(Error::invalid(what));
     }
     let only_p = crate::formats::Select::only(&["P"]);
     let stride = count.div_ceil(SAMPLE).max(1);
@@ -388,11 +429,11 @@ pub fn split(
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut seen = 0u64;
     progress.start("split: the box", count);
-    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p).map_err(at)? {
+    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p)? {
         if el != v {
             continue;
         }
-        let pos = positions(&chunk, seen).map_err(at)?;
+        let pos = positions(&chunk, seen)?;
         for (k, p) in pos.iter().enumerate() {
             lo = lo.min(*p);
             hi = hi.max(*p);
@@ -409,32 +450,70 @@ pub fn split(
     if seen == 0 {
         (lo, hi) = (DVec3::ZERO, DVec3::ZERO);
     }
-    if let TileCount::Memory { bytes, per_point } = opt.tiles {
-        let per_point = per_point
-            .or_else(|| {
-                opt.for_stage
-                    .as_ref()
-                    .and_then(|f| point_bytes(super::reach::Stage::from_name(&f.stage)?))
-            })
-            .unwrap_or(DEFAULT_POINT_BYTES);
-        tiles = tiles_for_memory(&sample, stride, (lo, hi), opt.halo, bytes, per_point)?;
-    }
-    ensure_open_files(tiles)?;
-    let plan = Plan::new(&mut sample, lo, hi, tiles);
-    drop(sample);
+    Ok(Survey {
+        header,
+        v,
+        count,
+        lo,
+        hi,
+        sample,
+        stride,
+        seen,
+        input_hash,
+    })
+}
 
-    // Pass 2: the counts, for the headers and the manifest.
-    let h = opt.halo;
-    let mut r = open(input).map_err(at)?;
-    let mut counts = vec![[0u64; 2]; tiles];
+/// How many tiles `opt` asks for of `count` points (1 for a memory
+/// budget, decided from the sample later); checked.
+fn tile_count(opt: &SplitOptions, count: u64) -> Result<usize> {
+    let tiles = match opt.tiles {
+        TileCount::Tiles(n) => n,
+        TileCount::Size(0) => return Err(Error::param("tile_size", "must be at least 1 point")),
+        TileCount::Size(s) => count.div_ceil(s).max(1) as usize,
+        TileCount::Memory {
+            per_point: Some(0), ..
+        } => return Err(Error::param("point_bytes", "must be at least 1")),
+        TileCount::Memory { .. } => 1,
+    };
+    if !(1..=MAX_TILES).contains(&tiles) {
+        let name = match opt.tiles {
+            TileCount::Tiles(_) => "tiles",
+            _ => "tile_size",
+        };
+        let what = format!("{tiles} tiles: must make 1 to {MAX_TILES}");
+        return Err(Error::param(name, what));
+    }
+    Ok(tiles)
+}
+
+/// The points no longer as many as the first pass saw: the file changed.
+fn changed(seen: u64, now: u64) -> Result<()> {
+    if now == seen {
+        return Ok(());
+    }
+    let what = format!("changed while it was split ({seen} points, then {now})");
+    Err(Error::invalid(what))
+}
+
+/// The second pass: each tile's owned and halo points within `h`.
+fn count(
+    input: &Path,
+    survey: &Survey,
+    plan: &Plan,
+    h: f64,
+    progress: &Progress,
+) -> Result<Vec<[u64; 2]>> {
+    let only_p = crate::formats::Select::only(&["P"]);
+    let mut r = open(input)?;
+    let mut counts = vec![[0u64; 2]; plan.boxes.len()];
     let mut base = 0u64;
-    progress.start("split: counting", count);
-    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p).map_err(at)? {
-        if el != v {
+    progress.start("split: counting", survey.count);
+    while let Some((el, chunk)) = r.next_chunk_with(CHUNK, &only_p)? {
+        if el != survey.v {
             continue;
         }
-        let pos = positions(&chunk, base).map_err(at)?;
-        let part = tile_counts(&plan, &pos, h);
+        let pos = positions(&chunk, base)?;
+        let part = tile_counts(plan, &pos, h);
         for (x, y) in counts.iter_mut().zip(&part) {
             x[0] += y[0];
             x[1] += y[1];
@@ -443,21 +522,31 @@ pub fn split(
         progress.inc(pos.len() as u64);
     }
     progress.finish();
-    if base != seen {
-        let what = format!("changed while it was split ({seen} points, then {base})");
-        return Err(at(Error::invalid(what)));
-    }
-    let others: Vec<usize> = (0..header.elements.len()).filter(|&i| i != v).collect();
+    changed(survey.seen, base)?;
+    Ok(counts)
+}
+
+/// The manifest of the split: the input, the plan's tiles and their
+/// counts, the elements kept aside, its checksum.
+fn manifest_of(
+    input_name: &str,
+    survey: &Survey,
+    plan: &Plan,
+    counts: &[[u64; 2]],
+    opt: &SplitOptions,
+) -> Manifest {
+    let header = &survey.header;
+    let others = header.elements.len() > 1;
     let mut manifest = Manifest {
         format: FORMAT.to_string(),
         split: String::new(),
         input: input_name.to_string(),
-        input_hash,
-        points: count,
-        halo: h,
+        input_hash: survey.input_hash.clone(),
+        points: survey.count,
+        halo: opt.halo,
         for_stage: opt.for_stage.clone(),
-        lo: lo.to_array(),
-        hi: hi.to_array(),
+        lo: survey.lo.to_array(),
+        hi: survey.hi.to_array(),
         elements: header
             .elements
             .iter()
@@ -466,7 +555,7 @@ pub fn split(
                 count: e.count,
             })
             .collect(),
-        rest: (!others.is_empty()).then(|| super::REST.to_string()),
+        rest: others.then(|| super::REST.to_string()),
         tiles: plan
             .boxes
             .iter()
@@ -482,20 +571,82 @@ pub fn split(
             .collect(),
     };
     manifest.split = manifest.checksum();
+    manifest
+}
 
-    // Pass 3: the tiles, when the disk holds them.
-    std::fs::create_dir_all(dir).map_err(|e| Error::from(e).about(&dir.display().to_string()))?;
-    let input_bytes = std::fs::metadata(input).map_or(0, |m| m.len());
-    check_disk(dir, &manifest, input_bytes)?;
+/// The third pass: every tile and the rest file written to staged files
+/// (returned, to be committed with the manifest).
+fn write_tiles(
+    input: &Path,
+    input_name: &str,
+    dir: &Path,
+    survey: &Survey,
+    plan: &Plan,
+    manifest: &Manifest,
+    progress: &Progress,
+) -> Result<Vec<Staged>> {
+    let at = |e: Error| e.about(input_name);
+    let (header, v) = (&survey.header, survey.v);
+    let tiles = manifest.tiles.len();
     let mut r = open(input).map_err(at)?;
+    let buf = ((64 << 20) / tiles).clamp(8 << 10, 1 << 20);
+    let mut staged = tile_files(&mut r, dir, survey, manifest, buf, &at)?;
+    let mut writers: Vec<BufWriter<&File>> = staged
+        .iter()
+        .map(|s| BufWriter::with_capacity(buf, s.file()))
+        .collect();
+    let rest_staged = match &manifest.rest {
+        Some(name) => Some(rest_file(&mut r, &dir.join(name), header, v, &at)?),
+        None => None,
+    };
+    let mut rest_w = rest_staged
+        .as_ref()
+        .map(|s| BufWriter::with_capacity(1 << 20, s.file()));
+    let mut base = 0u64;
+    progress.start("split: writing tiles", survey.count);
+    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(at)? {
+        if el != v {
+            let w = rest_w.as_mut().expect("a rest file for other elements");
+            write_body(w, &chunk, Encoding::BinaryLe)?;
+            continue;
+        }
+        let n = write_chunk(&chunk, base, plan, manifest.halo, &mut writers).map_err(at)?;
+        base += n as u64;
+        progress.inc(n as u64);
+    }
+    progress.finish();
+    changed(survey.seen, base).map_err(at)?;
+    for w in writers.iter_mut() {
+        w.flush()?;
+    }
+    drop(writers);
+    if let Some(w) = rest_w.as_mut() {
+        w.flush()?;
+    }
+    drop(rest_w);
+    staged.extend(rest_staged);
+    Ok(staged)
+}
+
+/// Each tile's staged file with its header written: the input's vertex
+/// schema plus the halo flag and the input index, its detail, and the
+/// split, tile and halo it belongs to (`at`: an error about the input).
+fn tile_files(
+    r: &mut PlyChunks<BufReader<File>>,
+    dir: &Path,
+    survey: &Survey,
+    manifest: &Manifest,
+    buf: usize,
+    at: &dyn Fn(Error) -> Error,
+) -> Result<Vec<Staged>> {
+    let header = &survey.header;
     let vschema = {
-        let mut el = r.schema_of(v).map_err(at)?;
+        let mut el = r.schema_of(survey.v).map_err(at)?;
         el.set(Attribute::scalar(HALO, Column::U8(Vec::new())))?;
         el.set(Attribute::scalar(INDEX, Column::U32(Vec::new())))?;
         el
     };
-    let mut staged = Vec::with_capacity(tiles + 2);
-    let buf = ((64 << 20) / tiles).clamp(8 << 10, 1 << 20);
+    let mut staged = Vec::with_capacity(manifest.tiles.len() + 2);
     for (i, t) in manifest.tiles.iter().enumerate() {
         let s = Staged::create(&dir.join(&t.file))?;
         let mut cloud = Cloud {
@@ -506,109 +657,93 @@ pub fn split(
         };
         cloud.set_detail(D_SPLIT, DetailValue::Str(manifest.split.clone()));
         cloud.set_detail(D_TILE, DetailValue::I32(i as i32));
-        cloud.set_detail(D_HALO, DetailValue::F64(h));
+        cloud.set_detail(D_HALO, DetailValue::F64(manifest.halo));
         let text = header_text_with(&cloud, Encoding::BinaryLe, |_, _| t.owned + t.halo)?;
-        staged.push(s);
-        let mut w = BufWriter::with_capacity(buf, staged[i].file());
+        let mut w = BufWriter::with_capacity(buf, s.file());
         w.write_all(text.as_bytes())?;
         w.flush()?;
+        drop(w);
+        staged.push(s);
     }
-    let mut writers: Vec<BufWriter<&File>> = staged
-        .iter()
-        .map(|s| BufWriter::with_capacity(buf, s.file()))
-        .collect();
-    let rest_staged = match &manifest.rest {
-        Some(name) => {
-            let s = Staged::create(&dir.join(name))?;
-            let mut cloud = Cloud {
-                elements: Vec::new(),
-                detail: Vec::new(),
-                comments: Vec::new(),
-                obj_info: Vec::new(),
-            };
-            for &i in &others {
-                cloud.elements.push(r.schema_of(i).map_err(at)?);
-            }
-            let counts: Vec<u64> = others.iter().map(|&i| header.elements[i].count).collect();
-            let text = header_text_with(&cloud, Encoding::BinaryLe, |k, _| counts[k])?;
-            {
-                let mut w = BufWriter::new(s.file());
-                w.write_all(text.as_bytes())?;
-                w.flush()?;
-            }
-            Some(s)
-        }
-        None => None,
+    Ok(staged)
+}
+
+/// The rest file (at `path`), staged with its header: every element but
+/// the vertices (`v`), whose rows the third pass copies in.
+fn rest_file(
+    r: &mut PlyChunks<BufReader<File>>,
+    path: &Path,
+    header: &Header,
+    v: usize,
+    at: &dyn Fn(Error) -> Error,
+) -> Result<Staged> {
+    let others: Vec<usize> = (0..header.elements.len()).filter(|&i| i != v).collect();
+    let s = Staged::create(path)?;
+    let mut cloud = Cloud {
+        elements: Vec::new(),
+        detail: Vec::new(),
+        comments: Vec::new(),
+        obj_info: Vec::new(),
     };
-    let mut rest_w = rest_staged
-        .as_ref()
-        .map(|s| BufWriter::with_capacity(1 << 20, s.file()));
-    let mut base = 0u64;
-    progress.start("split: writing tiles", count);
-    while let Some((el, chunk)) = r.next_chunk(CHUNK).map_err(at)? {
-        if el != v {
-            let w = rest_w.as_mut().expect("a rest file for other elements");
-            write_body(w, &chunk, Encoding::BinaryLe)?;
-            continue;
+    for &i in &others {
+        cloud.elements.push(r.schema_of(i).map_err(at)?);
+    }
+    let counts: Vec<u64> = others.iter().map(|&i| header.elements[i].count).collect();
+    let text = header_text_with(&cloud, Encoding::BinaryLe, |k, _| counts[k])?;
+    let mut w = BufWriter::new(s.file());
+    w.write_all(text.as_bytes())?;
+    w.flush()?;
+    drop(w);
+    Ok(s)
+}
+
+/// A chunk of vertices (its first row the input's `base`) written to the
+/// tiles that own or hold them in their halo (within `h`), each tile's
+/// rows in the input's order. Returns the rows.
+fn write_chunk(
+    chunk: &Element,
+    base: u64,
+    plan: &Plan,
+    h: f64,
+    writers: &mut [BufWriter<&File>],
+) -> Result<usize> {
+    let pos = positions(chunk, base)?;
+    // Each point's owner, and its halo tiles as (row, tile) in row
+    // order; then each tile's rows in the input's order.
+    let owner: Vec<u32> = pos.par_iter().map(|&p| plan.owner(p)).collect();
+    let halos: Vec<(u32, u32)> = pos
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(k, &p)| {
+            let mut hs = Vec::new();
+            plan.halo_of(p, owner[k], h, |t| hs.push((k as u32, t)));
+            hs.sort_unstable();
+            hs
+        })
+        .collect();
+    let mut rows: Vec<Vec<(usize, bool)>> = vec![Vec::new(); writers.len()];
+    let mut hi = 0;
+    for (k, &o) in owner.iter().enumerate() {
+        rows[o as usize].push((k, false));
+        while hi < halos.len() && halos[hi].0 as usize == k {
+            rows[halos[hi].1 as usize].push((k, true));
+            hi += 1;
         }
-        let pos = positions(&chunk, base).map_err(at)?;
-        // Each point's owner, and its halo tiles as (row, tile) in row
-        // order; then each tile's rows in the input's order.
-        let owner: Vec<u32> = pos.par_iter().map(|&p| plan.owner(p)).collect();
-        let halos: Vec<(u32, u32)> = pos
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(k, &p)| {
-                let mut hs = Vec::new();
-                plan.halo_of(p, owner[k], h, |t| hs.push((k as u32, t)));
-                hs.sort_unstable();
-                hs
-            })
-            .collect();
-        let mut rows: Vec<Vec<(usize, bool)>> = vec![Vec::new(); tiles];
-        let mut hi = 0;
-        for (k, &o) in owner.iter().enumerate() {
-            rows[o as usize].push((k, false));
-            while hi < halos.len() && halos[hi].0 as usize == k {
-                rows[halos[hi].1 as usize].push((k, true));
-                hi += 1;
-            }
-        }
-        for (t, rs) in rows.iter().enumerate().filter(|(_, rs)| !rs.is_empty()) {
-            let idx: Vec<usize> = rs.iter().map(|&(k, _)| k).collect();
-            let mut part = chunk.gather(&idx);
-            part.set(Attribute::scalar(
-                HALO,
-                Column::U8(rs.iter().map(|&(_, halo)| halo as u8).collect()),
-            ))?;
-            part.set(Attribute::scalar(
-                INDEX,
-                Column::U32(idx.iter().map(|&k| (base + k as u64) as u32).collect()),
-            ))?;
-            write_body(&mut writers[t], &part, Encoding::BinaryLe)?;
-        }
-        base += pos.len() as u64;
-        progress.inc(pos.len() as u64);
     }
-    progress.finish();
-    if base != seen {
-        let what = format!("changed while it was split ({seen} points, then {base})");
-        return Err(at(Error::invalid(what)));
+    for (t, rs) in rows.iter().enumerate().filter(|(_, rs)| !rs.is_empty()) {
+        let idx: Vec<usize> = rs.iter().map(|&(k, _)| k).collect();
+        let mut part = chunk.gather(&idx);
+        part.set(Attribute::scalar(
+            HALO,
+            Column::U8(rs.iter().map(|&(_, halo)| halo as u8).collect()),
+        ))?;
+        part.set(Attribute::scalar(
+            INDEX,
+            Column::U32(idx.iter().map(|&k| (base + k as u64) as u32).collect()),
+        ))?;
+        write_body(&mut writers[t], &part, Encoding::BinaryLe)?;
     }
-    for w in writers.iter_mut() {
-        w.flush()?;
-    }
-    drop(writers);
-    if let Some(w) = rest_w.as_mut() {
-        w.flush()?;
-    }
-    drop(rest_w);
-    let text = serde_json::to_string_pretty(&manifest).expect("a manifest serialises") + "\n";
-    let m = Staged::write(&dir.join(MANIFEST), |w| Ok(w.write_all(text.as_bytes())?))?;
-    for s in staged.into_iter().chain(rest_staged).chain([m]) {
-        s.commit()?;
-    }
-    Ok(manifest)
+    Ok(pos.len())
 }
 
 #[cfg(test)]

@@ -1,7 +1,8 @@
 //! The library's layers (docs/ARCHITECTURE.md, "Layers"): the table there
 //! is read, every path into the crate in `src/` is found, and a module
 //! that uses one on a higher layer, two modules that use each other, or a
-//! module the table does not place, fails.
+//! module the table does not place, fails; and inside every folder, two
+//! files that use each other (`mod.rs` included) fail too.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -312,4 +313,173 @@ fn an_upward_import_or_a_cycle_is_caught() {
         ("error".to_string(), BTreeSet::from(["cloud".to_string()])),
     ]);
     assert!(cycle(&graph).is_some());
+}
+
+/// The paths into the crate that `text` (a file of module path `path`)
+/// names, as absolute module paths: `crate::a::b`, `super::x` and
+/// `self::y` resolved, each item of a `{...}` group its own path. Its test
+/// module (from `#[cfg(test)]` on) is left out.
+fn paths_in(path: &[String], text: &str) -> Vec<Vec<String>> {
+    let code = code(text);
+    let code = match code.find("#[cfg(test)]") {
+        Some(i) => &code[..i],
+        None => &code[..],
+    };
+    let bytes = code.as_bytes();
+    let mut out = Vec::new();
+    for start in ["crate::", "super::", "self::"] {
+        for (i, _) in code.match_indices(start) {
+            // The middle of a longer path (`super::super::`, `a::self::`).
+            if i >= 2 && &code[i - 2..i] == "::" {
+                continue;
+            }
+            if i >= 1 && (bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_') {
+                continue;
+            }
+            let mut base: Vec<String> = match start {
+                "crate::" => Vec::new(),
+                _ => path.to_vec(),
+            };
+            let mut rest = &code[i..];
+            if let Some(r) = rest.strip_prefix("crate::") {
+                rest = r;
+            } else if let Some(r) = rest.strip_prefix("self::") {
+                rest = r;
+            } else {
+                while let Some(r) = rest.strip_prefix("super::") {
+                    base.pop();
+                    rest = r;
+                }
+            }
+            loop {
+                if let Some(group) = rest.strip_prefix('{') {
+                    for item in split_top(group) {
+                        let mut p = base.clone();
+                        p.extend(ident(&item).filter(|id| id != "self"));
+                        out.push(p);
+                    }
+                    break;
+                }
+                let Some(id) = ident(rest) else {
+                    out.push(base.clone());
+                    break;
+                };
+                rest = &rest.trim_start()[id.len()..];
+                base.push(id);
+                match rest.strip_prefix("::") {
+                    Some(r) => rest = r,
+                    None => {
+                        out.push(base.clone());
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Inside each folder of the library (a module with files of its own),
+/// which of its files uses which: nodes are the folder's children (a
+/// file, or a sub-folder as a whole) and `mod` (its `mod.rs`); a path
+/// to an item of `mod.rs` (`super::Params` from a child) is an edge to
+/// `mod`. A `mod x;` declaration is not a use.
+fn folder_graphs(
+    files: &[(Vec<String>, String)],
+) -> BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> {
+    let mut folders: BTreeMap<Vec<String>, BTreeSet<String>> = BTreeMap::new();
+    for (p, _) in files {
+        for d in 1..p.len() {
+            folders
+                .entry(p[..d].to_vec())
+                .or_default()
+                .insert(p[d].clone());
+        }
+    }
+    let mut out = BTreeMap::new();
+    for (folder, children) in &folders {
+        let n = folder.len();
+        let node = |p: &[String]| -> String {
+            match p.get(n) {
+                Some(c) if children.contains(c) => c.clone(),
+                _ => "mod".to_string(),
+            }
+        };
+        let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (p, text) in files.iter().filter(|(p, _)| p.starts_with(folder)) {
+            let me = node(p);
+            let uses = graph.entry(me.clone()).or_default();
+            for a in paths_in(p, text) {
+                if a.starts_with(folder) {
+                    let target = node(&a);
+                    if target != me {
+                        uses.insert(target);
+                    }
+                }
+            }
+        }
+        out.insert(folder.clone(), graph);
+    }
+    out
+}
+
+#[test]
+fn no_two_files_of_a_folder_use_each_other() {
+    let mut bad = Vec::new();
+    for (folder, graph) in folder_graphs(&files()) {
+        if let Some(c) = cycle(&graph) {
+            bad.push(format!("src/{}: {}", folder.join("/"), c.join(" -> ")));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "files that use each other:\n{}",
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn a_cycle_between_the_files_of_a_folder_is_caught() {
+    let file = |p: &str, text: &str| -> (Vec<String>, String) {
+        (p.split('/').map(String::from).collect(), text.to_string())
+    };
+    // A child taking its parameters from `mod.rs`, which uses the child.
+    let files = [
+        file("stages/ssmulti", "use self::pairs::sum;\nmod pairs;"),
+        file("stages/ssmulti/pairs", "use super::{Params, LEAF};"),
+        file("stages/ssmulti/params", "pub struct Params;"),
+    ];
+    let graphs = folder_graphs(&files);
+    let g = &graphs[&vec!["stages".to_string(), "ssmulti".to_string()]];
+    assert!(cycle(g).is_some(), "{g:?}");
+    // From the leaf file instead: none.
+    let files = [
+        file("stages/ssmulti", "use self::pairs::sum;"),
+        file("stages/ssmulti/pairs", "use super::params::{Params, LEAF};"),
+        file(
+            "stages/ssmulti/params",
+            "use crate::medium::{self, Medium};",
+        ),
+    ];
+    let graphs = folder_graphs(&files);
+    let g = &graphs[&vec!["stages".to_string(), "ssmulti".to_string()]];
+    assert!(cycle(g).is_none(), "{g:?}");
+    // `super::super::` and `crate::` paths name a sibling folder.
+    let p = [
+        "stages".to_string(),
+        "ssmulti".to_string(),
+        "pairs".to_string(),
+    ];
+    let got = paths_in(
+        &p,
+        "use super::super::filter::x; crate::stages::render::y();",
+    );
+    assert!(
+        got.contains(&vec!["stages".into(), "filter".into(), "x".into()]),
+        "{got:?}"
+    );
+    assert!(
+        got.contains(&vec!["stages".into(), "render".into(), "y".into()]),
+        "{got:?}"
+    );
 }

@@ -112,7 +112,7 @@ fn a_material_and_an_option_that_disagree_are_refused_naming_both() {
         (
             &["--material", "skin1", "--eta", "1.4"][..],
             2,
-            "--eta 1.4 conflicts with the material's eta 1.3 (preset skin1)",
+            "--eta: eta 1.4 conflicts with the material's eta 1.3 (preset skin1)",
         ),
         (
             &["--material", "skin1", "--albedo", "0.5"][..],
@@ -321,4 +321,68 @@ fn render_s_lazy_single_scattering_takes_the_recorded_medium() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--eta"), "{}", stderr(&o));
     assert!(!d.path().join("clash.exr").exists());
+}
+
+/// A material file is read once by every stage that takes one: given as
+/// a named pipe, which gives its text to one reader only, a second read
+/// would wait for a writer that never comes (or read nothing).
+#[test]
+fn every_stage_reads_its_material_file_once() {
+    use std::process::{Command, Stdio};
+    let d = tempdir();
+    let lit = lit(d.path());
+    let cube = fixtures().join("mesh/cube.obj").display().to_string();
+    let lights = d.path().join("l.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [-0.3, -1, -0.5]}]}"#,
+    )
+    .unwrap();
+    let lights = lights.display().to_string();
+    let out = d.path().join("out.ply").display().to_string();
+    let stages: [(&str, Vec<&str>); 4] = [
+        ("ssmulti", vec![&lit]),
+        ("illum", vec![&lit, "--lights", &lights, "--mesh", &cube]),
+        (
+            "sssingle",
+            vec![&lit, "--mesh", &cube, "--lights", &lights, "--eye=3,4,5"],
+        ),
+        ("filter", vec![&lit, "--cloud", &lit, "--attr", "ssM"]),
+    ];
+    for (stage, args) in stages {
+        let fifo = d.path().join(format!("{stage}.json"));
+        let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+        assert!(made.success());
+        let pipe = fifo.clone();
+        // (Blocks until the stage opens the pipe; left waiting if it never
+        // does, which the stage's own failure then reports.)
+        std::thread::spawn(move || {
+            std::fs::write(pipe, r#"{"preset": "skin1", "unit_length": 1}"#)
+        });
+        let mut child = Command::new(bin(stage))
+            .args(&args)
+            .args(["-o", &out, "--material"])
+            .arg(&fifo)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(120) {
+                child.kill().unwrap();
+                panic!("{stage} waits on its material pipe: it opened the file twice");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        };
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert!(status.success(), "{stage}: {err}");
+        let c = from_bytes(&std::fs::read(&out).unwrap());
+        assert!(!c.is_empty(), "{stage}");
+    }
 }

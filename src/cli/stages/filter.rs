@@ -68,22 +68,25 @@ pub struct Args {
 }
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(mut args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("filter");
     let name = args.io.input_name();
     if let Some(e) = args.exposure {
-        crate::stages::render::check_exposure(e)?;
+        filter::check_exposure(e)?;
     }
     let cloud_name = cli::display_name(Some(&args.cloud));
-    args.ss.params(&args.material)?;
+    // The material file is read once, here; the options decided before
+    // the cloud is read (a bad one fails fast) and again in its unit.
+    let mut medium = args.material.given()?;
+    args.ss.given(medium.clone(), None)?.params()?;
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     // The camera's eye and the lights are moved into the cloud's frame,
     // and a preset's lengths follow its unit.
     let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
-    if let Some(line) = args.material.in_frame(&frame)? {
+    if let Some(line) = medium.in_frame(&frame) {
         msg.warn(line);
     }
-    let multi = args.ss.params(&args.material)?;
+    let multi = args.ss.given(medium.clone(), None)?.params()?;
     // Lazy single scattering: its parameters, lights and mesh.
     let single = match &args.single_lights {
         None => None,
@@ -96,19 +99,11 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
                     return Err(Error::param("single_lights", why).into());
                 }
             };
-            // What the cloud records of ssmulti's run fills in what is
-            // not given, as for sssingle.
-            let params = args.single.params_for(
-                &args.material,
-                args.ss.rd.as_deref(),
-                args.ss.sd,
-                args.ss.rgb,
-                eye,
-                Some(&cloud),
-            )?;
-            let lights = cli::read_lights(lights, &args.single_lmask)
-                .map_err(|e| cli::as_param(e, "single_lmask"))?
-                .in_frame(&frame);
+            let file = cli::read_lights(lights, &args.single_lmask)
+                .map_err(|e| cli::as_param(e, "single_lmask"))?;
+            let (params, lights) = args
+                .single
+                .lazy(&medium, &args.ss, eye, &cloud, &file, &frame)?;
             let mesh_path = args.single_mesh.as_ref().expect("clap requires it");
             let mesh = cli::read_mesh(mesh_path)?;
             let mesh_name = mesh_path.display().to_string();

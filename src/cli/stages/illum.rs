@@ -7,7 +7,7 @@ use crate::formats::Select;
 use crate::stages::illum;
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(mut args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("illum");
     let name = args.io.input_name();
     let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
@@ -19,7 +19,10 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         let why = "needs --mesh (the surface the light travels between)";
         return Err(crate::Error::param("indirect", why).into());
     }
-    let medium = args.material.medium()?;
+    // The material file is read once, here; decided now (a bad option
+    // fails fast) and again in the cloud's unit.
+    let mut given = args.material.given()?;
+    let medium = given.resolve(None)?.medium();
     if args.indirect.is_some() && medium.is_none() {
         let why = "needs the medium ssmulti ran with (--model physical and its options)";
         return Err(crate::Error::param("indirect", why).into());
@@ -46,11 +49,11 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     let frame = cloud.frame().map_err(cli::at(&name))?;
     let used = lights_file.in_frame(&frame);
     if medium.is_some() {
-        if let Some(line) = args.material.in_frame(&frame)? {
+        if let Some(line) = given.in_frame(&frame) {
             msg.warn(line);
         }
     }
-    let medium = args.material.medium()?;
+    let medium = given.resolve(None)?.medium();
     let progress = msg.progress();
     let passage = medium.as_ref().map(|m| illum::Passage {
         sigma_t: 1.0 / glam::DVec3::from_array(m.mfp),

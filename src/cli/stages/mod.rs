@@ -8,6 +8,7 @@ pub mod filter;
 pub mod follow;
 pub mod illum;
 pub mod measure;
+pub mod pctile;
 pub mod promote;
 pub mod render;
 pub mod scatter;

@@ -87,29 +87,10 @@ pub struct Args {
 }
 
 /// Runs `render` on its command line.
-pub fn run(mut args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.msg.messages("render");
     render::check_exposure(args.exposure)?;
-    // The outputs before any work: an OpenEXR and a PNG (cli::main checked
-    // that they can be written and are no input).
-    if let Some(out) = &args.output {
-        if !out
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-        {
-            let why = format!("{}: render writes OpenEXR: name a .exr file", out.display());
-            return Err(Error::param("output", why).into());
-        }
-    }
-    if let Some(png) = &args.png {
-        if png
-            .extension()
-            .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
-        {
-            let why = format!("{}: name a .png file", png.display());
-            return Err(Error::param("png", why).into());
-        }
-    }
+    check_outputs(&args)?;
     render::Pixels {
         spp: args.spp,
         filter: args.pixel_filter,
@@ -117,7 +98,10 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     }
     .validate()?;
     let cam_file = cli::read_camera(&args.camera)?;
-    args.ss.params(&args.material)?;
+    // The material file is read once, here; the options decided before
+    // the cloud is read (a bad one fails fast) and again in its unit.
+    let mut medium = args.material.given()?;
+    args.ss.given(medium.clone(), None)?.params()?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     render::check_kd(kd)?;
@@ -137,25 +121,19 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     // The camera and the lights are moved into the cloud's frame, and a
     // preset's lengths follow its unit.
     let frame = cloud.frame().map_err(cli::at(&cloud_name))?;
-    if let Some(line) = args.material.in_frame(&frame)? {
+    if let Some(line) = medium.in_frame(&frame) {
         msg.warn(line);
     }
-    let lazy = args.ss.params(&args.material)?;
+    let lazy = args.ss.given(medium.clone(), None)?.params()?;
     let cam = cam_file.in_frame(&frame);
     let lights_used = lights_file.map(|f| f.in_frame(&frame));
     let single = match &single_file {
         Some(file) => {
-            // What the cloud records of ssmulti's run fills in what is
-            // not given, as for sssingle.
-            let params = args.single.params_for(
-                &args.material,
-                args.ss.rd.as_deref(),
-                args.ss.sd,
-                args.ss.rgb,
-                cam.position,
-                Some(&cloud),
-            )?;
-            Some((params, file.in_frame(&frame)))
+            let eye = cam.position;
+            Some(
+                args.single
+                    .lazy(&medium, &args.ss, eye, &cloud, file, &frame)?,
+            )
         }
         None => None,
     };
@@ -207,6 +185,37 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     for w in warn {
         msg.warn(w);
     }
+    write_outputs(&args, &shade)
+}
+
+/// The outputs named as render writes them, before any work: an OpenEXR
+/// and a PNG (`cli::main` checked that they can be written and are no
+/// input).
+fn check_outputs(args: &Args) -> anyhow::Result<()> {
+    if let Some(out) = &args.output {
+        if !out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        {
+            let why = format!("{}: render writes OpenEXR: name a .exr file", out.display());
+            return Err(Error::param("output", why).into());
+        }
+    }
+    if let Some(png) = &args.png {
+        if png
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
+        {
+            let why = format!("{}: name a .png file", png.display());
+            return Err(Error::param("png", why).into());
+        }
+    }
+    Ok(())
+}
+
+/// The image `shade` written: the OpenEXR and the PNG preview, both
+/// complete before either is in place (all or none).
+fn write_outputs(args: &Args, shade: &crate::cloud::Cloud) -> anyhow::Result<()> {
     let opt = ExrOptions {
         compression: args.compression,
         half: vec![],
@@ -214,13 +223,13 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     // Both files complete before either is in place: all or none.
     let exr = match &args.output {
         Some(path) => Some(files::Staged::write(path, |w| {
-            formats::write_cloud_with(w, &shade, Format::Exr, &opt)
+            formats::write_cloud_with(w, shade, Format::Exr, &opt)
         })?),
         None => None,
     };
     let png = match &args.png {
         Some(path) => Some(files::Staged::write(path, |w| {
-            render::write_png(w, &shade, "beauty", args.exposure)
+            render::write_png(w, shade, "beauty", args.exposure)
         })?),
         None => None,
     };

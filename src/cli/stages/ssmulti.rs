@@ -22,36 +22,30 @@ pub struct Args {
 }
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(mut args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("ssmulti");
     let name = args.io.input_name();
-    let params = |args: &Args| -> anyhow::Result<ssmulti::Params> {
-        let Some(params) = args.ss.params(&args.material)? else {
-            let why = "required by --model seed (the scattering distance; or --model physical)";
-            return Err(crate::Error::param("sd", why).into());
-        };
-        ssmulti::validate(&params)?;
-        Ok(params)
-    };
-    // Parameters before reading: an absurd one fails fast.
-    let before = params(&args)?;
-    let per_point = args
-        .per_point
-        .resolve(&args.material, before.medium.is_some())?;
+    // The options decided before reading: an absurd one fails fast. The
+    // material file is read once, here.
+    let mut medium = args.material.given()?;
+    let per_point = args.per_point.given()?;
+    args.ss.given(medium.clone(), per_point.clone())?.plan()?;
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
-    wanted.extend(per_point.attrs.iter().map(|(_, a)| a.as_str()));
+    let (attrs, _) = medium.per_point();
+    let named = per_point.as_ref().map_or(attrs, |p| p.attrs.clone());
+    wanted.extend(named.iter().map(|(_, a)| a.as_str()));
     let mut cloud = args.io.read(&Select::only(&wanted))?;
     // A preset's lengths in the cloud's unit.
     let frame = cloud.frame().map_err(cli::at(&name))?;
-    if let Some(line) = args.material.in_frame(&frame)? {
+    if let Some(line) = medium.in_frame(&frame) {
         msg.warn(line);
     }
-    let params = params(&args)?;
+    let ssmulti::Plan {
+        params,
+        per_point,
+        base,
+    } = args.ss.given(medium, per_point)?.plan()?;
     let progress = msg.progress();
-    let base = match args.material.recipe()? {
-        Some(recipe) => ssmulti::per_point::Base::Physical(recipe),
-        None => ssmulti::per_point::Base::Seed,
-    };
     let rep = if per_point.attrs.is_empty() {
         ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?
     } else {

@@ -3,10 +3,10 @@
 use crate::cli;
 pub use crate::cli::SssingleArgs as Args;
 use crate::formats::Select;
-use crate::stages::sssingle;
+use crate::stages::{ssmulti, sssingle};
 
 /// Runs the stage: reads its input, works, writes its output.
-pub fn run(mut args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("sssingle");
     let name = args.io.input_name();
     let given_eye = match &args.eye {
@@ -19,7 +19,11 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     };
     // The material options alone first (a bad one fails fast); then the
     // cloud, whose record of ssmulti's run fills in what is not given.
-    args.material.merged()?;
+    let mut medium = args.material.given()?;
+    medium.check()?;
+    let given = args
+        .single
+        .given(medium.clone(), args.rd.as_deref(), args.sd, args.rgb)?;
     let lights_file = cli::read_lights(&args.lights, &args.lmask)?;
     let mesh = cli::read_mesh(&args.mesh)?;
     let mesh_name = args.mesh.display().to_string();
@@ -28,7 +32,7 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
     // The lights and the camera are moved into the cloud's frame.
     let frame = cloud.frame().map_err(cli::at(&name))?;
     let lights = lights_file.in_frame(&frame);
-    if let Some(line) = args.material.in_frame(&frame)? {
+    if let Some(line) = medium.in_frame(&frame) {
         msg.warn(line);
     }
     let eye = match (given_eye, camera) {
@@ -36,14 +40,9 @@ pub fn run(mut args: Args) -> anyhow::Result<()> {
         (None, Some(cam)) => cam.in_frame(&frame).position,
         (None, None) => unreachable!("clap requires one"),
     };
-    let params = args.single.params_for(
-        &args.material,
-        args.rd.as_deref(),
-        args.sd,
-        args.rgb,
-        eye,
-        Some(&cloud),
-    )?;
+    let given = sssingle::Given { medium, ..given };
+    let record = ssmulti::Record::of(&cloud);
+    let params = sssingle::Params::resolve(&given, glam::DVec3::from_array(eye), &record)?;
     let progress = msg.progress();
     let rep = sssingle::sssingle(&mut cloud, &mesh, &lights, &params, &progress)
         .map_err(cli::at(&name))?;

@@ -8,12 +8,11 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::columns::Leaf;
 use super::gather::{Gathered, PseudoSource};
 use super::inputs::Inputs;
-use super::kernel::{burley, disk_integral, falloff, reach};
-use super::tree::{gap2, TreeNode, WalkNode};
-use super::{Distances, Falloff, Params};
+use super::kernel::{burley, disk_integral, falloff, reach, Falloff};
+use super::params::{Distances, Params};
+use super::tree::{gap2, Leaf, TreeNode, WalkNode};
 
 /// The share of the mean weight a straddling cluster may misplace, see
 /// [`jump_scale`]: well below the share at which the error of a shallow

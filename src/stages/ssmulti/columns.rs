@@ -11,24 +11,9 @@ use rayon::prelude::*;
 use super::inputs::Inputs;
 use super::kernel::burley;
 use super::lanes::{Lanes, LANES};
-use super::tree::{aggregate, morton_order, MortonOrder, SourceSums, TreeNode};
-use super::LEAF;
+use super::params::LEAF;
+use super::tree::{aggregate, morton_order, Leaf, MortonOrder, SourceSums, TreeNode};
 use crate::progress::Progress;
-
-/// A leaf: points `start..start + len` of the sorted order, sources first
-/// (`src` of them), columns padded to a multiple of `LANES` from
-/// `col..col + padded(len)`.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Leaf {
-    pub col: usize,
-    pub len: usize,
-    pub src: usize,
-    pub origin: DVec3,
-    pub lo: DVec3,
-    pub hi: DVec3,
-    /// What its sources add up to (the tree's leaf node).
-    pub sum: SourceSums,
-}
 
 /// What the gather reads of a group of `LANES` points, together:
 /// positions relative to the leaf origin and `illum[c] * ptarea`. The

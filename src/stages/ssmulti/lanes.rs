@@ -2,11 +2,9 @@
 //! lane, each source broadcast to all eight. Branch-free, so that the
 //! loop vectorises; the f64 reference is [`super::kernel`].
 
-use super::simd::Isa;
-use super::{Falloff, LEAF};
-
-/// Receivers summed side by side: one a vector lane (AVX2: eight f32).
-pub(super) const LANES: usize = 8;
+use super::kernel::{Falloff, EXP_CUT};
+use super::params::LEAF;
+pub(super) use super::simd::{Isa, Lanes, LANES};
 
 /// A falloff in f32 for the pair loop, at `r <= D` (the caller masks
 /// what lies beyond).
@@ -141,13 +139,6 @@ pub fn exp_approx(x: f32) -> f32 {
     e * f32::from_bits(ni.wrapping_add(127) << 23)
 }
 
-/// Below this exponent a kernel's `e^x` is 0: weights under `e^-60`
-/// (8.8e-27) of a point's own weight are nothing beside it, and their
-/// products with `illum * ptarea` would be subnormal (~100 cycles each;
-/// with this cut sigma 1000 costs what sigma 4 does in the variants
-/// benchmark).
-pub const EXP_CUT: f32 = -60.0;
-
 /// A kernel's `e^x`: `exp_approx`, 0 below `EXP_CUT`.
 #[inline(always)]
 pub fn exp_weight(x: f32) -> f32 {
@@ -158,9 +149,6 @@ pub fn exp_weight(x: f32) -> f32 {
         0.0
     }
 }
-
-/// Lanes of f32: eight receivers, one a lane.
-pub(super) type Lanes = [f32; LANES];
 
 // A leaf's groups fit one `Lanes` (the gather tests them at once).
 const _: () = assert!(LEAF <= LANES * LANES);

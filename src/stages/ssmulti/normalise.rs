@@ -2,7 +2,7 @@
 //! `docs/DESIGN.md#normalisations`, worked out once per run.
 
 use super::kernel::disk_integral;
-use super::{Distances, Norm, Params};
+use super::params::{Distances, Norm, Params};
 
 /// Turns a receiver's sums into `ssM`.
 pub(super) struct Normaliser {

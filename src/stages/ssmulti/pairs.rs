@@ -7,11 +7,15 @@
 //! sources in tiers, so that a short channel evaluates only the pairs
 //! its reach covers.
 
-use super::columns::{Columns, Leaf};
+use super::columns::Columns;
 use super::gather::Gathered;
 use super::lanes::{madd, maxf, Kernel, Kernels, Lanes, LANES};
 use super::normalise::Normaliser;
+#[cfg(target_arch = "x86_64")]
+use super::simd::Avx2;
+use super::simd::Baseline;
 use super::simd::{Detected, Isa};
+use super::tree::Leaf;
 
 /// What the pair loop needs to know about the run.
 #[derive(Clone, Copy)]
@@ -426,4 +430,27 @@ pub(super) struct LeafTask<'a> {
     pub pseudo: Option<&'a Gathered>,
     pub scratch: &'a mut Gathered,
     pub out: &'a mut [[f32; 3]],
+}
+impl Detected {
+    /// Sums a leaf (see [`sum_leaf`]) on this instruction set.
+    pub(super) fn sum_leaf(self, task: LeafTask<'_>) -> u64 {
+        match self {
+            Detected::Baseline => sum_leaf(Baseline, task),
+            // SAFETY: `avx2` proves the CPU has the loop's features.
+            #[cfg(target_arch = "x86_64")]
+            Detected::Avx2(avx2) => unsafe { sum_leaf_avx2(avx2, task) },
+        }
+    }
+}
+
+/// [`sum_leaf`] compiled with AVX2, FMA, POPCNT and BMI1 enabled, so that
+/// the pair loop's lanes become 256-bit vectors.
+///
+/// # Safety
+/// The CPU must have AVX2, FMA, POPCNT and BMI1 (an [`Avx2`] value is the
+/// proof: only [`detect`] makes one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,bmi1")]
+unsafe fn sum_leaf_avx2(avx2: Avx2, task: LeafTask<'_>) -> u64 {
+    sum_leaf(avx2, task)
 }

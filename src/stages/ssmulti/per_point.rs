@@ -12,7 +12,9 @@
 
 use std::collections::HashMap;
 
-use super::{record, ssmulti, ssmulti_values, Params, Report};
+use super::params::Params;
+pub use super::params::{Base, PerPoint, PHYSICAL_KEYS, SEED_KEYS};
+use super::{record, ssmulti, ssmulti_values, Report};
 use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::Scalar;
 use crate::error::{Error, Result};
@@ -22,62 +24,8 @@ use crate::progress::Progress;
 /// The most groups of distinct per-point values a run takes.
 pub const MAX_GROUPS: usize = 256;
 
-/// Which parameters come from which attributes.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PerPoint {
-    /// (`albedo`, `color`, `mfp` or `dmfp`, attribute name).
-    pub attrs: Vec<(String, String)>,
-    pub levels: Option<u32>,
-}
-
-impl PerPoint {
-    /// `PARAM=ATTR` pairs separated by commas (the seed model's
-    /// `--per-point rd=Cd,sd=dist`), with `levels`.
-    pub fn parse(list: &str, levels: Option<u32>) -> Result<PerPoint> {
-        let mut attrs = Vec::new();
-        for item in list.split(',').filter(|s| !s.trim().is_empty()) {
-            let Some((k, a)) = item.split_once('=') else {
-                return Err(Error::param(
-                    "per_point",
-                    format!("'{item}' is not PARAM=ATTR"),
-                ));
-            };
-            let (k, a) = (k.trim(), a.trim());
-            if !SEED_KEYS.contains(&k) || a.is_empty() {
-                return Err(Error::param(
-                    "per_point",
-                    format!("'{item}': PARAM is rd or sd, ATTR an attribute's name"),
-                ));
-            }
-            attrs.push((k.to_string(), a.to_string()));
-        }
-        if attrs.is_empty() {
-            return Err(Error::param("per_point", "names no parameter"));
-        }
-        if let Some(l) = levels {
-            let max = crate::medium::material::MAX_LEVELS;
-            if !(2..=max).contains(&l) {
-                return Err(Error::param("levels", format!("{l}: not in 2..={max}")));
-            }
-        }
-        Ok(PerPoint { attrs, levels })
-    }
-}
-
 /// A point's values: albedo (or colour) then distance, per channel.
 type Values = [f64; 6];
-
-/// The constant a run starts from: the physical medium's recipe, or the
-/// seed model's Rd and sd.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Base {
-    Physical(Recipe),
-    Seed,
-}
-
-/// The parameters each model takes per point.
-pub const PHYSICAL_KEYS: [&str; 4] = ["albedo", "color", "mfp", "dmfp"];
-pub const SEED_KEYS: [&str; 2] = ["rd", "sd"];
 
 /// Reads the attributes the cloud has (a scalar gives its value to every
 /// channel); those it lacks leave the constant. Returns per point values
@@ -235,7 +183,7 @@ pub fn ssmulti_per_point(
                 ..*base
             },
         };
-        super::validate(&p).map_err(at)?;
+        super::params::validate(&p).map_err(at)?;
         Ok(p)
     };
     // What the run records is the same whatever groups a part of the

@@ -12,8 +12,11 @@
 //! merges lanes into 512-bit vectors; benches/results/HISTORY.md,
 //! "Measurements behind the code").
 
-use super::lanes::{Lanes, LANES};
-use super::pairs::{sum_leaf, LeafTask};
+/// Receivers summed side by side: one a vector lane (AVX2: eight f32).
+pub(super) const LANES: usize = 8;
+
+/// Lanes of f32: eight receivers, one a lane.
+pub(super) type Lanes = [f32; LANES];
 
 /// Which pair loop a run may use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -96,30 +99,6 @@ pub(super) fn detect(simd: Simd) -> Detected {
     }
     let _ = simd;
     Detected::Baseline
-}
-
-impl Detected {
-    /// Sums a leaf (see [`sum_leaf`]) on this instruction set.
-    pub(super) fn sum_leaf(self, task: LeafTask<'_>) -> u64 {
-        match self {
-            Detected::Baseline => sum_leaf(Baseline, task),
-            // SAFETY: `avx2` proves the CPU has the loop's features.
-            #[cfg(target_arch = "x86_64")]
-            Detected::Avx2(avx2) => unsafe { sum_leaf_avx2(avx2, task) },
-        }
-    }
-}
-
-/// [`sum_leaf`] compiled with AVX2, FMA, POPCNT and BMI1 enabled, so that
-/// the pair loop's lanes become 256-bit vectors.
-///
-/// # Safety
-/// The CPU must have AVX2, FMA, POPCNT and BMI1 (an [`Avx2`] value is the
-/// proof: only [`detect`] makes one).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1")]
-unsafe fn sum_leaf_avx2(avx2: Avx2, task: LeafTask<'_>) -> u64 {
-    sum_leaf(avx2, task)
 }
 
 #[cfg(test)]

@@ -6,10 +6,24 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::columns::Leaf;
 use super::inputs::{Inputs, PointRecord};
-use super::LEAF;
+use super::params::LEAF;
 use crate::progress::Phases;
+
+/// A leaf: points `start..start + len` of the sorted order, sources first
+/// (`src` of them), columns padded to a multiple of `LANES` from
+/// `col..col + padded(len)`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Leaf {
+    pub col: usize,
+    pub len: usize,
+    pub src: usize,
+    pub origin: DVec3,
+    pub lo: DVec3,
+    pub hi: DVec3,
+    /// What its sources add up to (the tree's leaf node).
+    pub sum: SourceSums,
+}
 
 /// What a set of sources adds up to: their box, areas, `illum *
 /// ptarea`, area-weighted normals, area-weighted centroid and the largest
