@@ -31,6 +31,7 @@ Mitsuba's figures are kept in benches/results/mitsuba_thin.json (by case
 and sample count) and read from there when present.
 """
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -44,6 +45,9 @@ mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 WIDTH = 60.0
 CACHE = ROOT / "benches" / "results" / "mitsuba_thin.json"
+# More of the bake's make variables, separated by ';', from the
+# environment: `BAKE_VARS='METHOD=walk;WALKS=64'`.
+EXTRA = [v for v in os.environ.get("BAKE_VARS", "").split(";") if v]
 
 
 def cached(key, compute):
@@ -101,7 +105,7 @@ def bake(alpha, t, count, d, light=(0.0, 0.0, 1.0)):
     t0 = time.time()
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"MESH={mesh}", f"LIGHTS={lights}",
                     f"CAMERA={cam}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
-                    f"ALBEDO={alpha}", "MFP=1", "ETA=1", "G=0", "SAMPLES=64",
+                    f"ALBEDO={alpha}", "MFP=1", "ETA=1", "G=0", "SAMPLES=64", *EXTRA,
                     str(out / "slab_sss.ply")], check=True, stdout=subprocess.DEVNULL)
     took = time.time() - t0
     text = subprocess.run([ROOT / "target/release/pcconvert", "-q", out / "slab_sss.ply", "--format",

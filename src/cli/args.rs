@@ -150,6 +150,27 @@ pub struct MaterialArgs {
     pub eta: Option<f64>,
 }
 
+/// `ssmulti`'s method (also read by `pctile split --for ssmulti
+/// --stage-args`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct WalkArgs {
+    /// How ssM is computed: diffusion (a kernel over the cloud's
+    /// neighbours), or walk (random walks through --mesh from each point:
+    /// the physical model on any closed shape, docs/DESIGN.md, "The walk
+    /// method").
+    #[arg(long, value_enum, default_value = "diffusion")]
+    pub method: ssmulti::Method,
+    /// The walk method: the mesh the points lie on (closed).
+    #[arg(long, value_name = "MESH")]
+    pub mesh: Option<PathBuf>,
+    /// The walk method: walks a point (1 to 1048576).
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub walks: u32,
+    /// The walk method: the seed of every point's random stream.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
 /// `ssmulti`'s per-point options (also read by `pctile split --for
 /// ssmulti --stage-args`).
 #[derive(clap::Args, Debug, Clone)]

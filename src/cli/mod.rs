@@ -21,7 +21,7 @@ pub mod stages;
 
 pub use args::{
     parse_bytes, parse_rgb, parse_xyz, GatherArgs, IllumArgs, MaterialArgs, PerPointArgs,
-    SingleArgs, SsArgs, SssingleArgs,
+    SingleArgs, SsArgs, SssingleArgs, WalkArgs,
 };
 
 use std::io::{self, BufReader, IsTerminal, Read};

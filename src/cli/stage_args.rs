@@ -20,6 +20,9 @@ struct Multi {
     mat: MaterialArgs,
     #[command(flatten)]
     per_point: PerPointArgs,
+    // (A walk's reach is the diffusion method's: the halo it asks for.)
+    #[command(flatten)]
+    _walk: super::args::WalkArgs,
 }
 
 /// The options of `filter` that set its reach; the others are skipped.

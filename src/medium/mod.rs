@@ -22,6 +22,7 @@ use crate::optics::{fresnel, hg};
 use walk::Histogram;
 
 pub mod material;
+pub mod mesh_walk;
 pub mod slab_table;
 pub mod spec;
 pub mod table;
@@ -376,6 +377,20 @@ impl Medium {
                 1.0,
                 32,
             )
+        })
+    }
+
+    /// The multiple-scattering reflectance per channel under light that
+    /// arrives evenly from the whole sky (cosine-weighted:
+    /// `int_0^1 rm(mu_i) 2 mu_i dmu_i`, Simpson's rule in `sqrt(mu_i)` over
+    /// [`Medium::incidence`]'s nodes): what a walk that enters evenly
+    /// (ssmulti's walk method, by reciprocity) returns of a flat
+    /// slab.
+    pub fn rm_diffuse(&self) -> [f64; 3] {
+        let inc = self.incidence();
+        [0, 1, 2].map(|c| {
+            let rm = |mu: f64| inc.factor(mu)[c] * self.rm[c];
+            simpson(|s| 4.0 * s * s * s * rm(s * s), 0.0, 1.0, 32)
         })
     }
 

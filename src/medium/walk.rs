@@ -142,7 +142,7 @@ fn erfc(x: f64) -> f64 {
 
 /// The Henyey-Greenstein cosine of the scattering angle for `u` in [0, 1).
 #[inline]
-fn sample_hg(g: f64, u: f64) -> f64 {
+pub fn sample_hg(g: f64, u: f64) -> f64 {
     if g.abs() < 1e-3 {
         return 1.0 - 2.0 * u;
     }

@@ -19,6 +19,8 @@ pub struct Args {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub per_point: PerPointArgs,
+    #[command(flatten)]
+    pub walk: cli::WalkArgs,
 }
 
 /// Runs the stage: reads its input, works, writes its output.
@@ -30,7 +32,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut medium = args.material.given()?;
     let per_point = args.per_point.given()?;
     args.ss.given(medium.clone(), per_point.clone())?.plan()?;
+    let walk = match args.walk.method {
+        ssmulti::Method::Diffusion => None,
+        ssmulti::Method::Walk => Some(walk_setup(&args, &medium, per_point.is_some())?),
+    };
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
+    if walk.is_some() {
+        wanted.push("illum_indirect");
+    }
     let (attrs, _) = medium.per_point();
     let named = per_point.as_ref().map_or(attrs, |p| p.attrs.clone());
     wanted.extend(named.iter().map(|(_, a)| a.as_str()));
@@ -46,6 +55,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         base,
     } = args.ss.given(medium, per_point)?.plan()?;
     let progress = msg.progress();
+    if let Some((mesh, w)) = &walk {
+        let rep = ssmulti::walk::ssmulti_walk(&mut cloud, mesh, &params, w, &progress)
+            .map_err(cli::at(&name))?;
+        msg.info(format!(
+            "{} points, {} walks, {} scattering events, {} left the mesh lit",
+            rep.points, rep.walks, rep.events, rep.exits
+        ));
+        for w in walk_warnings(&rep) {
+            msg.warn(w);
+        }
+        return args.io.write_owned(cloud);
+    }
     let rep = if per_point.attrs.is_empty() {
         ssmulti::ssmulti(&mut cloud, &params, &progress).map_err(cli::at(&name))?
     } else {
@@ -79,4 +100,59 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     }
     args.io.write_owned(cloud)
+}
+
+/// The walk method's mesh (read before the cloud: a missing one fails
+/// fast) and parameters, checked.
+fn walk_setup(
+    args: &Args,
+    medium: &crate::medium::Given,
+    per_point: bool,
+) -> anyhow::Result<(crate::geom::mesh::TriMesh, ssmulti::walk::WalkParams)> {
+    let w = ssmulti::walk::WalkParams {
+        walks: args.walk.walks,
+        seed: args.walk.seed,
+    };
+    ssmulti::walk::validate(&w)?;
+    if medium.resolve(None)?.medium().is_none() {
+        let why = "walk needs the physical model's medium (--material, or --model physical)";
+        return Err(crate::Error::param("method", why).into());
+    }
+    let (attrs, _) = medium.per_point();
+    if per_point || !attrs.is_empty() {
+        let why = "walk takes one medium: per-point materials are the diffusion method's";
+        return Err(crate::Error::param("method", why).into());
+    }
+    let Some(path) = &args.walk.mesh else {
+        let why = "walk needs --mesh (the closed mesh the points lie on)";
+        return Err(crate::Error::param("mesh", why).into());
+    };
+    Ok((cli::read_mesh(path)?, w))
+}
+
+/// What a walk run must say: walks lost through holes, cut, or leaving
+/// where no point faces their side.
+fn walk_warnings(rep: &ssmulti::walk::WalkReport) -> Vec<String> {
+    let mut out = Vec::new();
+    if rep.lost > 0 {
+        out.push(format!(
+            "{} of {} walks left the mesh's box (the mesh has holes?): they return no light",
+            rep.lost, rep.walks
+        ));
+    }
+    if rep.cut > 0 {
+        out.push(format!(
+            "{} of {} walks were still inside after {} events: cut",
+            rep.cut,
+            rep.walks,
+            crate::medium::mesh_walk::MAX_EVENTS
+        ));
+    }
+    if rep.unlit * 100 > rep.walks {
+        out.push(format!(
+            "{} of {} walks left where no cloud point faces their side: give more points",
+            rep.unlit, rep.walks
+        ));
+    }
+    out
 }

@@ -57,6 +57,7 @@ pub mod per_point;
 mod record;
 mod simd;
 mod tree;
+pub mod walk;
 
 use rayon::prelude::*;
 
@@ -81,7 +82,7 @@ pub use self::kernel::{
 pub use self::lanes::{exp_approx, exp_weight};
 use self::params::{physical_kappa, Distances};
 pub use self::params::{
-    validate, Norm, Params, LEAF, MAX_TOLERANCE, PHYSICAL_KAPPA, RADIANCE,
+    validate, Method, Norm, Params, LEAF, MAX_TOLERANCE, PHYSICAL_KAPPA, RADIANCE,
 };
 pub use self::record::{Given, Plan, Record};
 pub use self::simd::Simd;

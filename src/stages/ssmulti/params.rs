@@ -8,6 +8,19 @@ use crate::cloud::DetailValue;
 use crate::error::{Error, Result};
 use crate::medium::{Medium, Recipe};
 
+/// How `ssM` is computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Sums of a diffusion kernel over the cloud's neighbours (either
+    /// model).
+    #[default]
+    Diffusion,
+    /// Random walks through the mesh from each point (the physical model;
+    /// needs the mesh): converges to the medium's multiple scattering on
+    /// any closed shape.
+    Walk,
+}
+
 /// How the sum is normalised (`docs/DESIGN.md#normalisations`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Norm {

@@ -21,6 +21,7 @@ mod exact;
 mod physical;
 mod pipe;
 mod scale;
+mod walk;
 
 pub(super) fn unit(r: &mut Pcg32) -> f64 {
     r.next_u32() as f64 / 4294967296.0

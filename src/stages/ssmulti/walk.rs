@@ -1,0 +1,313 @@
+//! The walk method (`ssmulti --method walk`, `docs/DESIGN.md#the-walk-method`):
+//! each point's `ssM` a Monte Carlo estimate of the multiple scattering of
+//! the medium the mesh bounds, from random walks through the mesh
+//! ([`crate::medium::mesh_walk`]) that start at the point.
+//!
+//! A walk that leaves the mesh at `x_i` takes the light of the cloud point
+//! nearest `x_i` on the same side (its normal within 90 degrees of the
+//! face's): `illum` for a walk of two or more events (single scattering is
+//! sssingle's), weighed by its cosine of arrival as the slab weighs it,
+//! `rm(mu) / rm_diffuse` per channel (a walk enters evenly, by
+//! reciprocity: on a flat slab the mean is then exactly `rm(mu) E`, the
+//! diffusion method's); and `illum_indirect`, which arrives from every
+//! side and whose single scattering sssingle does not follow, for a walk
+//! of one event or more.
+//!
+//! Each point's walks draw from their own random stream (the seed and the
+//! point's index): the bits do not depend on the thread count.
+
+use glam::DVec3;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+use super::params::Params;
+use crate::cloud::{Attribute, Cloud, DetailValue, Role};
+use crate::column::Scalar;
+use crate::error::{Error, Result};
+use crate::geom::bvh::Occluder;
+use crate::geom::kdtree::PointTree;
+use crate::geom::mesh::TriMesh;
+use crate::medium::mesh_walk::{End, Walker};
+use crate::progress::Progress;
+
+/// The most walks a point may take.
+pub const MAX_WALKS: u32 = 1 << 20;
+
+/// Cloud points asked for at an exit, among which the nearest on the
+/// exit's side gives the light.
+const NEAR: usize = 8;
+
+/// The walk method's own parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WalkParams {
+    /// Walks a point.
+    pub walks: u32,
+    /// The random streams' seed.
+    pub seed: u64,
+}
+
+impl Default for WalkParams {
+    fn default() -> Self {
+        WalkParams { walks: 64, seed: 0 }
+    }
+}
+
+/// What the walks did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WalkReport {
+    pub points: usize,
+    /// Points whose `ssM` was computed (a tile's own points).
+    pub computed: usize,
+    pub walks: u64,
+    /// Scattering events of all walks.
+    pub events: u64,
+    /// Walks that left the mesh and found light there.
+    pub exits: u64,
+    /// Walks that left where no cloud point faces the exit's side.
+    pub unlit: u64,
+    /// Walks that left the mesh's box (an open mesh), and walks cut at
+    /// [`crate::medium::mesh_walk::MAX_EVENTS`].
+    pub lost: u64,
+    pub cut: u64,
+    /// The cloud had `illum_cos` / `illum_indirect`.
+    pub by_incidence: bool,
+    pub indirect: bool,
+}
+
+/// Checks the walk parameters; an error names the one at fault.
+pub fn validate(w: &WalkParams) -> Result<()> {
+    if !(1..=MAX_WALKS).contains(&w.walks) {
+        return Err(Error::param(
+            "walks",
+            format!("{} is not in 1..={MAX_WALKS}", w.walks),
+        ));
+    }
+    Ok(())
+}
+
+/// The light each cloud point gives a walk that leaves beside it: for two
+/// events or more, and for one or more.
+struct Light {
+    multi: Vec<[f64; 3]>,
+    any: Vec<[f64; 3]>,
+}
+
+/// The cloud's light, weighed for the walk (see the module's doc).
+fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
+    let m = p.medium.as_ref().expect("the walk method is physical");
+    let pts = cloud.points();
+    let illum = pts.vec3_f64("illum")?;
+    let n = illum.len();
+    let check = |name: &str, v: &[[f64; 3]]| -> Result<()> {
+        match v
+            .iter()
+            .position(|c| !c.iter().all(|x| x.is_finite() && *x >= 0.0))
+        {
+            Some(i) => Err(Error::invalid(format!(
+                "point {i} has {name} {:?}: light is finite and not negative",
+                v[i]
+            ))),
+            None => Ok(()),
+        }
+    };
+    check("illum", &illum)?;
+    let rm_d = m.rm_diffuse();
+    let by = |f: [f64; 3]| {
+        [0, 1, 2].map(|c| {
+            if rm_d[c] > 0.0 {
+                f[c] * m.rm[c] / rm_d[c]
+            } else {
+                0.0
+            }
+        })
+    };
+    let cos = if pts.has("illum_cos") {
+        let c = pts.scalar_f64("illum_cos")?;
+        if let Some(i) = c.iter().position(|x| x.is_nan()) {
+            return Err(Error::invalid(format!("point {i}: illum_cos is NaN")));
+        }
+        Some(c)
+    } else {
+        None
+    };
+    rep.by_incidence = cos.is_some();
+    let inc = m.incidence();
+    let at_normal = by([1.0; 3]);
+    let multi = (0..n)
+        .map(|i| {
+            let k = match &cos {
+                Some(c) => by(inc.factor(c[i])),
+                None => at_normal,
+            };
+            [0, 1, 2].map(|c| illum[i][c] * k[c])
+        })
+        .collect();
+    let any = if pts.has("illum_indirect") {
+        let ind = pts.vec3_f64("illum_indirect")?;
+        check("illum_indirect", &ind)?;
+        rep.indirect = true;
+        ind
+    } else {
+        vec![[0.0; 3]; n]
+    };
+    Ok(Light { multi, any })
+}
+
+/// Adds `ssM` to `cloud` by the walk method through `mesh` (the mesh the
+/// points lie on, closed), with the physical medium of `p`.
+///
+/// On a tile of `pctile split`, only the tile's own points walk; the halo
+/// points give light where walks leave. A walk that leaves beyond the
+/// halo takes the light of the nearest point there: the halo should hold
+/// the diffusion method's reach, beyond which a walk leaves in a share
+/// under `e^-4` of cases.
+pub fn ssmulti_walk(
+    cloud: &mut Cloud,
+    mesh: &TriMesh,
+    p: &Params,
+    w: &WalkParams,
+    progress: &Progress,
+) -> Result<WalkReport> {
+    super::params::validate(p)?;
+    validate(w)?;
+    let Some(medium) = &p.medium else {
+        let why =
+            "the walk method needs the physical model's medium (--model physical, --material)";
+        return Err(Error::param("method", why));
+    };
+    mesh.require_area()?;
+    let own = crate::halo::halo_mask(cloud, Some(p.reach()), "ssmulti's reach")?;
+    let mut rep = WalkReport::default();
+    let pos = cloud.points().vec3_f64("P")?;
+    let nrm = cloud.points().vec3_f64("N")?;
+    let n = pos.len();
+    rep.points = n;
+    if let Some(i) = (0..n).find(|&i| {
+        !(pos[i].iter().all(|x| x.is_finite()) && DVec3::from_array(nrm[i]).length() > 0.0)
+    }) {
+        return Err(Error::invalid(format!(
+            "point {i}: P {:?} and N {:?} must be finite, N not zero",
+            pos[i], nrm[i]
+        )));
+    }
+    let light = light(cloud, p, &mut rep)?;
+    let origin = pos.first().map_or(DVec3::ZERO, |&q| DVec3::from_array(q));
+    let tree = PointTree::new(pos.iter().map(|&q| DVec3::from_array(q)), origin);
+    let unit: Vec<DVec3> = nrm
+        .iter()
+        .map(|&q| DVec3::from_array(q).normalize())
+        .collect();
+    let occ = Occluder::new(mesh);
+    let walker = Walker::new(mesh, &occ, medium);
+    progress.start("ssmulti: walks", n as u64);
+    let per_point: Vec<([f32; 3], [u64; 6])> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            progress.inc(1);
+            if own.as_ref().is_some_and(|o| !o[i]) {
+                return ([0.0; 3], [0; 6]);
+            }
+            let mut r = Pcg32::new(w.seed, i as u64);
+            let mut sum = [0.0f64; 3];
+            // (walks, events, exits, unlit, lost, cut)
+            let mut counts = [0u64; 6];
+            let start = DVec3::from_array(pos[i]);
+            for _ in 0..w.walks {
+                counts[0] += 1;
+                match walker.walk(start, unit[i], &mut r) {
+                    End::Exit {
+                        pos: x,
+                        normal,
+                        events,
+                        weight,
+                    } => {
+                        counts[1] += events as u64;
+                        let near = tree.nearest(x, NEAR);
+                        let Some(j) = near
+                            .iter()
+                            .map(|q| q.item as usize)
+                            .find(|&j| unit[j].dot(normal) > 0.0)
+                        else {
+                            counts[3] += 1;
+                            continue;
+                        };
+                        counts[2] += 1;
+                        for c in 0..3 {
+                            let mut e = light.any[j][c];
+                            if events >= 2 {
+                                e += light.multi[j][c];
+                            }
+                            sum[c] += weight[c] * e;
+                        }
+                    }
+                    End::Absorbed => {}
+                    End::Lost => counts[4] += 1,
+                    End::Cut => counts[5] += 1,
+                }
+            }
+            let k = 1.0 / w.walks as f64;
+            (sum.map(|s| (s * k) as f32), counts)
+        })
+        .collect();
+    progress.finish();
+    let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    for (i, (v, c)) in per_point.iter().enumerate() {
+        for ch in 0..3 {
+            out[ch][i] = v[ch];
+        }
+        if c[0] > 0 {
+            rep.computed += 1;
+        }
+        rep.walks += c[0];
+        rep.events += c[1];
+        rep.exits += c[2];
+        rep.unlit += c[3];
+        rep.lost += c[4];
+        rep.cut += c[5];
+    }
+    let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
+    cloud.points_mut().set(ssm)?;
+    cloud.record("ssmulti_", record(p, w, mesh, &rep));
+    Ok(rep)
+}
+
+/// What a walk run records: the medium's keys as the diffusion method
+/// records them, the method, its walks, seed and mesh.
+fn record(
+    p: &Params,
+    w: &WalkParams,
+    mesh: &TriMesh,
+    rep: &WalkReport,
+) -> Vec<(&'static str, DetailValue)> {
+    let mut d: Vec<(&'static str, DetailValue)> = p
+        .details()
+        .into_iter()
+        .filter(|(k, _)| {
+            !matches!(
+                *k,
+                "ssmulti_distances"
+                    | "ssmulti_falloff"
+                    | "ssmulti_norm"
+                    | "ssmulti_tolerance"
+                    | "ssmulti_bounce"
+            )
+        })
+        .collect();
+    d.extend([
+        ("ssmulti_method", DetailValue::Str("walk".into())),
+        ("ssmulti_walks", DetailValue::I32(w.walks as i32)),
+        ("ssmulti_seed", DetailValue::Str(w.seed.to_string())),
+        ("ssmulti_mesh", DetailValue::Str(mesh.digest())),
+    ]);
+    let how = if rep.by_incidence {
+        "illum_cos"
+    } else {
+        "normal"
+    };
+    d.push(("ssmulti_incidence", DetailValue::Str(how.into())));
+    if rep.indirect {
+        let how = "illum_indirect: its single scattering in ssM";
+        d.push(("ssmulti_indirect", DetailValue::Str(how.into())));
+    }
+    d
+}

@@ -1,0 +1,294 @@
+//! The walk method (`ssmulti --method walk`) against independent truth:
+//! a large thick box is a half-space, whose multiple scattering the
+//! medium's own slab walk and Chandrasekhar's H give (the medium's
+//! tests); a thin box lit from behind passes what the medium's slab walk
+//! through a slab of that thickness passes; the bits do not depend on the
+//! thread count; bad parameters are refused.
+
+use crate::util::*;
+use pcsss::cloud::Role;
+use pcsss::geom::mesh::TriMesh;
+use pcsss::medium::Medium;
+use pcsss::progress::Progress;
+use pcsss::stages::ssmulti::walk::{ssmulti_walk, WalkParams};
+use pcsss::stages::ssmulti::Params;
+use pcsss::Cloud;
+
+/// A box `[x0, x1] x [y0, y1] x [z0, z1]` as a mesh, outward normals.
+fn box_mesh(lo: [f64; 3], hi: [f64; 3]) -> TriMesh {
+    let mut text = String::new();
+    for k in 0..8 {
+        let p = [0, 1, 2].map(|a| if (k >> a) & 1 == 1 { hi[a] } else { lo[a] });
+        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    // (Corners by bits x, y, z; each face counter-clockwise from outside.)
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [2, 4, 8, 6],
+        [4, 3, 7, 8],
+        [3, 1, 5, 7],
+    ] {
+        text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    TriMesh::from_cloud(&from_bytes(text.as_bytes())).unwrap()
+}
+
+/// A point: its position, normal, `illum` and `illum_cos`.
+type Lit = ([f64; 3], [f64; 3], [f64; 3], f64);
+
+/// The cloud of points `pts`.
+fn cloud_of(pts: &[Lit]) -> Cloud {
+    let mut c = Cloud::with_points(pts.len());
+    let p = c.points_mut();
+    p.set_vec3(
+        "P",
+        Role::Point,
+        &pts.iter().map(|q| q.0).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    p.set_vec3(
+        "N",
+        Role::Normal,
+        &pts.iter().map(|q| q.1).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    p.set_vec3(
+        "illum",
+        Role::Color,
+        &pts.iter().map(|q| q.2).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    p.set_scalar("illum_cos", pts.iter().map(|q| q.3).collect::<Vec<f64>>())
+        .unwrap();
+    c
+}
+
+fn physical(m: Medium) -> Params {
+    Params {
+        medium: Some(m),
+        ..Params::default()
+    }
+}
+
+/// The top face of a box 200 mean free paths wide and 60 deep is a
+/// half-space: under light at cosine `mu`, ssM is the medium's
+/// multiple-scattering reflectance there, `rm_at(mu)`, per channel.
+#[test]
+fn a_thick_box_returns_the_half_space_s_reflectance() {
+    let mesh = box_mesh([-100.0, -100.0, -60.0], [100.0, 100.0, 0.0]);
+    for (albedo, eta, g, mu) in [
+        ([0.9, 0.7, 0.5], 1.0, 0.0, 1.0),
+        ([0.95, 0.8, 0.6], 1.3, 0.0, 0.5),
+        ([0.9, 0.9, 0.9], 1.3, 0.6, 1.0),
+    ] {
+        let m = Medium::new(albedo, [1.0, 1.0, 1.0], eta, g).unwrap();
+        // Points about the centre, and a floor of dark ones for the light
+        // where walks leave elsewhere.
+        let mut pts = Vec::new();
+        for k in 0..64 {
+            let (x, y) = ((k % 8) as f64 - 3.5, (k / 8) as f64 - 3.5);
+            pts.push(([x, y, 0.0], [0.0, 0.0, 1.0], [1.0; 3], mu));
+        }
+        let mut c = cloud_of(&pts);
+        let w = WalkParams {
+            walks: 1500,
+            seed: 7,
+        };
+        ssmulti_walk(&mut c, &mesh, &physical(m), &w, &Progress::hidden()).unwrap();
+        let ssm = c.points().vec3_f64("ssM").unwrap();
+        let want = m.rm_at(mu);
+        for ch in 0..3 {
+            let got: f64 = ssm.iter().map(|s| s[ch]).sum::<f64>() / ssm.len() as f64;
+            // (96k walks: a standard error near 0.4%.)
+            assert!(
+                (got / want[ch] - 1.0).abs() < 0.015,
+                "albedo {albedo:?} eta {eta} g {g} mu {mu}: channel {ch}: {got} against {}",
+                want[ch]
+            );
+        }
+    }
+}
+
+/// The bits of a run do not depend on how many threads run it.
+#[test]
+fn the_same_bits_whatever_the_thread_count() {
+    let mesh = box_mesh([0.0; 3], [4.0, 4.0, 1.0]);
+    let m = Medium::new([0.9, 0.8, 0.7], [0.3, 0.5, 0.8], 1.3, 0.3).unwrap();
+    let pts: Vec<_> = (0..200)
+        .map(|k| {
+            let (x, y) = ((k % 20) as f64 * 0.2 + 0.1, (k / 20) as f64 * 0.4 + 0.1);
+            ([x, y, 1.0], [0.0, 0.0, 1.0], [x / 4.0, 0.5, 1.0], 0.8)
+        })
+        .collect();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut c = cloud_of(&pts);
+        let w = WalkParams { walks: 16, seed: 3 };
+        pool.install(|| ssmulti_walk(&mut c, &mesh, &physical(m), &w, &Progress::hidden()))
+            .unwrap();
+        c.points().vec3_f64("ssM").unwrap()
+    };
+    let one = run(1);
+    assert!(one.iter().any(|s| s[0] > 0.0));
+    assert_eq!(one, run(3));
+}
+
+/// A thin box lit from behind: the front's ssM is the light a slab of that
+/// thickness passes after two events or more, as the medium's own slab
+/// walk counts it (entering evenly, by reciprocity, and weighed as the
+/// method weighs light along the normal).
+#[test]
+fn a_thin_box_passes_what_a_slab_passes() {
+    use pcsss::medium::walk::walk_faces;
+    let (albedo, eta, g) = ([0.95, 0.8, 0.5], 1.3, 0.0);
+    let m = Medium::new(albedo, [1.0; 3], eta, g).unwrap();
+    let rm_d = m.rm_diffuse();
+    for thick in [0.5, 2.0] {
+        let mesh = box_mesh([-60.0, -60.0, -thick], [60.0, 60.0, 0.0]);
+        // The front (z = 0, dark) about the centre; the back lit along its
+        // normal, sampled densely enough that every exit finds its light.
+        let mut pts = Vec::new();
+        for k in 0..16 {
+            let (x, y) = ((k % 4) as f64 - 1.5, (k / 4) as f64 - 1.5);
+            pts.push(([x, y, 0.0], [0.0, 0.0, 1.0], [0.0; 3], 1.0));
+        }
+        for k in 0..(41 * 41) {
+            let (x, y) = ((k % 41) as f64 - 20.0, (k / 41) as f64 - 20.0);
+            pts.push(([x, y, -thick], [0.0, 0.0, -1.0], [1.0; 3], 1.0));
+        }
+        let mut c = cloud_of(&pts);
+        let w = WalkParams {
+            walks: 3000,
+            seed: 11,
+        };
+        ssmulti_walk(&mut c, &mesh, &physical(m), &w, &Progress::hidden()).unwrap();
+        let ssm = c.points().vec3_f64("ssM").unwrap();
+        // The slab: entering evenly (cosine-weighted outside, Fresnel in),
+        // the share that leaves by the far face after two events or more.
+        let nodes = 16;
+        let mut through = [0.0; 3];
+        for q in 0..nodes {
+            // mu^2 uniform: cosine-weighted.
+            let mu = ((q as f64 + 0.5) / nodes as f64).sqrt();
+            let t_in = 1.0 - pcsss::optics::fresnel(mu, eta);
+            let (_, far) = walk_faces(g, eta, mu, thick, 20_000, 5);
+            for ch in 0..3 {
+                through[ch] += t_in * far.reflectance(albedo[ch], 2) / nodes as f64;
+            }
+        }
+        for ch in 0..3 {
+            let want = through[ch] * m.rm[ch] / rm_d[ch];
+            let got: f64 = ssm[..16].iter().map(|s| s[ch]).sum::<f64>() / 16.0;
+            assert!(
+                (got / want - 1.0).abs() < 0.03,
+                "thickness {thick}: channel {ch}: {got} against {want}"
+            );
+        }
+    }
+}
+
+/// Zero walks, a NaN or absurd medium, and the seed model are refused,
+/// each naming its parameter; an open mesh loses the walks that leave
+/// through its hole, and says how many.
+#[test]
+fn bad_parameters_are_refused_and_an_open_mesh_is_counted() {
+    let mesh = box_mesh([0.0; 3], [1.0; 3]);
+    let m = Medium::new([0.9; 3], [0.1; 3], 1.0, 0.0).unwrap();
+    let mut c = cloud_of(&[([0.5, 0.5, 1.0], [0.0, 0.0, 1.0], [1.0; 3], 1.0)]);
+    let hidden = Progress::hidden();
+    let name = |e: pcsss::Error| match e {
+        pcsss::Error::Param { name, .. } => name,
+        e => panic!("{e}"),
+    };
+    let zero = WalkParams { walks: 0, seed: 0 };
+    let e = ssmulti_walk(&mut c, &mesh, &physical(m), &zero, &hidden).unwrap_err();
+    assert_eq!(name(e), "walks");
+    let w = WalkParams::default();
+    let e = ssmulti_walk(&mut c, &mesh, &Params::default(), &w, &hidden).unwrap_err();
+    assert_eq!(name(e), "method");
+    assert!(Medium::new([0.9; 3], [f64::NAN; 3], 1.0, 0.0).is_err());
+    // The box without its top: walks leave through the hole.
+    let mut text =
+        String::from_utf8(std::fs::read(fixtures().join("mesh/cube.obj")).unwrap()).unwrap();
+    text = text.replace("f 5 6 7 8\n", "");
+    let open = TriMesh::from_cloud(&from_bytes(text.as_bytes())).unwrap();
+    let rep = ssmulti_walk(&mut c, &open, &physical(m), &w, &hidden).unwrap();
+    assert!(rep.lost * 4 > rep.walks, "{rep:?}");
+    let rep = ssmulti_walk(&mut c, &mesh, &physical(m), &w, &hidden).unwrap();
+    assert_eq!(rep.lost, 0);
+    assert!(c.points().vec3_f64("ssM").unwrap()[0][0] > 0.0);
+}
+
+/// The binary: `--method walk` needs its mesh and the physical model,
+/// each refusal naming the option at fault with exit 2; a run records its
+/// method, walks, seed and mesh.
+#[test]
+fn the_binary_takes_the_walk_method() {
+    let d = tempdir();
+    let mesh = fixtures().join("mesh/cube.obj").display().to_string();
+    let lit = d.path().join("lit.ply");
+    let c = cloud_of(&[
+        ([0.5, 0.5, 1.0], [0.0, 0.0, 1.0], [1.0; 3], 1.0),
+        ([0.5, 0.5, 0.0], [0.0, 0.0, -1.0], [0.0; 3], 1.0),
+    ]);
+    std::fs::write(&lit, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
+    let lit = lit.display().to_string();
+    let out = d.path().join("out.ply").display().to_string();
+    for (args, flag) in [
+        (vec!["--method", "walk", "--material", "skin1"], "--mesh"),
+        (
+            vec!["--method", "walk", "--mesh", &mesh, "--sd", "1"],
+            "--method",
+        ),
+        (
+            vec![
+                "--method",
+                "walk",
+                "--mesh",
+                &mesh,
+                "--material",
+                "skin1",
+                "--walks",
+                "0",
+            ],
+            "--walks",
+        ),
+    ] {
+        let mut all = vec![lit.as_str(), "-o", &out];
+        all.extend(&args);
+        let o = run("ssmulti", &all, b"");
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(flag), "{args:?}: {}", stderr(&o));
+        assert!(!std::path::Path::new(&out).exists());
+    }
+    let all = [
+        lit.as_str(),
+        "-o",
+        &out,
+        "--method",
+        "walk",
+        "--mesh",
+        &mesh,
+        "--material",
+        "skin1",
+        "--walks",
+        "200",
+        "--seed",
+        "5",
+    ];
+    let o = run("ssmulti", &all, b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c = from_bytes(&std::fs::read(&out).unwrap());
+    let detail = |k: &str| c.detail(k).map(|v| format!("{v:?}"));
+    assert!(detail("ssmulti_method").unwrap().contains("walk"));
+    assert!(detail("ssmulti_walks").unwrap().contains("200"));
+    assert!(detail("ssmulti_seed").unwrap().contains('5'));
+    assert!(detail("ssmulti_mesh").is_some());
+    let ssm = c.points().vec3_f64("ssM").unwrap();
+    assert!(ssm[0][0] > 0.0, "{ssm:?}");
+}
