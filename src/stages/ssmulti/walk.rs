@@ -9,9 +9,10 @@
 //! sssingle's), weighed by its cosine of arrival as the slab weighs it,
 //! `rm(mu) / rm_diffuse` per channel (a walk enters evenly, by
 //! reciprocity: on a flat slab the mean is then exactly `rm(mu) E`, the
-//! diffusion method's); and `illum_indirect`, which arrives from every
-//! side and whose single scattering sssingle does not follow, for a walk
-//! of one event or more.
+//! diffusion method's; `illum --indirect` adds the light between surfaces
+//! into `illum`); and for a walk of one event `illum_indirect` alone: it
+//! arrives from every side, and sssingle, which follows the lights, does
+//! not give its single scattering.
 //!
 //! Each point's walks draw from their own random stream (the seed and the
 //! point's index): the bits do not depend on the thread count.
@@ -85,11 +86,11 @@ pub fn validate(w: &WalkParams) -> Result<()> {
     Ok(())
 }
 
-/// The light each cloud point gives a walk that leaves beside it: for two
-/// events or more, and for one or more.
+/// The light each cloud point gives a walk that leaves beside it: after
+/// two events or more, and after one.
 struct Light {
     multi: Vec<[f64; 3]>,
-    any: Vec<[f64; 3]>,
+    single: Vec<[f64; 3]>,
 }
 
 /// The cloud's light, weighed for the walk (see the module's doc).
@@ -142,7 +143,7 @@ fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
             [0, 1, 2].map(|c| illum[i][c] * k[c])
         })
         .collect();
-    let any = if pts.has("illum_indirect") {
+    let single = if pts.has("illum_indirect") {
         let ind = pts.vec3_f64("illum_indirect")?;
         check("illum_indirect", &ind)?;
         rep.indirect = true;
@@ -150,7 +151,7 @@ fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
     } else {
         vec![[0.0; 3]; n]
     };
-    Ok(Light { multi, any })
+    Ok(Light { multi, single })
 }
 
 /// Adds `ssM` to `cloud` by the walk method through `mesh` (the mesh the
@@ -232,12 +233,15 @@ pub fn ssmulti_walk(
                             continue;
                         };
                         counts[2] += 1;
+                        // (illum holds illum_indirect too: its
+                        // multiple scattering is in the first term.)
+                        let e = match events {
+                            0 => [0.0; 3],
+                            1 => light.single[j],
+                            _ => light.multi[j],
+                        };
                         for c in 0..3 {
-                            let mut e = light.any[j][c];
-                            if events >= 2 {
-                                e += light.multi[j][c];
-                            }
-                            sum[c] += weight[c] * e;
+                            sum[c] += weight[c] * e[c];
                         }
                     }
                     End::Absorbed => {}

@@ -111,6 +111,43 @@ fn a_thick_box_returns_the_half_space_s_reflectance() {
     }
 }
 
+/// Light between surfaces (`illum --indirect` adds it to `illum`, and
+/// keeps it apart as `illum_indirect`): on the half-space, its multiple
+/// scattering with the rest, and its single scattering, which sssingle
+/// does not follow, from the whole sky: `rm (E_d + E_i) + rs_diffuse E_i`.
+#[test]
+fn light_between_surfaces_returns_its_single_scattering_too() {
+    let mesh = box_mesh([-100.0, -100.0, -60.0], [100.0, 100.0, 0.0]);
+    let m = Medium::new([0.9, 0.7, 0.5], [1.0; 3], 1.3, 0.0).unwrap();
+    let (direct, indirect) = (1.0, 0.5);
+    let pts: Vec<Lit> = (0..64)
+        .map(|k| {
+            let (x, y) = ((k % 8) as f64 - 3.5, (k / 8) as f64 - 3.5);
+            ([x, y, 0.0], [0.0, 0.0, 1.0], [direct + indirect; 3], 1.0)
+        })
+        .collect();
+    let mut c = cloud_of(&pts);
+    c.points_mut()
+        .set_vec3("illum_indirect", Role::Color, &vec![[indirect; 3]; 64])
+        .unwrap();
+    let w = WalkParams {
+        walks: 1500,
+        seed: 9,
+    };
+    let rep = ssmulti_walk(&mut c, &mesh, &physical(m), &w, &Progress::hidden()).unwrap();
+    assert!(rep.indirect);
+    let ssm = c.points().vec3_f64("ssM").unwrap();
+    let rs = m.rs_diffuse();
+    for ch in 0..3 {
+        let want = m.rm[ch] * (direct + indirect) + rs[ch] * indirect;
+        let got: f64 = ssm.iter().map(|s| s[ch]).sum::<f64>() / ssm.len() as f64;
+        assert!(
+            (got / want - 1.0).abs() < 0.015,
+            "channel {ch}: {got} against {want}"
+        );
+    }
+}
+
 /// The bits of a run do not depend on how many threads run it.
 #[test]
 fn the_same_bits_whatever_the_thread_count() {
