@@ -15,7 +15,9 @@
 //! not give its single scattering.
 //!
 //! Each point's walks draw from their own random stream (the seed and the
-//! point's index): the bits do not depend on the thread count.
+//! point's index, on a tile its index in the untiled cloud): the bits do
+//! not depend on the thread count, and a tile's point walks as it does
+//! untiled.
 
 use glam::DVec3;
 use rand_pcg::Pcg32;
@@ -192,6 +194,14 @@ pub fn ssmulti_walk(
         )));
     }
     let light = light(cloud, p, &mut rep)?;
+    // A tile's point walks the stream of its index in the untiled cloud:
+    // the tiled bake draws the untiled one's walks.
+    let stream: Vec<u64> = if cloud.points().has(crate::names::INDEX) {
+        let ix = cloud.points().scalar_f64(crate::names::INDEX)?;
+        ix.into_iter().map(|x| x as u64).collect()
+    } else {
+        (0..n as u64).collect()
+    };
     let origin = pos.first().map_or(DVec3::ZERO, |&q| DVec3::from_array(q));
     let tree = PointTree::new(pos.iter().map(|&q| DVec3::from_array(q)), origin);
     let unit: Vec<DVec3> = nrm
@@ -208,7 +218,7 @@ pub fn ssmulti_walk(
             if own.as_ref().is_some_and(|o| !o[i]) {
                 return ([0.0; 3], [0; 6]);
             }
-            let mut r = Pcg32::new(w.seed, i as u64);
+            let mut r = Pcg32::new(w.seed, stream[i]);
             let mut sum = [0.0f64; 3];
             // (walks, events, exits, unlit, lost, cut)
             let mut counts = [0u64; 6];
