@@ -49,6 +49,7 @@ pub const MAKERS: &[(&str, &str)] = &[
     ("illum_cos", "illum"),
     ("thickness", "illum --thickness"),
     ("ssM", "ssmulti"),
+    ("ssM_err", "ssmulti --method walk"),
     ("ssmulti_sd", "ssmulti"),
     ("ssmulti_rd", "ssmulti"),
     ("ssS", "sssingle"),

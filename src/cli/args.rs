@@ -169,6 +169,11 @@ pub struct WalkArgs {
     /// The walk method: the seed of every point's random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// The walk method: filter the walks' noise on the cloud, among
+    /// neighbours that face alike and whose estimates agree within their
+    /// noise (ssM_err holds each point's, unfiltered).
+    #[arg(long)]
+    pub denoise: bool,
 }
 
 /// `ssmulti`'s per-point options (also read by `pctile split --for

@@ -112,6 +112,7 @@ fn walk_setup(
     let w = ssmulti::walk::WalkParams {
         walks: args.walk.walks,
         seed: args.walk.seed,
+        denoise: args.walk.denoise,
     };
     ssmulti::walk::validate(&w)?;
     if medium.resolve(None)?.medium().is_none() {

@@ -47,13 +47,26 @@ pub struct WalkParams {
     pub walks: u32,
     /// The random streams' seed.
     pub seed: u64,
+    /// Filter the walks' noise on the cloud ([`denoise`]).
+    pub denoise: bool,
 }
 
 impl Default for WalkParams {
     fn default() -> Self {
-        WalkParams { walks: 64, seed: 0 }
+        WalkParams {
+            walks: 64,
+            seed: 0,
+            denoise: false,
+        }
     }
 }
+
+/// Neighbours a point's filtered `ssM` averages over.
+pub const DENOISE_NEAR: usize = 16;
+
+/// Two points' estimates mix while they differ by less than about this
+/// many standard deviations of their noise.
+pub const DENOISE_RANGE: f64 = 2.0;
 
 /// What the walks did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -211,15 +224,15 @@ pub fn ssmulti_walk(
     let occ = Occluder::new(mesh);
     let walker = Walker::new(mesh, &occ, medium);
     progress.start("ssmulti: walks", n as u64);
-    let per_point: Vec<([f32; 3], [u64; 6])> = (0..n)
+    let per_point: Vec<([f64; 3], [f64; 3], [u64; 6])> = (0..n)
         .into_par_iter()
         .map(|i| {
             progress.inc(1);
             if own.as_ref().is_some_and(|o| !o[i]) {
-                return ([0.0; 3], [0; 6]);
+                return ([0.0; 3], [0.0; 3], [0; 6]);
             }
             let mut r = Pcg32::new(w.seed, stream[i]);
-            let mut sum = [0.0f64; 3];
+            let (mut sum, mut sq) = ([0.0f64; 3], [0.0f64; 3]);
             // (walks, events, exits, unlit, lost, cut)
             let mut counts = [0u64; 6];
             let start = DVec3::from_array(pos[i]);
@@ -251,7 +264,9 @@ pub fn ssmulti_walk(
                             _ => light.multi[j],
                         };
                         for c in 0..3 {
-                            sum[c] += weight[c] * e[c];
+                            let x = weight[c] * e[c];
+                            sum[c] += x;
+                            sq[c] += x * x;
                         }
                     }
                     End::Absorbed => {}
@@ -259,15 +274,34 @@ pub fn ssmulti_walk(
                     End::Cut => counts[5] += 1,
                 }
             }
-            let k = 1.0 / w.walks as f64;
-            (sum.map(|s| (s * k) as f32), counts)
+            // The mean and its variance (the walks' sample variance over
+            // their count).
+            let m = w.walks as f64;
+            let mean = sum.map(|s| s / m);
+            let var = [0, 1, 2].map(|c| {
+                if m > 1.0 {
+                    ((sq[c] - sum[c] * mean[c]) / (m - 1.0)).max(0.0) / m
+                } else {
+                    0.0
+                }
+            });
+            (mean, var, counts)
         })
         .collect();
     progress.finish();
+    let mean: Vec<[f64; 3]> = per_point.iter().map(|p| p.0).collect();
+    let var: Vec<[f64; 3]> = per_point.iter().map(|p| p.1).collect();
+    let value = if w.denoise {
+        let all = vec![true; n];
+        let mine = own.as_deref().unwrap_or(&all);
+        denoise(&tree, &pos, &unit, &mean, &var, mine)
+    } else {
+        mean
+    };
     let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
-    for (i, (v, c)) in per_point.iter().enumerate() {
+    for (i, (_, _, c)) in per_point.iter().enumerate() {
         for ch in 0..3 {
-            out[ch][i] = v[ch];
+            out[ch][i] = value[i][ch] as f32;
         }
         if c[0] > 0 {
             rep.computed += 1;
@@ -281,8 +315,72 @@ pub fn ssmulti_walk(
     }
     let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
+    // The walks' noise, as a standard error a channel (before any filter).
+    let err: Vec<[f32; 3]> = var.iter().map(|v| v.map(|x| x.sqrt() as f32)).collect();
+    cloud.points_mut().set_vec3("ssM_err", Role::Vector, &err)?;
     cloud.record("ssmulti_", record(p, w, mesh, &rep));
     Ok(rep)
+}
+
+/// `ssM` filtered on the cloud (`docs/DESIGN.md#the-walk-method`): each
+/// point (of those `own`) takes the weighted mean of its
+/// [`DENOISE_NEAR`] nearest points' estimates `mean`, weighed by their
+/// distance (a Gaussian of half the farthest's), their normals' agreement
+/// (`max(0, N_i . N_j)^8`: not across a crease) and, channel by channel,
+/// how far apart the two estimates are against their noise `var`
+/// (`e^(-d^2 / 2 k^2 (v_i + v_j))`, `k` [`DENOISE_RANGE`]: not across a
+/// shadow's edge the walks resolve).
+fn denoise(
+    tree: &PointTree,
+    pos: &[[f64; 3]],
+    unit: &[DVec3],
+    mean: &[[f64; 3]],
+    var: &[[f64; 3]],
+    own: &[bool],
+) -> Vec<[f64; 3]> {
+    let k2 = DENOISE_RANGE * DENOISE_RANGE;
+    (0..mean.len())
+        .into_par_iter()
+        .map(|i| {
+            if !own[i] {
+                return mean[i];
+            }
+            let near = tree.nearest(DVec3::from_array(pos[i]), DENOISE_NEAR);
+            let h2 = near.last().map_or(0.0, |q| q.distance);
+            if h2 <= 0.0 {
+                return mean[i];
+            }
+            let (mut acc, mut wsum) = ([0.0f64; 3], [0.0f64; 3]);
+            for q in &near {
+                let j = q.item as usize;
+                let ws = (-2.0 * q.distance / h2).exp();
+                let wn = unit[i].dot(unit[j]).max(0.0).powi(8);
+                if ws * wn <= 0.0 {
+                    continue;
+                }
+                for c in 0..3 {
+                    let d = mean[i][c] - mean[j][c];
+                    let v = var[i][c] + var[j][c];
+                    let wr = if v > 0.0 {
+                        (-d * d / (2.0 * k2 * v)).exp()
+                    } else if d == 0.0 {
+                        1.0
+                    } else {
+                        0.0
+                    };
+                    acc[c] += ws * wn * wr * mean[j][c];
+                    wsum[c] += ws * wn * wr;
+                }
+            }
+            [0, 1, 2].map(|c| {
+                if wsum[c] > 0.0 {
+                    acc[c] / wsum[c]
+                } else {
+                    mean[i][c]
+                }
+            })
+        })
+        .collect()
 }
 
 /// What a walk run records: the medium's keys as the diffusion method
@@ -312,6 +410,7 @@ fn record(
         ("ssmulti_walks", DetailValue::I32(w.walks as i32)),
         ("ssmulti_seed", DetailValue::Str(w.seed.to_string())),
         ("ssmulti_mesh", DetailValue::Str(mesh.digest())),
+        ("ssmulti_denoise", DetailValue::I32(w.denoise as i32)),
     ]);
     let how = if rep.by_incidence {
         "illum_cos"
