@@ -161,7 +161,7 @@ pub struct WalkArgs {
     #[arg(long, value_enum, default_value = "diffusion")]
     pub method: ssmulti::Method,
     /// The walk method: the mesh the points lie on (closed).
-    #[arg(long, value_name = "MESH")]
+    #[arg(long, value_name = "MESH", required_if_eq("method", "walk"))]
     pub mesh: Option<PathBuf>,
     /// The walk method: walks a point (1 to 1048576).
     #[arg(long, value_name = "N", default_value_t = 64)]

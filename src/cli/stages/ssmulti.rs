@@ -31,10 +31,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // material file is read once, here.
     let mut medium = args.material.given()?;
     let per_point = args.per_point.given()?;
-    args.ss.given(medium.clone(), per_point.clone())?.plan()?;
-    let walk = match args.walk.method {
-        ssmulti::Method::Diffusion => None,
-        ssmulti::Method::Walk => Some(walk_setup(&args, &medium, per_point.is_some())?),
+    let early = args.ss.given(medium.clone(), per_point.clone())?.plan()?;
+    // The walk method's mesh before the cloud: a missing one fails fast.
+    let walk = match (args.walk.method, &args.walk.mesh) {
+        (ssmulti::Method::Walk, Some(path)) => {
+            let w = ssmulti::walk::WalkParams {
+                walks: args.walk.walks,
+                seed: args.walk.seed,
+                denoise: args.walk.denoise,
+            };
+            ssmulti::walk::check(&early, &w)?;
+            Some((cli::read_mesh(path)?, w))
+        }
+        _ => None,
     };
     let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
     if walk.is_some() {
@@ -62,7 +71,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{} points, {} walks, {} scattering events, {} left the mesh lit",
             rep.points, rep.walks, rep.events, rep.exits
         ));
-        for w in walk_warnings(&rep) {
+        for w in rep.warnings() {
             msg.warn(w);
         }
         return args.io.write_owned(cloud);
@@ -100,60 +109,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     }
     args.io.write_owned(cloud)
-}
-
-/// The walk method's mesh (read before the cloud: a missing one fails
-/// fast) and parameters, checked.
-fn walk_setup(
-    args: &Args,
-    medium: &crate::medium::Given,
-    per_point: bool,
-) -> anyhow::Result<(crate::geom::mesh::TriMesh, ssmulti::walk::WalkParams)> {
-    let w = ssmulti::walk::WalkParams {
-        walks: args.walk.walks,
-        seed: args.walk.seed,
-        denoise: args.walk.denoise,
-    };
-    ssmulti::walk::validate(&w)?;
-    if medium.resolve(None)?.medium().is_none() {
-        let why = "walk needs the physical model's medium (--material, or --model physical)";
-        return Err(crate::Error::param("method", why).into());
-    }
-    let (attrs, _) = medium.per_point();
-    if per_point || !attrs.is_empty() {
-        let why = "walk takes one medium: per-point materials are the diffusion method's";
-        return Err(crate::Error::param("method", why).into());
-    }
-    let Some(path) = &args.walk.mesh else {
-        let why = "walk needs --mesh (the closed mesh the points lie on)";
-        return Err(crate::Error::param("mesh", why).into());
-    };
-    Ok((cli::read_mesh(path)?, w))
-}
-
-/// What a walk run must say: walks lost through holes, cut, or leaving
-/// where no point faces their side.
-fn walk_warnings(rep: &ssmulti::walk::WalkReport) -> Vec<String> {
-    let mut out = Vec::new();
-    if rep.lost > 0 {
-        out.push(format!(
-            "{} of {} walks left the mesh's box (the mesh has holes?): they return no light",
-            rep.lost, rep.walks
-        ));
-    }
-    if rep.cut > 0 {
-        out.push(format!(
-            "{} of {} walks were still inside after {} events: cut",
-            rep.cut,
-            rep.walks,
-            crate::medium::mesh_walk::MAX_EVENTS
-        ));
-    }
-    if rep.unlit * 100 > rep.walks {
-        out.push(format!(
-            "{} of {} walks left where no cloud point faces their side: give more points",
-            rep.unlit, rep.walks
-        ));
-    }
-    out
 }

@@ -90,6 +90,51 @@ pub struct WalkReport {
     pub indirect: bool,
 }
 
+impl WalkReport {
+    /// What a run must say, each as a line with its counts: walks lost
+    /// through holes, cut, or leaving where no point faces their side.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.lost > 0 {
+            out.push(format!(
+                "{} of {} walks left the mesh's box (the mesh has holes?): they return no light",
+                self.lost, self.walks
+            ));
+        }
+        if self.cut > 0 {
+            out.push(format!(
+                "{} of {} walks were still inside after {} events: cut",
+                self.cut,
+                self.walks,
+                crate::medium::mesh_walk::MAX_EVENTS
+            ));
+        }
+        if self.unlit * 100 > self.walks {
+            out.push(format!(
+                "{} of {} walks left where no cloud point faces their side: give more points",
+                self.unlit, self.walks
+            ));
+        }
+        out
+    }
+}
+
+/// Checks that `plan` (ssmulti's decided run) can take walks `w`: the
+/// physical model's one medium (per-point materials are the diffusion
+/// method's), and walks in range; an error names the parameter at fault.
+pub fn check(plan: &super::Plan, w: &WalkParams) -> Result<()> {
+    validate(w)?;
+    if plan.params.medium.is_none() {
+        let why = "walk needs the physical model's medium (--material, or --model physical)";
+        return Err(Error::param("method", why));
+    }
+    if !plan.per_point.attrs.is_empty() {
+        let why = "walk takes one medium: per-point materials are the diffusion method's";
+        return Err(Error::param("method", why));
+    }
+    Ok(())
+}
+
 /// Checks the walk parameters; an error names the one at fault.
 pub fn validate(w: &WalkParams) -> Result<()> {
     if !(1..=MAX_WALKS).contains(&w.walks) {
