@@ -273,7 +273,9 @@ pub fn ssmulti_walk(
         .into_par_iter()
         .map(|i| {
             progress.inc(1);
-            if own.as_ref().is_some_and(|o| !o[i]) {
+            // (With the filter a tile's halo points walk too: its own
+            // points near the tile's edge average them as untiled.)
+            if !w.denoise && own.as_ref().is_some_and(|o| !o[i]) {
                 return ([0.0; 3], [0.0; 3], [0; 6]);
             }
             let mut r = Pcg32::new(w.seed, stream[i]);
@@ -345,6 +347,10 @@ pub fn ssmulti_walk(
     };
     let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
     for (i, (_, _, c)) in per_point.iter().enumerate() {
+        // A tile's halo points get 0, as the diffusion method gives them.
+        if own.as_ref().is_some_and(|o| !o[i]) {
+            continue;
+        }
         for ch in 0..3 {
             out[ch][i] = value[i][ch] as f32;
         }
