@@ -28,6 +28,7 @@ use super::walk::sample_hg;
 use super::Medium;
 use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::mesh::TriMesh;
+use crate::geom::tangent_basis;
 use crate::maths::uniform53;
 use crate::optics::fresnel;
 
@@ -83,11 +84,7 @@ pub struct Walker<'a> {
 impl<'a> Walker<'a> {
     /// Walks through `mesh` (whose BVH is `occ`) in `medium`.
     pub fn new(mesh: &TriMesh, occ: &'a Occluder, medium: &Medium) -> Walker<'a> {
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in &mesh.positions {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
+        let (lo, hi) = crate::geom::grid::bounds(&mesh.positions);
         let size = (hi - lo).max_element().max(f64::MIN_POSITIVE);
         let grow = DVec3::splat(0.1 * size);
         let normals = (0..mesh.tris.len())
@@ -116,7 +113,7 @@ impl<'a> Walker<'a> {
         // refracted in along it (Fresnel's share reflected is not
         // subsurface light).
         let (mu_o, phi) = (uniform53(r).sqrt(), 2.0 * PI * uniform53(r));
-        let (t1, t2) = basis(n);
+        let (t1, t2) = tangent_basis(n);
         let s_o = (1.0 - mu_o * mu_o).max(0.0).sqrt();
         let out = n * mu_o + (t1 * phi.cos() + t2 * phi.sin()) * s_o;
         let t_in = 1.0 - fresnel(mu_o, self.eta);
@@ -191,24 +188,12 @@ impl<'a> Walker<'a> {
     }
 }
 
-/// Two unit vectors that make an orthonormal basis with the unit `n`
-/// (Duff et al. 2017).
-fn basis(n: DVec3) -> (DVec3, DVec3) {
-    let s = 1f64.copysign(n.z);
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x),
-        DVec3::new(b, s + n.y * n.y * a, -n.y),
-    )
-}
-
 /// The direction `d` scattered by Henyey-Greenstein `g`.
 fn scatter(d: DVec3, g: f64, r: &mut Pcg32) -> DVec3 {
     let c = sample_hg(g, uniform53(r));
     let s = (1.0 - c * c).max(0.0).sqrt();
     let phi = 2.0 * PI * uniform53(r);
-    let (t1, t2) = basis(d);
+    let (t1, t2) = tangent_basis(d);
     (d * c + (t1 * phi.cos() + t2 * phi.sin()) * s).normalize()
 }
 
@@ -217,7 +202,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_basis_is_orthonormal_and_scattering_keeps_unit_length() {
+    fn scattering_keeps_unit_length_and_hg_s_mean_cosine() {
         let mut r = Pcg32::new(1, 2);
         for k in 0..1000 {
             let n = DVec3::new(
@@ -226,11 +211,6 @@ mod tests {
                 uniform53(&mut r) - 0.5 - (k % 2) as f64,
             )
             .normalize();
-            let (a, b) = basis(n);
-            for (x, y) in [(a, b), (a, n), (b, n)] {
-                assert!(x.dot(y).abs() < 1e-12);
-            }
-            assert!((a.length() - 1.0).abs() < 1e-12 && (b.length() - 1.0).abs() < 1e-12);
             assert!((scatter(n, 0.8, &mut r).length() - 1.0).abs() < 1e-12);
         }
         // Henyey-Greenstein's mean cosine is g.

@@ -26,6 +26,17 @@ fn lit(dir: &std::path::Path) -> String {
     path.display().to_string()
 }
 
+/// A lights file in `dir` with one distant light from above: its path.
+fn sun(dir: &std::path::Path) -> String {
+    let lights = dir.join("l.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [-0.3, -1, -0.5]}]}"#,
+    )
+    .unwrap();
+    lights.display().to_string()
+}
+
 /// ssM of `ssmulti lit.ply ARGS`.
 fn ssm(dir: &std::path::Path, lit: &str, args: &[&str]) -> Vec<[f64; 3]> {
     let out = dir.join("out.ply").display().to_string();
@@ -182,13 +193,7 @@ fn sssingle_takes_the_medium_ssmulti_recorded() {
     let d = tempdir();
     let lit = lit(d.path());
     let cube = fixtures().join("mesh/cube.obj").display().to_string();
-    let lights = d.path().join("l.json");
-    std::fs::write(
-        &lights,
-        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [-0.3, -1, -0.5]}]}"#,
-    )
-    .unwrap();
-    let lights = lights.display().to_string();
+    let lights = sun(d.path());
     let single = |cloud: &str, args: &[&str]| {
         let out = d.path().join("s.ply").display().to_string();
         let mut all = vec![
@@ -332,13 +337,7 @@ fn every_stage_reads_its_material_file_once() {
     let d = tempdir();
     let lit = lit(d.path());
     let cube = fixtures().join("mesh/cube.obj").display().to_string();
-    let lights = d.path().join("l.json");
-    std::fs::write(
-        &lights,
-        r#"{"lights": [{"name": "sun", "type": "distant", "direction": [-0.3, -1, -0.5]}]}"#,
-    )
-    .unwrap();
-    let lights = lights.display().to_string();
+    let lights = sun(d.path());
     let out = d.path().join("out.ply").display().to_string();
     let stages: [(&str, Vec<&str>); 4] = [
         ("ssmulti", vec![&lit]),

@@ -937,25 +937,7 @@ fn tiled_walks_equal_the_untiled() {
     let d = tempdir();
     // A closed box, 4 x 4 x 1, its points lit from above.
     let mesh_path = d.path().join("box.obj");
-    let mut text = String::new();
-    for k in 0..8 {
-        let p = [
-            (k & 1) as f64 * 4.0,
-            ((k >> 1) & 1) as f64 * 4.0,
-            ((k >> 2) & 1) as f64,
-        ];
-        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [2, 4, 8, 6],
-        [4, 3, 7, 8],
-        [3, 1, 5, 7],
-    ] {
-        text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-    }
+    let text = box_obj([0.0; 3], [4.0, 4.0, 1.0]);
     std::fs::write(&mesh_path, &text).unwrap();
     let mesh = from_bytes(text.as_bytes());
     let mut c = scatter_n(&mesh, 6000, 3, pcsss::stages::scatter::PtareaMode::Prim);

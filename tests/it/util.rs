@@ -397,6 +397,28 @@ pub fn python_with(modules: &[&str]) -> String {
 
 // The geometry tests' meshes and clouds.
 
+/// A box `[lo, hi]` as OBJ text: six quads, outward normals
+/// (counter-clockwise seen from outside).
+pub fn box_obj(lo: [f64; 3], hi: [f64; 3]) -> String {
+    let mut text = String::new();
+    for k in 0..8 {
+        let p = [0, 1, 2].map(|a| if (k >> a) & 1 == 1 { hi[a] } else { lo[a] });
+        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    // (Corners numbered by their bits x, y, z.)
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [2, 4, 8, 6],
+        [4, 3, 7, 8],
+        [3, 1, 5, 7],
+    ] {
+        text += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    text
+}
+
 pub fn cube() -> Cloud {
     let b = std::fs::read(fixtures().join("mesh/cube.obj")).unwrap();
     from_bytes(&b)

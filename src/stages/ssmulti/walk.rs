@@ -124,15 +124,21 @@ impl WalkReport {
 /// method's), and walks in range; an error names the parameter at fault.
 pub fn check(plan: &super::Plan, w: &WalkParams) -> Result<()> {
     validate(w)?;
-    if plan.params.medium.is_none() {
-        let why = "walk needs the physical model's medium (--material, or --model physical)";
-        return Err(Error::param("method", why));
-    }
+    medium_of(&plan.params)?;
     if !plan.per_point.attrs.is_empty() {
         let why = "walk takes one medium: per-point materials are the diffusion method's";
         return Err(Error::param("method", why));
     }
     Ok(())
+}
+
+/// The physical model's medium the walks take; an error for the seed
+/// model.
+fn medium_of(p: &Params) -> Result<&crate::medium::Medium> {
+    p.medium.as_ref().ok_or_else(|| {
+        let why = "walk needs the physical model's medium (--material, or --model physical)";
+        Error::param("method", why)
+    })
 }
 
 /// Checks the walk parameters; an error names the one at fault.
@@ -155,7 +161,7 @@ struct Light {
 
 /// The cloud's light, weighed for the walk (see the module's doc).
 fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
-    let m = p.medium.as_ref().expect("the walk method is physical");
+    let m = medium_of(p)?;
     let pts = cloud.points();
     let illum = pts.vec3_f64("illum")?;
     let n = illum.len();
@@ -231,11 +237,7 @@ pub fn ssmulti_walk(
 ) -> Result<WalkReport> {
     super::params::validate(p)?;
     validate(w)?;
-    let Some(medium) = &p.medium else {
-        let why =
-            "the walk method needs the physical model's medium (--model physical, --material)";
-        return Err(Error::param("method", why));
-    };
+    let medium = medium_of(p)?;
     mesh.require_area()?;
     let own = crate::halo::halo_mask(cloud, Some(p.reach()), "ssmulti's reach")?;
     let mut rep = WalkReport::default();
