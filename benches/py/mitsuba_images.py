@@ -8,6 +8,10 @@ import mitsuba as mi
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+# volpath's Russian roulette from this depth on. Its default (5) reads
+# dark in media that absorb little, where light arrives through many
+# events: the references follow every path to its end.
+RR_DEPTH = 1_000_000
 
 
 def camera(cam, spp):

@@ -32,7 +32,7 @@ import time
 import mitsuba as mi
 import numpy as np
 
-from mitsuba_images import camera, errors, read_image, render_attr
+from mitsuba_images import camera, errors, read_image, render_attr, RR_DEPTH
 
 mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -51,7 +51,7 @@ CAMERA = {"position": [0, 0, 4], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 4
 def mitsuba(spp, max_depth=-1):
     scene = mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": max_depth},
+        "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": RR_DEPTH},
         "light": {"type": "directional", "direction": LIGHT,
                   "irradiance": {"type": "rgb", "value": 1.0}},
         "ball": {

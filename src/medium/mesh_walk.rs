@@ -63,15 +63,13 @@ pub enum End {
     Lost,
 }
 
-/// What walks through one mesh and medium share.
+/// What walks through one mesh share (each walk takes its medium: a
+/// per-point material's walk keeps its starting point's throughout, as
+/// Cycles' random walk keeps its shading point's).
 pub struct Walker<'a> {
     occ: &'a Occluder,
     /// Each triangle's outward unit normal (by the mesh's index).
     normals: Vec<DVec3>,
-    sigma_t: [f64; 3],
-    albedo: [f64; 3],
-    g: f64,
-    eta: f64,
     /// How far inside the surface a walk starts, and a reflected one goes
     /// on: above the BVH's f32 rounding of the mesh (about 1e-7 of its
     /// size).
@@ -79,11 +77,13 @@ pub struct Walker<'a> {
     /// The mesh's box, grown by a tenth: a walk beyond it is lost.
     lo: DVec3,
     hi: DVec3,
+    /// Guided walks where the medium's albedo is high ([`Guide`]).
+    guided: bool,
 }
 
 impl<'a> Walker<'a> {
-    /// Walks through `mesh` (whose BVH is `occ`) in `medium`.
-    pub fn new(mesh: &TriMesh, occ: &'a Occluder, medium: &Medium) -> Walker<'a> {
+    /// Walks through `mesh` (whose BVH is `occ`).
+    pub fn new(mesh: &TriMesh, occ: &'a Occluder) -> Walker<'a> {
         let (lo, hi) = crate::geom::grid::bounds(&mesh.positions);
         let size = (hi - lo).max_element().max(f64::MIN_POSITIVE);
         let grow = DVec3::splat(0.1 * size);
@@ -96,19 +96,31 @@ impl<'a> Walker<'a> {
         Walker {
             occ,
             normals,
-            sigma_t: medium.mfp.map(|m| 1.0 / m),
-            albedo: medium.albedo,
-            g: medium.g,
-            eta: medium.eta,
             inset: 1e-6 * size,
             lo: lo - grow,
             hi: hi + grow,
+            guided: true,
         }
     }
 
-    /// One walk from the surface point `p` of outward unit normal `n`,
-    /// with the random stream `r`.
-    pub fn walk(&self, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
+    /// Walks drawn by the classic scheme alone (free flights at the
+    /// extinction, directions by the phase function), without guiding:
+    /// the same mean, more noise where the albedo is high.
+    pub fn classic(mut self) -> Walker<'a> {
+        self.guided = false;
+        self
+    }
+
+    /// One walk in `medium` from the surface point `p` of outward unit
+    /// normal `n`, with the random stream `r`.
+    pub fn walk(&self, medium: &Medium, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
+        let sigma_t = medium.mfp.map(|m| 1.0 / m);
+        let (albedo, g, eta) = (medium.albedo, medium.g, medium.eta);
+        let guide = if self.guided {
+            Guide::new(medium)
+        } else {
+            None
+        };
         // The outside direction, cosine-weighted about n, and the light
         // refracted in along it (Fresnel's share reflected is not
         // subsurface light).
@@ -116,18 +128,26 @@ impl<'a> Walker<'a> {
         let (t1, t2) = tangent_basis(n);
         let s_o = (1.0 - mu_o * mu_o).max(0.0).sqrt();
         let out = n * mu_o + (t1 * phi.cos() + t2 * phi.sin()) * s_o;
-        let t_in = 1.0 - fresnel(mu_o, self.eta);
-        let mu_in = super::walk::refracted(mu_o, self.eta);
-        let mut d = (-(out - n * mu_o) / self.eta - n * mu_in).normalize();
+        let t_in = 1.0 - fresnel(mu_o, eta);
+        let mu_in = super::walk::refracted(mu_o, eta);
+        let mut d = (-(out - n * mu_o) / eta - n * mu_in).normalize();
         let mut x = p - n * self.inset;
         let mut w = [t_in; 3];
         let mut events = 0u32;
+        // The depth below the start's tangent plane of a face the first
+        // flight's line meets (the far side of a thin part), which the
+        // guided flights then also head for.
+        let mut opposite: Option<f64> = None;
+        // The last vertex scattered (its direction was drawn, guided or
+        // not); false at the start and after a reflection.
+        let mut scattered = false;
+        let mut first = true;
         loop {
             let total = w[0] + w[1] + w[2];
             if total.is_nan() || total <= 0.0 {
                 return End::Absorbed;
             }
-            // A channel by its throughput; the flight at its extinction.
+            // A channel by its throughput.
             let u = uniform53(r) * total;
             let h = if u < w[0] {
                 0
@@ -136,18 +156,87 @@ impl<'a> Walker<'a> {
             } else {
                 2
             };
-            let t = -(1.0 - uniform53(r)).ln() / self.sigma_t[h];
             let pick = w.map(|x| x / total);
-            match self.occ.nearest(x, d, 0.0, t, Facing::Leaving) {
+            // After a scattering event: the direction by the phase
+            // function, or guided (Dwivedi) towards the start's surface
+            // or the far side, with the flight stretched along it.
+            let mut lobes: Option<Lobes> = None;
+            let mut sigma_h = sigma_t[h];
+            if let (true, Some(gd)) = (scattered, &guide) {
+                let back = opposite.map_or(0.0, |o| gd.back_share(o, (p - x).dot(n)));
+                let guided = uniform53(r) < gd.fraction;
+                let backward = uniform53(r) < back;
+                if guided {
+                    let mut mu = gd.sample(uniform53(r));
+                    if backward {
+                        mu = -mu;
+                    }
+                    let phi = 2.0 * PI * uniform53(r);
+                    let s = (1.0 - mu * mu).max(0.0).sqrt();
+                    let nd = (n * mu + (t1 * phi.cos() + t2 * phi.sin()) * s).normalize();
+                    let hg = hg_pdf(g, d.dot(nd));
+                    d = nd;
+                    lobes = Some(gd.lobes(d.dot(n), hg, back));
+                    let l = lobes.as_ref().unwrap();
+                    sigma_h *= if backward {
+                        l.back_stretch
+                    } else {
+                        l.fwd_stretch
+                    };
+                } else {
+                    let nd = scatter(d, g, r);
+                    let hg = hg_pdf(g, d.dot(nd));
+                    d = nd;
+                    lobes = Some(gd.lobes(d.dot(n), hg, back));
+                }
+            }
+            let t = -(1.0 - uniform53(r)).ln() / sigma_h;
+            // The first flight looks further, for the far side.
+            let reach = match (&guide, first) {
+                (Some(gd), true) => t.max(gd.probe),
+                _ => t,
+            };
+            first = false;
+            let hit = self.occ.nearest(x, d, 0.0, reach, Facing::Leaving);
+            if reach > t {
+                if let Some((_, s)) = hit {
+                    opposite = Some((p - (x + d * s)).dot(n)).filter(|&o| o > 0.0);
+                }
+            }
+            let hit = hit.filter(|&(_, s)| s < t);
+            // Each channel's density of this flight under the mixture of
+            // the ways it could have been drawn, the walk's value per
+            // channel, and their one-sample balance.
+            let flight = |st: f64, at: f64, through: bool| {
+                if through {
+                    (-st * at).exp()
+                } else {
+                    st * (-st * at).exp()
+                }
+            };
+            let (at, through) = match hit {
+                Some((_, s)) => (s, true),
+                None => (t, false),
+            };
+            let dens = |c: usize| {
+                let classic = flight(sigma_t[c], at, through);
+                match (&lobes, &guide) {
+                    (Some(l), Some(gd)) => {
+                        let fwd = l.fwd * flight(sigma_t[c] * l.fwd_stretch, at, through);
+                        let back = l.back * flight(sigma_t[c] * l.back_stretch, at, through);
+                        (1.0 - gd.fraction) * classic + gd.fraction * (fwd + back)
+                    }
+                    _ => classic,
+                }
+            };
+            let pdf: f64 = (0..3).map(|c| pick[c] * dens(c)).sum();
+            match hit {
                 Some((tri, s)) => {
-                    // At the boundary: the channels' odds of flying this far.
-                    let tr = self.sigma_t.map(|st| (-st * s).exp());
-                    let pdf: f64 = (0..3).map(|c| pick[c] * tr[c]).sum();
-                    w = [0, 1, 2].map(|c| w[c] * tr[c] / pdf);
+                    w = [0, 1, 2].map(|c| w[c] * (-sigma_t[c] * s).exp() / pdf);
                     let nb = self.normals[tri];
                     let pos = x + d * s;
                     let mu = d.dot(nb).clamp(0.0, 1.0);
-                    if uniform53(r) >= fresnel(mu, 1.0 / self.eta) {
+                    if uniform53(r) >= fresnel(mu, 1.0 / eta) {
                         return End::Exit {
                             pos,
                             normal: nb,
@@ -157,14 +246,11 @@ impl<'a> Walker<'a> {
                     }
                     d = (d - nb * (2.0 * d.dot(nb))).normalize();
                     x = pos - nb * self.inset;
+                    scattered = false;
                 }
                 None => {
-                    let f = [0, 1, 2]
-                        .map(|c| self.albedo[c] * self.sigma_t[c] * (-self.sigma_t[c] * t).exp());
-                    let pdf: f64 = (0..3)
-                        .map(|c| pick[c] * self.sigma_t[c] * (-self.sigma_t[c] * t).exp())
-                        .sum();
-                    w = [0, 1, 2].map(|c| w[c] * f[c] / pdf);
+                    w = [0, 1, 2]
+                        .map(|c| w[c] * albedo[c] * sigma_t[c] * (-sigma_t[c] * t).exp() / pdf);
                     x += d * t;
                     if !(x.cmpge(self.lo).all() && x.cmple(self.hi).all()) {
                         return End::Lost;
@@ -173,7 +259,10 @@ impl<'a> Walker<'a> {
                     if events >= MAX_EVENTS {
                         return End::Cut;
                     }
-                    d = scatter(d, self.g, r);
+                    if guide.is_none() {
+                        d = scatter(d, g, r);
+                    }
+                    scattered = true;
                     let top = w[0].max(w[1]).max(w[2]);
                     if top < ROULETTE {
                         let q = top / ROULETTE;
@@ -186,6 +275,112 @@ impl<'a> Walker<'a> {
             }
         }
     }
+}
+
+/// Guided walks (Dwivedi's sampling, Krivanek and d'Eon 2014, with Meng,
+/// Hanika and Dachsbacher's direction density, as Cycles' "random walk
+/// guided" draws them): in a half-space the light that leaves decays
+/// with depth as `e^(-sigma_t z / nu)`, `nu` Dwivedi's diffusion length,
+/// so a share of the flights after each event head for the start's
+/// surface (their cosine with its normal drawn by `1 / (nu - mu)`) and
+/// fly stretched along it (at `sigma_t (1 - mu / nu)`). Where the first
+/// flight found a face beyond the start (a thin part), a share of those
+/// head for it instead, mirrored. Every flight is weighed by its density
+/// under the mixture of all the ways it could have been drawn (the
+/// balance heuristic), so the mean is the classic walk's.
+struct Guide {
+    nu: f64,
+    /// `ln((nu + 1) / (nu - 1))`.
+    phase_log: f64,
+    /// The share of flights guided.
+    fraction: f64,
+    /// The extinction the far side's share measures depths by.
+    sigma: f64,
+    /// How far the first flight looks for the far side.
+    probe: f64,
+}
+
+/// A guided flight's direction densities (over the phase function's) and
+/// stretches, forward (to the start's surface) and backward (to the far
+/// side), each times its share.
+struct Lobes {
+    fwd: f64,
+    back: f64,
+    fwd_stretch: f64,
+    back_stretch: f64,
+}
+
+impl Guide {
+    /// The guide of `m`, or none where its albedo is too low to gain
+    /// (walks are short there).
+    fn new(m: &Medium) -> Option<Guide> {
+        let (k, &top) = m
+            .albedo
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))?;
+        if top < GUIDE_ALBEDO {
+            return None;
+        }
+        // Dwivedi's diffusion length (d'Eon and Krivanek 2020, eq. 67;
+        // the highest albedo's: a length too short overshoots).
+        let a = top.min(1.0 - 1e-9);
+        let nu = 1.0 / (1.0 - a.powf(2.44294 - 0.0215813 * a + 0.578637 / a)).sqrt();
+        if !(nu.is_finite() && nu > 1.0 + 1e-9) {
+            return None;
+        }
+        let min_sigma = m.mfp.iter().fold(f64::INFINITY, |s, &l| s.min(1.0 / l));
+        Some(Guide {
+            nu,
+            phase_log: ((nu + 1.0) / (nu - 1.0)).ln(),
+            fraction: 1.0 - 0.5f64.max(m.g.abs().powf(0.125)),
+            sigma: 1.0 / m.mfp[k],
+            probe: 10.0 / min_sigma,
+        })
+    }
+
+    /// A cosine with the start's normal, by `1 / (nu - mu)`.
+    fn sample(&self, u: f64) -> f64 {
+        (self.nu - (self.nu + 1.0) * (-u * self.phase_log).exp()).clamp(-1.0, 1.0)
+    }
+
+    /// The density over the sphere of a guided direction at cosine `mu`.
+    fn density(&self, mu: f64) -> f64 {
+        1.0 / (2.0 * PI * (self.nu - mu) * self.phase_log)
+    }
+
+    /// The share of guided flights that head for the far side
+    /// `opposite` below the start's plane, at `depth` below it: a half
+    /// midway, more the nearer the far side.
+    fn back_share(&self, opposite: f64, depth: f64) -> f64 {
+        let z = depth.clamp(0.0, opposite.max(0.0));
+        1.0 / (1.0 + ((opposite - 2.0 * z) * self.sigma / self.nu).exp())
+    }
+
+    /// The lobes of a flight of cosine `mu` with the start's normal,
+    /// whose phase-function density is `hg`, `back` the far side's share.
+    fn lobes(&self, mu: f64, hg: f64, back: f64) -> Lobes {
+        Lobes {
+            fwd: (1.0 - back) * self.density(mu) / hg,
+            back: back * self.density(-mu) / hg,
+            fwd_stretch: 1.0 - mu / self.nu,
+            back_stretch: 1.0 + mu / self.nu,
+        }
+    }
+}
+
+/// Below this highest albedo a walk is not guided: it ends in a few
+/// events anyway.
+const GUIDE_ALBEDO: f64 = 0.5;
+
+/// Henyey-Greenstein's density over the sphere at cosine `c` (isotropic
+/// where [`sample_hg`] draws so).
+fn hg_pdf(g: f64, c: f64) -> f64 {
+    if g.abs() < 1e-3 {
+        return 1.0 / (4.0 * PI);
+    }
+    let den = 1.0 + g * g - 2.0 * g * c;
+    (1.0 - g * g) / (4.0 * PI * den * den.sqrt())
 }
 
 /// The direction `d` scattered by Henyey-Greenstein `g`.

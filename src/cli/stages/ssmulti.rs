@@ -65,8 +65,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = args.ss.given(medium, per_point)?.plan()?;
     let progress = msg.progress();
     if let Some((mesh, w)) = &walk {
-        let rep = ssmulti::walk::ssmulti_walk(&mut cloud, mesh, &params, w, &progress)
-            .map_err(cli::at(&name))?;
+        let plan = ssmulti::Plan {
+            params,
+            per_point,
+            base,
+        };
+        let (rep, groups) =
+            ssmulti::walk::ssmulti_walk_per_point(&mut cloud, mesh, &plan, w, &progress)
+                .map_err(cli::at(&name))?;
+        if groups > 1 {
+            msg.info(format!("per-point parameters: {groups} groups of points"));
+        }
         msg.info(format!(
             "{} points, {} walks, {} scattering events, {} left the mesh lit",
             rep.points, rep.walks, rep.events, rep.exits

@@ -120,24 +120,28 @@ fn round_to_levels(vals: &mut [Values], levels: u32) {
     }
 }
 
-/// `ssmulti` with per-point parameters: `base` the run's parameters (its
-/// medium the constant material's), `model` how that medium was given
-/// (or the seed model). Returns the report and the number of groups.
-pub fn ssmulti_per_point(
-    cloud: &mut Cloud,
-    base: &Params,
-    model: &Base,
-    pp: &PerPoint,
-    progress: &Progress,
-) -> Result<(Report, usize)> {
+/// The points grouped by their per-point values (in order of each
+/// group's first point, the same on every run), with each group's
+/// parameters.
+pub struct Groups {
+    pub params: Vec<Params>,
+    pub members: Vec<Vec<usize>>,
+    /// What the run records: what came from where (the same whatever
+    /// groups a part of the cloud holds, so tiles of one bake agree).
+    pub detail: String,
+}
+
+/// Groups the points of `cloud` by the per-point values `pp` gives them,
+/// over the run's parameters `base` (its medium the constant material's,
+/// given as `model`); `None` when the cloud has none of the attributes.
+pub fn groups(cloud: &Cloud, base: &Params, model: &Base, pp: &PerPoint) -> Result<Option<Groups>> {
     let (mut vals, kinds, used) = values(cloud, base, model, pp)?;
     if used.is_empty() {
-        return Ok((ssmulti(cloud, base, progress)?, 1));
+        return Ok(None);
     }
     if let Some(l) = pp.levels {
         round_to_levels(&mut vals, l);
     }
-    // Groups in order of their first point (the same on every run).
     let mut index: HashMap<[u64; 6], usize> = HashMap::new();
     let mut groups: Vec<(Values, Vec<usize>)> = Vec::new();
     for (i, v) in vals.iter().enumerate() {
@@ -186,9 +190,10 @@ pub fn ssmulti_per_point(
         super::params::validate(&p).map_err(at)?;
         Ok(p)
     };
-    // What the run records is the same whatever groups a part of the
-    // cloud holds (tiles of one bake agree on it): the constant's
-    // parameters and what came from where, not the groups.
+    let params = groups
+        .iter()
+        .map(|(v, pts)| params_of(v, pts[0]))
+        .collect::<Result<_>>()?;
     let detail = format!(
         "{}{}",
         used.join(", "),
@@ -196,24 +201,44 @@ pub fn ssmulti_per_point(
             .map(|l| format!("; {l} levels"))
             .unwrap_or_default()
     );
-    if groups.len() == 1 {
-        let p = params_of(&groups[0].0, groups[0].1[0])?;
-        let rep = ssmulti(cloud, &p, progress)?;
+    Ok(Some(Groups {
+        params,
+        members: groups.into_iter().map(|(_, m)| m).collect(),
+        detail,
+    }))
+}
+
+/// `ssmulti` with per-point parameters: `base` the run's parameters (its
+/// medium the constant material's), `model` how that medium was given
+/// (or the seed model). Returns the report and the number of groups.
+pub fn ssmulti_per_point(
+    cloud: &mut Cloud,
+    base: &Params,
+    model: &Base,
+    pp: &PerPoint,
+    progress: &Progress,
+) -> Result<(Report, usize)> {
+    let Some(Groups {
+        params,
+        members,
+        detail,
+    }) = groups(cloud, base, model, pp)?
+    else {
+        return Ok((ssmulti(cloud, base, progress)?, 1));
+    };
+    if members.len() == 1 {
+        let rep = ssmulti(cloud, &params[0], progress)?;
         let mut details = record(base, &rep);
         details.push(("ssmulti_per_point", DetailValue::Str(detail)));
         cloud.record("ssmulti_", details);
         return Ok((rep, 1));
     }
-    let params: Vec<Params> = groups
-        .iter()
-        .map(|(v, pts)| params_of(v, pts[0]))
-        .collect::<Result<_>>()?;
     let reach = params.iter().map(|p| p.reach()).fold(0.0, f64::max);
     let own = crate::halo::halo_mask(cloud, Some(reach), "ssmulti's reach")?;
     let n = cloud.len();
     let mut out = vec![[0f32; 3]; n];
     let mut report = Report::default();
-    for ((_, pts), p) in groups.iter().zip(&params) {
+    for (pts, p) in members.iter().zip(&params) {
         let mut want = vec![false; n];
         for &i in pts {
             want[i] = own.as_ref().is_none_or(|o| o[i]);
@@ -239,5 +264,5 @@ pub fn ssmulti_per_point(
     let mut details = record(base, &report);
     details.push(("ssmulti_per_point", DetailValue::Str(detail)));
     cloud.record("ssmulti_", details);
-    Ok((report, groups.len()))
+    Ok((report, members.len()))
 }

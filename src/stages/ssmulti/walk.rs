@@ -31,6 +31,7 @@ use crate::geom::bvh::Occluder;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::TriMesh;
 use crate::medium::mesh_walk::{End, Walker};
+use crate::medium::Medium;
 use crate::progress::Progress;
 
 /// The most walks a point may take.
@@ -120,21 +121,17 @@ impl WalkReport {
 }
 
 /// Checks that `plan` (ssmulti's decided run) can take walks `w`: the
-/// physical model's one medium (per-point materials are the diffusion
-/// method's), and walks in range; an error names the parameter at fault.
+/// physical model's medium, and walks in range; an error names the
+/// parameter at fault.
 pub fn check(plan: &super::Plan, w: &WalkParams) -> Result<()> {
     validate(w)?;
     medium_of(&plan.params)?;
-    if !plan.per_point.attrs.is_empty() {
-        let why = "walk takes one medium: per-point materials are the diffusion method's";
-        return Err(Error::param("method", why));
-    }
     Ok(())
 }
 
 /// The physical model's medium the walks take; an error for the seed
 /// model.
-fn medium_of(p: &Params) -> Result<&crate::medium::Medium> {
+fn medium_of(p: &Params) -> Result<&Medium> {
     p.medium.as_ref().ok_or_else(|| {
         let why = "walk needs the physical model's medium (--material, or --model physical)";
         Error::param("method", why)
@@ -152,16 +149,59 @@ pub fn validate(w: &WalkParams) -> Result<()> {
     Ok(())
 }
 
-/// The light each cloud point gives a walk that leaves beside it: after
-/// two events or more, and after one.
+/// The light each cloud point gives a walk that leaves beside it.
 struct Light {
-    multi: Vec<[f64; 3]>,
+    illum: Vec<[f64; 3]>,
+    /// `illum_cos`, where the cloud has it.
+    cos: Option<Vec<f64>>,
+    /// What a walk of one event takes: `illum_indirect`, or nothing.
     single: Vec<[f64; 3]>,
 }
 
-/// The cloud's light, weighed for the walk (see the module's doc).
-fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
-    let m = medium_of(p)?;
+/// How a medium weighs `illum` for a walk of two or more events: its
+/// incidence factor at `illum_cos`, times `rm / rm_diffuse` a channel.
+struct Weigh {
+    inc: crate::medium::Incidence,
+    k: [f64; 3],
+}
+
+impl Weigh {
+    fn of(m: &Medium) -> Weigh {
+        let rm_d = m.rm_diffuse();
+        let k = [0, 1, 2].map(|c| {
+            if rm_d[c] > 0.0 {
+                m.rm[c] / rm_d[c]
+            } else {
+                0.0
+            }
+        });
+        Weigh {
+            inc: m.incidence(),
+            k,
+        }
+    }
+}
+
+impl Light {
+    /// What a walk of `events` events that leaves beside point `j` takes,
+    /// in a medium weighing it by `w`.
+    fn at(&self, j: usize, events: u32, w: &Weigh) -> [f64; 3] {
+        match events {
+            0 => [0.0; 3],
+            1 => self.single[j],
+            _ => {
+                let f = match &self.cos {
+                    Some(c) => w.inc.factor(c[j]),
+                    None => [1.0; 3],
+                };
+                [0, 1, 2].map(|c| self.illum[j][c] * f[c] * w.k[c])
+            }
+        }
+    }
+}
+
+/// The cloud's light (see the module's doc).
+fn light(cloud: &Cloud, rep: &mut WalkReport) -> Result<Light> {
     let pts = cloud.points();
     let illum = pts.vec3_f64("illum")?;
     let n = illum.len();
@@ -178,16 +218,6 @@ fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
         }
     };
     check("illum", &illum)?;
-    let rm_d = m.rm_diffuse();
-    let by = |f: [f64; 3]| {
-        [0, 1, 2].map(|c| {
-            if rm_d[c] > 0.0 {
-                f[c] * m.rm[c] / rm_d[c]
-            } else {
-                0.0
-            }
-        })
-    };
     let cos = if pts.has("illum_cos") {
         let c = pts.scalar_f64("illum_cos")?;
         if let Some(i) = c.iter().position(|x| x.is_nan()) {
@@ -198,17 +228,6 @@ fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
         None
     };
     rep.by_incidence = cos.is_some();
-    let inc = m.incidence();
-    let at_normal = by([1.0; 3]);
-    let multi = (0..n)
-        .map(|i| {
-            let k = match &cos {
-                Some(c) => by(inc.factor(c[i])),
-                None => at_normal,
-            };
-            [0, 1, 2].map(|c| illum[i][c] * k[c])
-        })
-        .collect();
     let single = if pts.has("illum_indirect") {
         let ind = pts.vec3_f64("illum_indirect")?;
         check("illum_indirect", &ind)?;
@@ -217,7 +236,18 @@ fn light(cloud: &Cloud, p: &Params, rep: &mut WalkReport) -> Result<Light> {
     } else {
         vec![[0.0; 3]; n]
     };
-    Ok(Light { multi, single })
+    Ok(Light { illum, cos, single })
+}
+
+/// The media a run's points walk in: one, or a per-point material's
+/// groups (`which` a point's group).
+struct Media {
+    list: Vec<Medium>,
+    which: Option<Vec<u32>>,
+    /// What a per-point run records (formats/PLY.md): what came from where.
+    per_point: Option<String>,
+    /// The longest of the groups' reaches (a tile's halo).
+    reach: f64,
 }
 
 /// Adds `ssM` to `cloud` by the walk method through `mesh` (the mesh the
@@ -236,10 +266,70 @@ pub fn ssmulti_walk(
     progress: &Progress,
 ) -> Result<WalkReport> {
     super::params::validate(p)?;
+    let media = Media {
+        list: vec![*medium_of(p)?],
+        which: None,
+        per_point: None,
+        reach: p.reach(),
+    };
+    walks(cloud, mesh, p, &media, w, progress)
+}
+
+/// [`ssmulti_walk`] with `plan`'s per-point material: each point's walks
+/// take its own medium throughout (its group's, formats/MATERIAL.md#per-point).
+/// Returns the report and the number of groups.
+pub fn ssmulti_walk_per_point(
+    cloud: &mut Cloud,
+    mesh: &TriMesh,
+    plan: &super::Plan,
+    w: &WalkParams,
+    progress: &Progress,
+) -> Result<(WalkReport, usize)> {
+    let p = &plan.params;
+    super::params::validate(p)?;
+    medium_of(p)?;
+    let groups = if plan.per_point.attrs.is_empty() {
+        None
+    } else {
+        super::per_point::groups(cloud, p, &plan.base, &plan.per_point)?
+    };
+    let Some(g) = groups else {
+        return Ok((ssmulti_walk(cloud, mesh, p, w, progress)?, 1));
+    };
+    let mut which = vec![0u32; cloud.len()];
+    for (k, m) in g.members.iter().enumerate() {
+        for &i in m {
+            which[i] = k as u32;
+        }
+    }
+    let list = g
+        .params
+        .iter()
+        .map(|q| medium_of(q).cloned())
+        .collect::<Result<Vec<_>>>()?;
+    let media = Media {
+        list,
+        which: Some(which),
+        per_point: Some(g.detail),
+        reach: g.params.iter().map(|q| q.reach()).fold(0.0, f64::max),
+    };
+    let rep = walks(cloud, mesh, p, &media, w, progress)?;
+    Ok((rep, g.members.len()))
+}
+
+/// The walks of every point, each in its medium of `media`; `p` the run's
+/// parameters (its medium the constant material's), recorded.
+fn walks(
+    cloud: &mut Cloud,
+    mesh: &TriMesh,
+    p: &Params,
+    media: &Media,
+    w: &WalkParams,
+    progress: &Progress,
+) -> Result<WalkReport> {
     validate(w)?;
-    let medium = medium_of(p)?;
     mesh.require_area()?;
-    let own = crate::halo::halo_mask(cloud, Some(p.reach()), "ssmulti's reach")?;
+    let own = crate::halo::halo_mask(cloud, Some(media.reach), "ssmulti's reach")?;
     let mut rep = WalkReport::default();
     let pos = cloud.points().vec3_f64("P")?;
     let nrm = cloud.points().vec3_f64("N")?;
@@ -253,7 +343,8 @@ pub fn ssmulti_walk(
             pos[i], nrm[i]
         )));
     }
-    let light = light(cloud, p, &mut rep)?;
+    let light = light(cloud, &mut rep)?;
+    let weigh: Vec<Weigh> = media.list.iter().map(Weigh::of).collect();
     // A tile's point walks the stream of its index in the untiled cloud:
     // the tiled bake draws the untiled one's walks.
     let stream: Vec<u64> = if cloud.points().has(crate::names::INDEX) {
@@ -269,7 +360,7 @@ pub fn ssmulti_walk(
         .map(|&q| DVec3::from_array(q).normalize())
         .collect();
     let occ = Occluder::new(mesh);
-    let walker = Walker::new(mesh, &occ, medium);
+    let walker = Walker::new(mesh, &occ);
     progress.start("ssmulti: walks", n as u64);
     let per_point: Vec<([f64; 3], [f64; 3], [u64; 6])> = (0..n)
         .into_par_iter()
@@ -285,9 +376,11 @@ pub fn ssmulti_walk(
             // (walks, events, exits, unlit, lost, cut)
             let mut counts = [0u64; 6];
             let start = DVec3::from_array(pos[i]);
+            let k = media.which.as_ref().map_or(0, |g| g[i] as usize);
+            let medium = &media.list[k];
             for _ in 0..w.walks {
                 counts[0] += 1;
-                match walker.walk(start, unit[i], &mut r) {
+                match walker.walk(medium, start, unit[i], &mut r) {
                     End::Exit {
                         pos: x,
                         normal,
@@ -307,11 +400,7 @@ pub fn ssmulti_walk(
                         counts[2] += 1;
                         // (illum holds illum_indirect too: its
                         // multiple scattering is in the first term.)
-                        let e = match events {
-                            0 => [0.0; 3],
-                            1 => light.single[j],
-                            _ => light.multi[j],
-                        };
+                        let e = light.at(j, events, &weigh[k]);
                         for c in 0..3 {
                             let x = weight[c] * e[c];
                             sum[c] += x;
@@ -371,7 +460,11 @@ pub fn ssmulti_walk(
     // The walks' noise, as a standard error a channel (before any filter).
     let err: Vec<[f32; 3]> = var.iter().map(|v| v.map(|x| x.sqrt() as f32)).collect();
     cloud.points_mut().set_vec3("ssM_err", Role::Vector, &err)?;
-    cloud.record("ssmulti_", record(p, w, mesh, &rep));
+    let mut details = record(p, w, mesh, &rep);
+    if let Some(d) = &media.per_point {
+        details.push(("ssmulti_per_point", DetailValue::Str(d.clone())));
+    }
+    cloud.record("ssmulti_", details);
     Ok(rep)
 }
 
