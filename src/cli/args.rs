@@ -10,7 +10,7 @@ use clap::Parser;
 
 use super::{env_flag, IoArgs};
 use crate::medium::{self, Model};
-use crate::stages::filter::{self, SingleSetup};
+use crate::stages::filter;
 use crate::stages::ssmulti::{self, FalloffKind, Norm, Simd};
 use crate::stages::sssingle;
 
@@ -35,27 +35,18 @@ pub struct GatherArgs {
 impl GatherArgs {
     /// `filter`'s setup for `cloud` (named `cloud_name` in an error)
     /// with these options: the attributes `attrs` gathered, `ssM` and
-    /// `ssS` made lazily by `multi` and `single`; how the reach was
-    /// chosen is a debug message.
+    /// `ssS` made as `lazy` says; how the reach was chosen is a debug
+    /// message.
     pub fn setup<'a>(
         &self,
         cloud: &crate::cloud::Cloud,
         cloud_name: &str,
         attrs: &'a [String],
-        multi: Option<&'a ssmulti::Params>,
-        single: Option<&'a SingleSetup<'a>>,
+        lazy: filter::Lazy<'a>,
         msg: &super::Messages,
     ) -> anyhow::Result<filter::Setup<'a>> {
-        let setup = filter::Setup::new(
-            cloud,
-            attrs,
-            multi,
-            single,
-            self.nfp,
-            self.radius,
-            self.facing,
-        )
-        .map_err(super::at(cloud_name))?;
+        let setup = filter::Setup::new(cloud, attrs, lazy, self.nfp, self.radius, self.facing)
+            .map_err(super::at(cloud_name))?;
         if let Some(note) = &setup.note {
             msg.debug(note);
         }
@@ -174,6 +165,57 @@ pub struct WalkArgs {
     /// noise (ssM_err holds each point's, unfiltered).
     #[arg(long)]
     pub denoise: bool,
+}
+
+/// The walk method for the `ssM` that `filter` and `render` compute
+/// lazily (as `ssmulti --method walk` does for the whole cloud).
+#[derive(clap::Args, Debug, Clone)]
+pub struct LazyWalkArgs {
+    /// Lazy ssM: how it is computed, diffusion (a kernel) or walk (random
+    /// walks through --walk-mesh, render's --mesh without it).
+    #[arg(long, value_enum, default_value = "diffusion")]
+    pub method: ssmulti::Method,
+    /// Lazy ssM by walks: the closed mesh the cloud's points lie on.
+    #[arg(long, value_name = "MESH")]
+    pub walk_mesh: Option<PathBuf>,
+    /// Lazy ssM by walks: walks a point (1 to 1048576).
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub walks: u32,
+    /// Lazy ssM by walks: the seed of every point's random stream.
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    pub walk_seed: u64,
+    /// Lazy ssM by walks: filter the walks' noise on the cloud.
+    #[arg(long)]
+    pub denoise: bool,
+}
+
+impl LazyWalkArgs {
+    /// The walks asked for (none for the diffusion method), checked, and
+    /// the mesh they go through: `--walk-mesh`, else `default`; without
+    /// either, an error naming `--walk-mesh`.
+    pub fn given(
+        &self,
+        default: Option<&std::path::Path>,
+    ) -> anyhow::Result<Option<(PathBuf, ssmulti::walk::WalkParams)>> {
+        if self.method != ssmulti::Method::Walk {
+            return Ok(None);
+        }
+        let w = ssmulti::walk::WalkParams {
+            walks: self.walks,
+            seed: self.walk_seed,
+            denoise: self.denoise,
+        };
+        ssmulti::walk::validate(&w)?;
+        let mesh = match (&self.walk_mesh, default) {
+            (Some(m), _) => m.clone(),
+            (None, Some(m)) => m.to_path_buf(),
+            (None, None) => {
+                let why = "lazy ssM by walks needs the mesh the points lie on";
+                return Err(crate::Error::param("walk_mesh", why).into());
+            }
+        };
+        Ok(Some((mesh, w)))
+    }
 }
 
 /// `ssmulti`'s per-point options (also read by `pctile split --for

@@ -20,8 +20,8 @@ pub mod stage_args;
 pub mod stages;
 
 pub use args::{
-    parse_bytes, parse_rgb, parse_xyz, GatherArgs, IllumArgs, MaterialArgs, PerPointArgs,
-    SingleArgs, SsArgs, SssingleArgs, WalkArgs,
+    parse_bytes, parse_rgb, parse_xyz, GatherArgs, IllumArgs, LazyWalkArgs, MaterialArgs,
+    PerPointArgs, SingleArgs, SsArgs, SssingleArgs, WalkArgs,
 };
 
 use std::io::{self, BufReader, IsTerminal, Read};

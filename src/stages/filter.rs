@@ -233,13 +233,32 @@ pub struct SingleSetup<'a> {
     pub params: &'a sssingle::Params,
 }
 
+/// What the walk method needs to compute `ssM` lazily
+/// (`ssmulti --method walk`): the closed mesh the points lie on, and the
+/// walks.
+pub struct WalkSetup<'a> {
+    pub mesh: &'a TriMesh,
+    pub walk: ssmulti::walk::WalkParams,
+}
+
+/// How `ssM` and `ssS` a cloud lacks are computed (none: they are not).
+#[derive(Clone, Copy, Default)]
+pub struct Lazy<'a> {
+    /// ssmulti's parameters.
+    pub multi: Option<&'a ssmulti::Params>,
+    /// With `multi`, by the walk method.
+    pub walk: Option<&'a WalkSetup<'a>>,
+    pub single: Option<&'a SingleSetup<'a>>,
+}
+
 /// Where one filtered attribute's values come from.
 #[derive(Clone, Copy)]
 pub enum Source<'a> {
     /// The cloud's colour or 3-vector attribute of this name.
     Stored(&'a str),
-    /// `ssM`, computed with ssmulti's code for the points read.
-    Multi(&'a ssmulti::Params),
+    /// `ssM`, computed with ssmulti's code for the points read: by the
+    /// diffusion method, or with a walk setup by the walk method.
+    Multi(&'a ssmulti::Params, Option<&'a WalkSetup<'a>>),
     /// `ssS`, computed with sssingle's code for the points read (those
     /// the eye sees: the others are 0).
     Single(&'a SingleSetup<'a>),
@@ -250,7 +269,7 @@ impl Source<'_> {
     pub fn name(&self) -> &str {
         match self {
             Source::Stored(n) => n,
-            Source::Multi(_) => "ssM",
+            Source::Multi(..) => "ssM",
             Source::Single(_) => "ssS",
         }
     }
@@ -259,20 +278,19 @@ impl Source<'_> {
 /// The sources for the attributes `names` (none: every scattering
 /// attribute, [`SCATTERING`], the cloud has or can compute). An attribute
 /// the cloud has is read; `ssM` and `ssS` it lacks are computed lazily
-/// with `multi` and `single`; anything else is an error that says how to
-/// make it.
-pub fn sources<'a>(
-    cloud: &Cloud,
-    names: &'a [String],
-    multi: Option<&'a ssmulti::Params>,
-    single: Option<&'a SingleSetup<'a>>,
-) -> Result<Vec<Source<'a>>> {
+/// as `lazy` says; anything else is an error that says how to make it.
+pub fn sources<'a>(cloud: &Cloud, names: &'a [String], lazy: Lazy<'a>) -> Result<Vec<Source<'a>>> {
+    let Lazy {
+        multi,
+        walk,
+        single,
+    } = lazy;
     let pick = |name: &'a str| -> Option<Source<'a>> {
         if cloud.points().has(name) {
             return Some(Source::Stored(name));
         }
         match name {
-            "ssM" => multi.map(Source::Multi),
+            "ssM" => multi.map(|p| Source::Multi(p, walk)),
             "ssS" => single.map(Source::Single),
             _ => None,
         }
@@ -456,7 +474,7 @@ pub fn reach(
 /// tile of the cloud needs a halo at least this wide.
 pub fn halo_reach(reach: Reach, sources: &[Source]) -> Option<f64> {
     let lazy = |s: &Source| match s {
-        Source::Multi(p) => p.reach(),
+        Source::Multi(p, _) => p.reach(),
         // ssS at a point needs only the lights and the mesh.
         Source::Stored(_) | Source::Single(_) => 0.0,
     };
@@ -484,14 +502,14 @@ impl<'a> Setup<'a> {
     pub fn new(
         cloud: &Cloud,
         attrs: &'a [String],
-        multi: Option<&'a ssmulti::Params>,
-        single: Option<&'a SingleSetup<'a>>,
+        lazy: Lazy<'a>,
         nfp: Option<usize>,
         radius: Option<f64>,
         facing: bool,
     ) -> Result<Setup<'a>> {
-        let sources = sources(cloud, attrs, multi, single)?;
-        let (reach, note) = reach(cloud, nfp, radius, multi, single.map(|s| s.params))?;
+        let sources = sources(cloud, attrs, lazy)?;
+        let single = lazy.single.map(|s| s.params);
+        let (reach, note) = reach(cloud, nfp, radius, lazy.multi, single)?;
         Ok(Setup {
             params: Params { reach, facing },
             sources,
@@ -641,10 +659,18 @@ pub fn filter(
     for source in sources {
         values.push(match *source {
             Source::Stored(name) => cloud.points().vec3_f32(name).map_err(about_cloud)?,
-            Source::Multi(sp) => {
+            Source::Multi(sp, None) => {
                 let (v, rep) = ssmulti::ssmulti_values(cloud, sp, Some(&want), progress)
                     .map_err(about_cloud)?;
                 report.lazy.push(("ssM".into(), read, rep.computed));
+                v
+            }
+            Source::Multi(sp, Some(ws)) => {
+                let (v, rep) =
+                    ssmulti::walk::walk_values(cloud, ws.mesh, sp, &ws.walk, Some(&want), progress)
+                        .map_err(about_cloud)?;
+                report.lazy.push(("ssM".into(), read, rep.computed));
+                report.warnings.extend(rep.warnings());
                 v
             }
             Source::Single(ss) => {
@@ -747,7 +773,7 @@ pub fn srgb(x: f64) -> f64 {
 /// are.
 pub fn radiance_scale(cloud: &Cloud, source: &Source) -> f64 {
     let physical = match source {
-        Source::Multi(p) => p.medium.is_some(),
+        Source::Multi(p, _) => p.medium.is_some(),
         Source::Stored("ssM") => matches!(
             cloud.detail("ssmulti_radiance"),
             Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE

@@ -86,7 +86,7 @@ pub fn reach_for(stage: &StageParams, detail: &[Detail], has_ssm: bool) -> Resul
             };
             let (read, _) = filter::reach(&cloud, *nfp, *radius, multi.as_ref(), None)?;
             let lazy: Vec<Source> = match multi {
-                Some(p) if !has_ssm => vec![Source::Multi(p)],
+                Some(p) if !has_ssm => vec![Source::Multi(p, None)],
                 _ => Vec::new(),
             };
             filter::halo_reach(read, &lazy).ok_or_else(|| {

@@ -293,7 +293,7 @@ fn eager_equals_lazy(
     let hidden = Progress::hidden();
     let stored = [Source::Stored("ssM")];
     filter::filter(full, "cloud", &mut eager, params, &stored, &hidden).unwrap();
-    let multi = [Source::Multi(sp)];
+    let multi = [Source::Multi(sp, None)];
     let rep = filter::filter(cloud, "cloud", &mut lazy, params, &multi, &hidden).unwrap();
     let a = eager.points().vec3_f32("ssM").unwrap();
     let b = lazy.points().vec3_f32("ssM").unwrap();
@@ -822,5 +822,83 @@ fn the_radius_filter_equals_brute_force_on_any_threads() {
             }
         }
         assert_eq!(rep.empty, empty, "radius {radius}");
+    }
+}
+
+/// `n` random points on the unit cube's faces, outward normals, lit from
+/// above (illum `0.1 + max(0, N.z)`).
+fn cube_cloud(n: usize) -> Cloud {
+    let mut r = Pcg32::new(29, 31);
+    let mut p = Vec::with_capacity(n);
+    let mut nrm = Vec::with_capacity(n);
+    for k in 0..n {
+        let (face, a, b) = (k % 6, unit(&mut r), unit(&mut r));
+        let (axis, side) = (face / 2, (face % 2) as f64);
+        let mut q = [a, b, a];
+        q[axis] = side;
+        q[(axis + 1) % 3] = a;
+        q[(axis + 2) % 3] = b;
+        let mut m = [0.0f32; 3];
+        m[axis] = if side > 0.5 { 1.0 } else { -1.0 };
+        p.push(q);
+        nrm.push(m);
+    }
+    let e: Vec<[f32; 3]> = nrm.iter().map(|m| [0.1 + m[2].max(0.0); 3]).collect();
+    let mut c = Cloud::with_points(n);
+    let pts = c.points_mut();
+    pts.set_vec3("P", Role::Point, &p).unwrap();
+    pts.set_vec3("N", Role::Normal, &nrm).unwrap();
+    pts.set_scalar("ptarea", vec![(6.0 / n as f64) as f32; n])
+        .unwrap();
+    pts.set_vec3("illum", Role::Color, &e).unwrap();
+    c
+}
+
+/// The walk method lazily (filter and render compute `ssM` by walks only
+/// for the cloud points read): the same values as `ssmulti --method
+/// walk` stored, with the filter on the cloud and without; only the work
+/// the view needs.
+#[test]
+fn lazy_walks_equal_the_stored_ones() {
+    use pcsss::stages::ssmulti::walk::{ssmulti_walk, WalkParams};
+    let mesh_cloud = from_bytes(&std::fs::read(fixtures().join("mesh/cube.obj")).unwrap());
+    let mesh = pcsss::geom::mesh::TriMesh::from_cloud(&mesh_cloud).unwrap();
+    let cloud = cube_cloud(6000);
+    let m = pcsss::medium::Medium::new([0.95, 0.9, 0.8], [0.05, 0.08, 0.1], 1.3, 0.0).unwrap();
+    let sp = ssmulti::Params {
+        medium: Some(m),
+        ..Default::default()
+    };
+    // Shade points on a corner of the top face.
+    let mut r = Pcg32::new(3, 4);
+    let top: Vec<[f64; 3]> = (0..300)
+        .map(|_| [0.3 * unit(&mut r), 0.3 * unit(&mut r), 1.0])
+        .collect();
+    let params = Params {
+        reach: Reach::Radius(0.05),
+        facing: false,
+    };
+    let hidden = Progress::hidden();
+    for denoise in [false, true] {
+        let walk = WalkParams {
+            walks: 16,
+            seed: 8,
+            denoise,
+        };
+        let mut full = cloud.clone();
+        ssmulti_walk(&mut full, &mesh, &sp, &walk, &hidden).unwrap();
+        let (mut eager, mut lazy) = (shade_at(&top), shade_at(&top));
+        let stored = [Source::Stored("ssM")];
+        filter::filter(&full, "cloud", &mut eager, &params, &stored, &hidden).unwrap();
+        let setup = filter::WalkSetup { mesh: &mesh, walk };
+        let by_walks = [Source::Multi(&sp, Some(&setup))];
+        let rep = filter::filter(&cloud, "cloud", &mut lazy, &params, &by_walks, &hidden).unwrap();
+        let a = eager.points().vec3_f32("ssM").unwrap();
+        let b = lazy.points().vec3_f32("ssM").unwrap();
+        assert!(a.iter().flatten().any(|&x| x > 0.0));
+        assert_eq!(a, b, "denoise {denoise}");
+        let (_, read, computed) = rep.lazy[0].clone();
+        assert!(read < cloud.len() / 20, "read {read}");
+        assert_eq!(computed, read, "denoise {denoise}");
     }
 }

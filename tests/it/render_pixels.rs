@@ -310,7 +310,8 @@ fn the_default_filter_radius_never_falls_below_the_clouds_spacing() {
         render::render(&mesh, &cam).unwrap().0
     };
     let run_with = |radius: Option<f64>| {
-        let setup = filter::Setup::new(&cloud, &[], None, None, None, radius, false).unwrap();
+        let setup =
+            filter::Setup::new(&cloud, &[], filter::Lazy::default(), None, radius, false).unwrap();
         let mut s = shade.clone();
         let rep = filter::filter(
             &cloud,
@@ -350,7 +351,11 @@ fn the_physical_models_ssm_is_filtered_over_two_spacings() {
     // A long kernel: a quarter of it is far above two spacings.
     cloud.set_detail("ssmulti_sd", DetailValue::F64(4.0));
     let reach = |c: &pcsss::Cloud, multi: Option<&pcsss::stages::ssmulti::Params>| {
-        filter::Setup::new(c, &[], multi, None, None, None, false)
+        let lazy = filter::Lazy {
+            multi,
+            ..filter::Lazy::default()
+        };
+        filter::Setup::new(c, &[], lazy, None, None, false)
             .unwrap()
             .params
             .reach

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use crate::cli::{self, GatherArgs, IoArgs, MaterialArgs, SingleArgs, SsArgs};
 use crate::formats::Select;
 use crate::stages::facet::{self, Weight};
-use crate::stages::filter::{self, SingleSetup};
+use crate::stages::filter::{self, Lazy, SingleSetup, WalkSetup};
 use crate::stages::sssingle;
 use crate::Error;
 use clap::Parser;
@@ -65,6 +65,8 @@ pub struct Args {
     pub single: SingleArgs,
     #[command(flatten)]
     pub material: MaterialArgs,
+    #[command(flatten)]
+    pub walk: cli::LazyWalkArgs,
 }
 
 /// Runs the stage: reads its input, works, writes its output.
@@ -79,6 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // the cloud is read (a bad one fails fast) and again in its unit.
     let mut medium = args.material.given()?;
     args.ss.given(medium.clone(), None)?.params()?;
+    let walk = args.walk.given(None)?;
     let cloud = cli::read_input(Some(&args.cloud), &Select::All)?;
     // The camera's eye and the lights are moved into the cloud's frame,
     // and a preset's lengths follow its unit.
@@ -116,14 +119,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lights,
         params,
     });
-    let setup = args.gather.setup(
-        &cloud,
-        &cloud_name,
-        &args.attrs,
-        multi.as_ref(),
-        lazy_single.as_ref(),
-        &msg,
-    )?;
+    let walk = match &walk {
+        Some((path, w)) => Some((cli::read_mesh(path)?, *w)),
+        None => None,
+    };
+    let walk_setup = walk
+        .as_ref()
+        .map(|(mesh, walk)| WalkSetup { mesh, walk: *walk });
+    let lazy = Lazy {
+        multi: multi.as_ref(),
+        walk: walk_setup.as_ref(),
+        single: lazy_single.as_ref(),
+    };
+    let setup = args
+        .gather
+        .setup(&cloud, &cloud_name, &args.attrs, lazy, &msg)?;
     let mut shade = args.io.read(&Select::All)?;
     // A mesh's own vertices without normals get them (for --facing).
     let is_mesh = shade.faces().is_some_and(|f| !f.is_empty());

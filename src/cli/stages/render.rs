@@ -8,7 +8,7 @@ use crate::files;
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
 use crate::geom::mesh::TriMesh;
-use crate::stages::filter::SingleSetup;
+use crate::stages::filter::{Lazy, SingleSetup, WalkSetup};
 use crate::stages::render;
 use crate::Error;
 use clap::Parser;
@@ -83,6 +83,8 @@ pub struct Args {
     #[command(flatten)]
     pub material: MaterialArgs,
     #[command(flatten)]
+    pub walk: cli::LazyWalkArgs,
+    #[command(flatten)]
     pub msg: MsgArgs,
 }
 
@@ -102,6 +104,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // the cloud is read (a bad one fails fast) and again in its unit.
     let mut medium = args.material.given()?;
     args.ss.given(medium.clone(), None)?.params()?;
+    let walk = args.walk.given(Some(&args.mesh))?;
     // The direct term's parameters and lights, checked before any work.
     let kd = cli::parse_rgb("--kd", &args.kd)?;
     render::check_kd(kd)?;
@@ -151,14 +154,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             lights,
             params,
         });
-    let setup = args.gather.setup(
-        &cloud,
-        &cloud_name,
-        &args.attrs,
-        lazy.as_ref(),
-        lazy_single.as_ref(),
-        &msg,
-    )?;
+    let walk_mesh = match &walk {
+        Some((path, w)) => Some((cli::read_mesh(path)?, *w)),
+        None => None,
+    };
+    let walk_setup = walk_mesh
+        .as_ref()
+        .map(|(mesh, walk)| WalkSetup { mesh, walk: *walk });
+    let lazy = Lazy {
+        multi: lazy.as_ref(),
+        walk: walk_setup.as_ref(),
+        single: lazy_single.as_ref(),
+    };
+    let setup = args
+        .gather
+        .setup(&cloud, &cloud_name, &args.attrs, lazy, &msg)?;
     let scene = render::Scene {
         mesh: &mesh,
         mesh_name: &mesh_name,

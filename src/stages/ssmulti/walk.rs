@@ -327,6 +327,56 @@ fn walks(
     w: &WalkParams,
     progress: &Progress,
 ) -> Result<WalkReport> {
+    let (value, err, rep) = walk_rows(cloud, mesh, media, w, None, progress)?;
+    let cols = [0, 1, 2].map(|c| value.iter().map(|r| r[c]).collect::<Vec<f32>>());
+    let ssm = Attribute::vec3("ssM", Role::Color, cols.map(f32::wrap));
+    cloud.points_mut().set(ssm)?;
+    cloud.points_mut().set_vec3("ssM_err", Role::Vector, &err)?;
+    let mut details = record(p, w, mesh, &rep);
+    if let Some(d) = &media.per_point {
+        details.push(("ssmulti_per_point", DetailValue::Str(d.clone())));
+    }
+    cloud.record("ssmulti_", details);
+    Ok(rep)
+}
+
+/// `ssM` by the walk method for the points of `cloud` that `want` marks
+/// (all without it; the others get 0), with the medium of `p`: what
+/// `filter` and `render` compute lazily. A point's value is the one a
+/// whole run gives it, bit for bit (with `--denoise` its nearest
+/// neighbours walk too).
+pub fn walk_values(
+    cloud: &Cloud,
+    mesh: &TriMesh,
+    p: &Params,
+    w: &WalkParams,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<(Vec<[f32; 3]>, WalkReport)> {
+    super::params::validate(p)?;
+    let media = Media {
+        list: vec![*medium_of(p)?],
+        which: None,
+        per_point: None,
+        reach: p.reach(),
+    };
+    let (value, _, rep) = walk_rows(cloud, mesh, &media, w, want, progress)?;
+    Ok((value, rep))
+}
+
+/// A value a point, per channel.
+type Rows = Vec<[f32; 3]>;
+
+/// Each point's `ssM` and standard error (`ssM_err`) by the walk method,
+/// for the points `want` marks (all without it), and the report.
+fn walk_rows(
+    cloud: &Cloud,
+    mesh: &TriMesh,
+    media: &Media,
+    w: &WalkParams,
+    want: Option<&[bool]>,
+    progress: &Progress,
+) -> Result<(Rows, Rows, WalkReport)> {
     validate(w)?;
     mesh.require_area()?;
     let own = crate::halo::halo_mask(cloud, Some(media.reach), "ssmulti's reach")?;
@@ -361,14 +411,30 @@ fn walks(
         .collect();
     let occ = Occluder::new(mesh);
     let walker = Walker::new(mesh, &occ);
+    // The points that walk: those wanted (with the filter, their
+    // neighbours too), and of a tile its own (and with the filter its
+    // halo: its own points near the tile's edge average them as untiled).
+    let walks_at: Vec<bool> = {
+        let mut at: Vec<bool> = (0..n)
+            .map(|i| want.is_none_or(|m| m[i]) && (w.denoise || own.as_ref().is_none_or(|o| o[i])))
+            .collect();
+        if w.denoise && want.is_some() {
+            for i in 0..n {
+                if want.is_some_and(|m| m[i]) {
+                    for q in tree.nearest(DVec3::from_array(pos[i]), DENOISE_NEAR) {
+                        at[q.item as usize] = true;
+                    }
+                }
+            }
+        }
+        at
+    };
     progress.start("ssmulti: walks", n as u64);
     let per_point: Vec<([f64; 3], [f64; 3], [u64; 6])> = (0..n)
         .into_par_iter()
         .map(|i| {
             progress.inc(1);
-            // (With the filter a tile's halo points walk too: its own
-            // points near the tile's edge average them as untiled.)
-            if !w.denoise && own.as_ref().is_some_and(|o| !o[i]) {
+            if !walks_at[i] {
                 return ([0.0; 3], [0.0; 3], [0; 6]);
             }
             let mut r = Pcg32::new(w.seed, stream[i]);
@@ -429,22 +495,22 @@ fn walks(
     progress.finish();
     let mean: Vec<[f64; 3]> = per_point.iter().map(|p| p.0).collect();
     let var: Vec<[f64; 3]> = per_point.iter().map(|p| p.1).collect();
+    // The points whose value is given: a tile's own, of those wanted.
+    let given: Vec<bool> = (0..n)
+        .map(|i| own.as_ref().is_none_or(|o| o[i]) && want.is_none_or(|m| m[i]))
+        .collect();
     let value = if w.denoise {
-        let all = vec![true; n];
-        let mine = own.as_deref().unwrap_or(&all);
-        denoise(&tree, &pos, &unit, &mean, &var, mine)
+        denoise(&tree, &pos, &unit, &mean, &var, &given)
     } else {
         mean
     };
-    let mut out = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    let mut out = vec![[0f32; 3]; n];
     for (i, (_, _, c)) in per_point.iter().enumerate() {
         // A tile's halo points get 0, as the diffusion method gives them.
-        if own.as_ref().is_some_and(|o| !o[i]) {
+        if !given[i] {
             continue;
         }
-        for ch in 0..3 {
-            out[ch][i] = value[i][ch] as f32;
-        }
+        out[i] = value[i].map(|x| x as f32);
         if c[0] > 0 {
             rep.computed += 1;
         }
@@ -455,17 +521,9 @@ fn walks(
         rep.lost += c[4];
         rep.cut += c[5];
     }
-    let ssm = Attribute::vec3("ssM", Role::Color, out.map(f32::wrap));
-    cloud.points_mut().set(ssm)?;
     // The walks' noise, as a standard error a channel (before any filter).
     let err: Vec<[f32; 3]> = var.iter().map(|v| v.map(|x| x.sqrt() as f32)).collect();
-    cloud.points_mut().set_vec3("ssM_err", Role::Vector, &err)?;
-    let mut details = record(p, w, mesh, &rep);
-    if let Some(d) = &media.per_point {
-        details.push(("ssmulti_per_point", DetailValue::Str(d.clone())));
-    }
-    cloud.record("ssmulti_", details);
-    Ok(rep)
+    Ok((out, err, rep))
 }
 
 /// `ssM` filtered on the cloud (`docs/DESIGN.md#the-walk-method`): each

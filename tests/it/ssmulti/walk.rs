@@ -264,10 +264,12 @@ fn the_binary_takes_the_walk_method() {
     let d = tempdir();
     let mesh = fixtures().join("mesh/cube.obj").display().to_string();
     let lit = d.path().join("lit.ply");
-    let c = cloud_of(&[
+    let mut c = cloud_of(&[
         ([0.5, 0.5, 1.0], [0.0, 0.0, 1.0], [1.0; 3], 1.0),
         ([0.5, 0.5, 0.0], [0.0, 0.0, -1.0], [0.0; 3], 1.0),
     ]);
+    // (The filter's radius: twice the spacing ptarea gives.)
+    c.points_mut().set_scalar("ptarea", vec![0.5; 2]).unwrap();
     std::fs::write(&lit, to_bytes(&c, pcsss::formats::Format::DEFAULT)).unwrap();
     let lit = lit.display().to_string();
     let out = d.path().join("out.ply").display().to_string();
@@ -323,6 +325,47 @@ fn the_binary_takes_the_walk_method() {
     assert!(detail("ssmulti_mesh").is_some());
     let ssm = c.points().vec3_f64("ssM").unwrap();
     assert!(ssm[0][0] > 0.0, "{ssm:?}");
+    // filter computes the same ssM lazily by walks (render likewise,
+    // through its own mesh); without a mesh, an error naming it.
+    let shade = d.path().join("shade.ply").display().to_string();
+    let stored = run("filter", &[&lit, "--cloud", &out, "-o", &shade], b"");
+    assert!(stored.status.success(), "{}", stderr(&stored));
+    let want = from_bytes(&std::fs::read(&shade).unwrap());
+    let lazy = [
+        lit.as_str(),
+        "--cloud",
+        &lit,
+        "--material",
+        "skin1",
+        "--method",
+        "walk",
+        "--walk-mesh",
+        &mesh,
+        "--walks",
+        "200",
+        "--walk-seed",
+        "5",
+        "-o",
+        &shade,
+    ];
+    let o = run("filter", &lazy, b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let got = from_bytes(&std::fs::read(&shade).unwrap());
+    assert_eq!(
+        got.points().vec3_f32("ssM").unwrap(),
+        want.points().vec3_f32("ssM").unwrap()
+    );
+    let o = run(
+        "filter",
+        &lazy[..7]
+            .iter()
+            .chain(&["-o", &shade])
+            .copied()
+            .collect::<Vec<_>>(),
+        b"",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--walk-mesh"), "{}", stderr(&o));
 }
 
 /// The noise filtered on the cloud (`--denoise`), on a half-space lit on
