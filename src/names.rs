@@ -47,6 +47,7 @@ pub const MAKERS: &[(&str, &str)] = &[
     ("N", "facet"),
     ("illum", "illum"),
     ("illum_cos", "illum"),
+    ("illum_diffuse", "illum (a constant dome, --indirect)"),
     ("thickness", "illum --thickness"),
     ("ssM", "ssmulti"),
     ("ssM_err", "ssmulti --method walk"),

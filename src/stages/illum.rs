@@ -59,7 +59,7 @@ const CHUNK: usize = 4096;
 
 /// A chunk's irradiance and mean cosine a point, its rays, blocked rays
 /// and unlit points.
-type Chunk = (Vec<(DVec3, f64)>, u64, u64, usize);
+type Chunk = (Vec<(DVec3, DVec3, f64)>, u64, u64, usize);
 
 /// Bytes a mesh's triangle takes at illum's peak (its BVH and the build's
 /// work, the mesh itself, a distant light's grid), with a margin: peaks
@@ -150,13 +150,17 @@ pub fn illum(
                     }
                 }
                 let mut e = DVec3::ZERO;
-                // The arrivals' irradiance summed over channels, and with
-                // their cosines.
+                // What a constant dome brings: spread over the hemisphere
+                // (diffuse incidence), not one direction.
+                let mut spread = DVec3::ZERO;
+                // The other arrivals' irradiance summed over channels, and
+                // with their cosines.
                 let (mut w, mut wc) = (0.0f64, 0.0f64);
                 for (light, cols) in lights.iter().zip(&columns) {
                     if light.cl == DVec3::ZERO {
                         continue;
                     }
+                    let diffuse = matches!(&light.shape, Shape::Dome(d) if d.map.is_none());
                     let (r1, r2) = if light.samples > 1 {
                         // A stream per point and light: which other
                         // lights the mask keeps changes nothing.
@@ -184,6 +188,10 @@ pub fn illum(
                             continue;
                         }
                         e += got;
+                        if diffuse {
+                            spread += got;
+                            continue;
+                        }
                         let s = got.element_sum();
                         w += s;
                         wc += s * n.dot(a.dir).clamp(0.0, 1.0);
@@ -197,7 +205,7 @@ pub fn illum(
                 } else {
                     1.0
                 };
-                out.push((e, cos));
+                out.push((e, spread, cos));
             }
             progress.inc(pc.len() as u64);
             (out, rays, blocked, dark)
@@ -209,9 +217,10 @@ pub fn illum(
         ..Report::default()
     };
     let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut spread: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     let mut cosines: Vec<f32> = Vec::with_capacity(pos.len());
     for (out, rays, blocked, dark) in chunks {
-        for (e, cos) in out {
+        for (e, d, cos) in out {
             // Never a value beyond a float attribute: too much light is
             // refused, with the point.
             if !(e.is_finite() && e.abs().max_element() <= f32::MAX as f64) {
@@ -224,6 +233,7 @@ pub fn illum(
                 )));
             }
             illum.push(e.as_vec3().to_array());
+            spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
             cosines.push(cos as f32);
         }
         report.rays += rays;
@@ -232,6 +242,18 @@ pub fn illum(
     }
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
     cloud.points_mut().set_scalar("illum_cos", cosines)?;
+    // The part of illum that arrived spread over the hemisphere, where a
+    // light sends such (`docs/DESIGN.md#incidence`).
+    let domes = lights
+        .iter()
+        .any(|l| matches!(&l.shape, Shape::Dome(d) if d.map.is_none()));
+    if domes {
+        cloud
+            .points_mut()
+            .set_vec3("illum_diffuse", Role::Color, &spread)?;
+    } else {
+        cloud.points_mut().remove("illum_diffuse");
+    }
     // An earlier run's light between surfaces is not in this illum
     // (`indirect` adds it again).
     cloud.points_mut().remove("illum_indirect");
@@ -348,9 +370,9 @@ const INDIRECT_KEY: u64 = 0xD1B5_4A32_D192_ED03;
 /// of the mesh's triangle under the point (smooth normals tilt the
 /// hemisphere into the facets beside it, as a path tracer's shading
 /// normals do) brings nothing. With cosine-weighted rays the irradiance is
-/// `pi` times the mean radiance: the mean `M` met. `illum_cos` becomes the
-/// mean cosine of all the light, and `illum_indirect` holds the indirect
-/// part (`docs/DESIGN.md#light-between-surfaces`). The rays a point takes
+/// `pi` times the mean radiance: the mean `M` met. `illum_indirect` holds
+/// the indirect part, which `illum_diffuse` (light spread over the
+/// hemisphere) takes too; `illum_cos` stays the direct light's (`docs/DESIGN.md#light-between-surfaces`). The rays a point takes
 /// are a rank-1 lattice shifted by a random offset from `seed` and the
 /// point's index: the same bits for any thread count.
 pub fn indirect(
@@ -409,7 +431,7 @@ pub fn indirect(
     let tree =
         crate::geom::kdtree::PointTree::new(pos.iter().map(|p| DVec3::from_array(*p)), origin);
     progress.start("indirect", pos.len() as u64);
-    let chunks: Vec<(Vec<(DVec3, f64)>, u64)> = pos
+    let chunks: Vec<(Vec<DVec3>, u64)> = pos
         .par_chunks(CHUNK)
         .zip(nrm.par_chunks(CHUNK))
         .enumerate()
@@ -432,7 +454,7 @@ pub fn indirect(
                     .unwrap_or(n);
                 let mut rng = Pcg32::new(seed ^ INDIRECT_KEY, i as u64);
                 let (r1, r2) = (uniform24(&mut rng), uniform24(&mut rng));
-                let (mut e, mut w, mut wc) = (DVec3::ZERO, 0.0f64, 0.0f64);
+                let mut e = DVec3::ZERO;
                 for k in 0..rays {
                     let (a, b) = crate::lights::lattice(k, rays, r1, r2);
                     // Cosine-weighted: the disc's point lifted to the
@@ -455,22 +477,8 @@ pub fn indirect(
                     let l = exitance[tree.nearest_one(hit).item as usize];
                     hits += 1;
                     e += l;
-                    let sum = l.element_sum();
-                    w += sum;
-                    wc += sum * cos;
                 }
-                let e = e / rays as f64;
-                let (w, wc) = (w / rays as f64, wc / rays as f64);
-                // The mean cosine of all the light: the direct light's
-                // with its weight, and the indirect rays'.
-                let wd = DVec3::from_array(direct[i]).element_sum();
-                let all = wd + w;
-                let cos = if all > 0.0 {
-                    ((wd * direct_cos[i] + wc) / all).clamp(0.0, 1.0)
-                } else {
-                    direct_cos[i].clamp(0.0, 1.0)
-                };
-                out.push((e, cos));
+                out.push(e / rays as f64);
             }
             progress.inc(pc.len() as u64);
             (out, hits)
@@ -481,11 +489,18 @@ pub fn indirect(
         rays: pos.len() as u64 * rays as u64,
         hits: 0,
     };
+    // The light arrives from the whole hemisphere: spread, as a constant
+    // dome's (`docs/DESIGN.md#incidence`).
+    let spread_before = if pts.has("illum_diffuse") {
+        pts.vec3_f64("illum_diffuse")?
+    } else {
+        vec![[0.0; 3]; pos.len()]
+    };
     let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     let mut extra: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
-    let mut cosines: Vec<f32> = Vec::with_capacity(pos.len());
+    let mut spread: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     for (out, hits) in chunks {
-        for (e, cos) in out {
+        for e in out {
             let i = illum.len();
             let all = DVec3::from_array(direct[i]) + e;
             if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
@@ -496,7 +511,8 @@ pub fn indirect(
             }
             illum.push(all.as_vec3().to_array());
             extra.push(e.as_vec3().to_array());
-            cosines.push(cos as f32);
+            let d = DVec3::from_array(spread_before[i]) + e;
+            spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
         }
         report.hits += hits;
     }
@@ -504,7 +520,9 @@ pub fn indirect(
     cloud
         .points_mut()
         .set_vec3("illum_indirect", Role::Color, &extra)?;
-    cloud.points_mut().set_scalar("illum_cos", cosines)?;
+    cloud
+        .points_mut()
+        .set_vec3("illum_diffuse", Role::Color, &spread)?;
     cloud.record(
         "illum_indirect",
         vec![

@@ -45,7 +45,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         _ => None,
     };
-    let mut wanted = vec!["P", "N", "ptarea", "illum", "illum_cos", "thickness"];
+    let mut wanted = vec![
+        "P",
+        "N",
+        "ptarea",
+        "illum",
+        "illum_cos",
+        "illum_diffuse",
+        "thickness",
+    ];
     if walk.is_some() {
         wanted.push("illum_indirect");
     }

@@ -328,7 +328,8 @@ pub(super) fn weigh_light(
         Ok(Some(c))
     };
     let (cos, thick) = (column("illum_cos")?, column("thickness")?);
-    if cos.is_none() && thick.is_none() {
+    let spread = spread_light(cloud)?;
+    if cos.is_none() && thick.is_none() && spread.is_none() {
         let indirect = indirect_single(cloud, medium, inp)?;
         if indirect {
             inp.grey = is_grey(inp);
@@ -337,20 +338,30 @@ pub(super) fn weigh_light(
     }
     let inc = cos.map(|c| (c, medium.incidence()));
     let thin = thick.map(|c| (c, medium.thinness()));
+    let diffuse = medium.diffuse_incidence();
     inp.pts.par_iter_mut().enumerate().for_each(|(i, pt)| {
         let mut f = [1.0f64; 3];
         if let Some((c, inc)) = &inc {
             f = inc.factor(c.get(i));
         }
+        let mut k = [1.0f64; 3];
         if let Some((c, thin)) = &thin {
-            let k = thin.factor(c.get(i));
-            f = [0, 1, 2].map(|ch| f[ch] * k[ch]);
+            k = thin.factor(c.get(i));
         }
         for c in 0..3 {
+            // The light spread over the hemisphere weighs as light from
+            // the whole sky, the rest by its cosine.
+            let e = pt.illum[c] as f64;
+            let v = match &spread {
+                None => (e * (f[c] * k[c])) as f32,
+                Some(d) => {
+                    let d = d[i][c].min(e);
+                    (((e - d) * f[c] + d * diffuse[c]) * k[c]) as f32
+                }
+            };
             // (Flushed below the normal floats: a part a hair's breadth
             // thick returns next to nothing, and subnormal light would
             // slow every pair it is in.)
-            let v = (pt.illum[c] as f64 * f[c]) as f32;
             pt.illum[c] = if v.abs() < f32::MIN_POSITIVE { 0.0 } else { v };
         }
     });
@@ -362,6 +373,27 @@ pub(super) fn weigh_light(
     let indirect = indirect_single(cloud, medium, inp)?;
     inp.grey = is_grey(inp);
     Ok((inc.is_some(), thin.is_some(), indirect))
+}
+
+/// `illum_diffuse` (the part of `illum` spread over the hemisphere: a
+/// constant dome's, light between surfaces), where the cloud has it,
+/// checked.
+pub(super) fn spread_light(cloud: &Cloud) -> Result<Option<Vec<[f64; 3]>>> {
+    let pts = cloud.points();
+    if !pts.has("illum_diffuse") {
+        return Ok(None);
+    }
+    let d = pts.vec3_f64("illum_diffuse")?;
+    if let Some(i) = d
+        .iter()
+        .position(|c| !c.iter().all(|x| x.is_finite() && *x >= 0.0))
+    {
+        return Err(Error::invalid(format!(
+            "point {i} has illum_diffuse {:?}: light is finite and not negative",
+            d[i]
+        )));
+    }
+    Ok(Some(d))
 }
 
 /// Whether every point's light is grey (one channel's sums serve all).

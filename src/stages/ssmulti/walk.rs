@@ -154,6 +154,10 @@ struct Light {
     illum: Vec<[f64; 3]>,
     /// `illum_cos`, where the cloud has it.
     cos: Option<Vec<f64>>,
+    /// `illum_diffuse`, where the cloud has it: the part of `illum` spread
+    /// over the hemisphere, which a walk takes as it is (its incidence is
+    /// the walk's own, even).
+    spread: Option<Vec<[f64; 3]>>,
     /// What a walk of one event takes: `illum_indirect`, or nothing.
     single: Vec<[f64; 3]>,
 }
@@ -194,7 +198,13 @@ impl Light {
                     Some(c) => w.inc.factor(c[j]),
                     None => [1.0; 3],
                 };
-                [0, 1, 2].map(|c| self.illum[j][c] * f[c] * w.k[c])
+                match &self.spread {
+                    None => [0, 1, 2].map(|c| self.illum[j][c] * f[c] * w.k[c]),
+                    Some(d) => [0, 1, 2].map(|c| {
+                        let s = d[j][c].min(self.illum[j][c]);
+                        (self.illum[j][c] - s) * f[c] * w.k[c] + s
+                    }),
+                }
             }
         }
     }
@@ -236,7 +246,13 @@ fn light(cloud: &Cloud, rep: &mut WalkReport) -> Result<Light> {
     } else {
         vec![[0.0; 3]; n]
     };
-    Ok(Light { illum, cos, single })
+    let spread = super::inputs::spread_light(cloud)?;
+    Ok(Light {
+        illum,
+        cos,
+        spread,
+        single,
+    })
 }
 
 /// The media a run's points walk in: one, or a per-point material's

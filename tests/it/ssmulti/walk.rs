@@ -560,3 +560,62 @@ fn guided_walks_keep_the_classic_mean_with_less_noise() {
         }
     }
 }
+
+/// Light spread over the hemisphere (a constant dome's: illum records it
+/// as `illum_diffuse`) weighs as light from the whole sky, `R_md`, which
+/// one mean cosine cannot give (`rm(2/3)` is 0.9-1.2% above `R_md` at eta
+/// 1, 3.6% at eta 1.3): on a half-space under a dome of radiance `L` and a
+/// distant light, the walk method's `ssM` and the diffusion method's are
+/// `R_md pi L + rm(mu) E`.
+#[test]
+fn a_dome_s_light_weighs_as_light_from_the_whole_sky() {
+    use pcsss::stages::illum;
+    let mesh = box_mesh([-100.0, -100.0, -60.0], [100.0, 100.0, 0.0]);
+    let lights = pcsss::lights::parse(
+        r#"{ "lights": [ { "name": "sky", "type": "dome", "color": [1, 1, 1], "samples": 256 },
+                         { "name": "sun", "type": "distant", "direction": [0, -0.8, -0.6], "intensity": 2 } ] }"#,
+        "sky.json",
+    )
+    .unwrap();
+    for (albedo, eta) in [([0.95, 0.9, 0.6], 1.0), ([0.95, 0.8, 0.6], 1.3)] {
+        let m = Medium::new(albedo, [1.0; 3], eta, 0.0).unwrap();
+        // A grid on the top, within the walks' reach of its centre.
+        let pts: Vec<Lit> = (0..(30 * 30))
+            .map(|k| {
+                let (x, y) = ((k % 30) as f64 - 14.5, (k / 30) as f64 - 14.5);
+                ([x, y, 0.0], [0.0, 0.0, 1.0], [0.0; 3], 1.0)
+            })
+            .collect();
+        let mut c = cloud_of(&pts);
+        c.points_mut()
+            .set_scalar("ptarea", vec![1.0; pts.len()])
+            .unwrap();
+        illum::illum(&mut c, &lights, None, 1, &Progress::hidden()).unwrap();
+        assert!(c.points().has("illum_diffuse"));
+        let mut walk = c.clone();
+        let w = WalkParams {
+            walks: 600,
+            seed: 4,
+            ..WalkParams::default()
+        };
+        ssmulti_walk(&mut walk, &mesh, &physical(m), &w, &Progress::hidden()).unwrap();
+        let mut kernel = c.clone();
+        pcsss::stages::ssmulti::ssmulti(&mut kernel, &physical(m), &Progress::hidden()).unwrap();
+        let (rd, r_sun) = (m.rm_diffuse(), m.rm_at(0.6));
+        // The centre's points: the kernel's edge is 15 units away.
+        let centre: Vec<usize> = (0..pts.len())
+            .filter(|&i| pts[i].0[0].abs() < 5.0 && pts[i].0[1].abs() < 5.0)
+            .collect();
+        for (name, out) in [("walk", &walk), ("diffusion", &kernel)] {
+            let ssm = out.points().vec3_f64("ssM").unwrap();
+            for ch in 0..3 {
+                let want = rd[ch] * std::f64::consts::PI + r_sun[ch] * 2.0 * 0.6;
+                let got = centre.iter().map(|&i| ssm[i][ch]).sum::<f64>() / centre.len() as f64;
+                assert!(
+                    (got / want - 1.0).abs() < 0.01,
+                    "{name}, albedo {albedo:?} eta {eta}: channel {ch}: {got} against {want}"
+                );
+            }
+        }
+    }
+}
