@@ -1,0 +1,189 @@
+"""The race (issue 58): CPU seconds (user + sys) to reach an image error
+against a converged path-traced reference, the bake beside Mitsuba 3, at
+film resolution.
+
+The bunny scene of mitsuba_bunny.py (its mesh, two distant lights, the
+medium of albedo 0.95, 0.85, 0.7 and mean free path 0.1 under an
+index-matched boundary, Mitsuba's Gaussian pixel filter) at SIZE x SIZE
+pixels. The reference is Mitsuba's volpath following every path
+(`rr_depth` 1e6) as two independent halves of REF samples a pixel each
+(different seeds), kept in target/race/ (a rerun reuses them). The
+halves give the reference's own noise per pixel, `(h1 - h2)^2 / 4`, which
+is taken out of each error: `rms^2 = mean(rel^2) - mean(noise^2 / ref^2)`
+over the pixels the bunny covers whole in the bake and that are lit in
+the reference, each channel a sample (the reference's own RMS noise is
+printed).
+
+Swept: Mitsuba over samples a pixel (CPU of this process), the bake
+(`make -C pipelines`, its children's CPU) over points, with the kernel
+and with walks, all with light between surfaces (`INDIRECT=16`). Cycles
+(bpy) is not in the race yet.
+
+    python race.py [SIZE] [REF] [SPPS] [BAKES]
+
+BAKES: `;`-separated runs, each `COUNT[,VAR=VALUE...]`, e.g.
+`50000;50000,METHOD=walk,WALKS=16`. Rows go to benches/results/race.json
+(for plot_error_time.py) when run with the default arguments.
+"""
+import json
+import os
+import pathlib
+import resource
+import subprocess
+import sys
+import tempfile
+
+import mitsuba as mi
+import numpy as np
+
+from mitsuba_images import RR_DEPTH, camera
+
+mi.set_variant("scalar_rgb")
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+CACHE = ROOT / "target" / "race"
+RESULTS = ROOT / "benches" / "results" / "race.json"
+ALBEDO, MFP = [0.95, 0.85, 0.7], 0.1
+LIGHTS = json.loads((ROOT / "fixtures/lights/bunny.json").read_text())["lights"]
+MESH = ROOT / "fixtures/mesh/bunny.obj"
+BIN = os.environ.get("BIN", str(ROOT / "target" / "release"))
+
+
+def cpu(who):
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
+def scene(cam, spp):
+    s = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": -1, "rr_depth": RR_DEPTH},
+        "bunny": {
+            "type": "obj", "filename": str(MESH), "face_normals": True, "bsdf": {"type": "null"},
+            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
+                         "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
+        },
+        "camera": camera(cam, spp),
+    }
+    for l in LIGHTS:
+        e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
+        s[l["name"]] = {"type": "directional", "direction": l["direction"],
+                        "irradiance": {"type": "rgb", "value": e}}
+    return s
+
+
+def mitsuba(cam, spp, seed):
+    """Mitsuba's picture at `spp` samples a pixel with `seed`, and its
+    CPU seconds."""
+    c0 = cpu(resource.RUSAGE_SELF)
+    img = np.array(mi.render(mi.load_dict(scene(cam, spp)), spp=spp, seed=seed))[:, :, :3]
+    return img, cpu(resource.RUSAGE_SELF) - c0
+
+
+def reference(cam, size, ref_spp):
+    """The two halves of the reference, rendered once and kept."""
+    CACHE.mkdir(parents=True, exist_ok=True)
+    halves = []
+    for seed in (1001, 2002):
+        f = CACHE / f"bunny_{size}_{ref_spp}_{seed}.npy"
+        if not f.exists():
+            img, t = mitsuba(cam, ref_spp, seed)
+            np.save(f, img)
+            print(f"reference half {seed}: {ref_spp} spp, {t:.0f} s of CPU", flush=True)
+        halves.append(np.load(f))
+    return halves
+
+
+def read_image(exr, d, size):
+    """(beauty, coverage) from the render's OpenEXR, through pcconvert to
+    binary PLY."""
+    ply = d / "img.ply"
+    subprocess.run([pathlib.Path(BIN) / "pcconvert", "-q", exr, "--format", "ply", "-o", ply], check=True)
+    raw = ply.read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    types = {"float": "<f4", "double": "<f8", "int": "<i4", "uint": "<u4", "uchar": "u1", "char": "i1",
+             "short": "<i2", "ushort": "<u2"}
+    props, count = [], 0
+    for line in raw[:end].decode().splitlines():
+        w = line.split()
+        if w[:2] == ["element", "vertex"]:
+            count = int(w[2])
+        elif w and w[0] == "element":
+            break
+        elif w and w[0] == "property" and count:
+            props.append((w[2], types[w[1]]))
+    rows = np.frombuffer(raw, dtype=np.dtype(props), count=count, offset=end)
+    img, a = np.zeros((size, size, 3)), np.zeros((size, size))
+    x, y = rows["pixel_x"].astype(int), rows["pixel_y"].astype(int)
+    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
+        img[y, x, c] = rows[n]
+    a[y, x] = rows["A"]
+    return img, a
+
+
+def bake(cam_file, count, extra, d, size):
+    out = d / "out"
+    c0 = cpu(resource.RUSAGE_CHILDREN)
+    subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"BIN={BIN}", f"MESH={MESH}",
+                    f"CAMERA={cam_file}", f"OUT={out}", f"COUNT={count}", "MODEL=physical", "INDIRECT=16",
+                    f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=4",
+                    "PIXEL_FILTER=gaussian", "SAMPLES=16", "SHADOWS=1"] + extra,
+                   check=True, stdout=subprocess.DEVNULL)
+    took = cpu(resource.RUSAGE_CHILDREN) - c0
+    img, a = read_image(out / "bunny.exr", d, size)
+    subprocess.run(["rm", "-rf", out], check=True)
+    return img, a, took
+
+
+def error(img, ref, noise2, mask):
+    """RMS relative error with the reference's noise taken out, and the
+    mean relative error."""
+    r = np.maximum(ref[mask], 1e-6)
+    rel = (img[mask] - ref[mask]) / r
+    ms = np.mean(rel ** 2) - np.mean(noise2[mask] / r ** 2)
+    return float(np.sqrt(max(ms, 0.0))), float(np.mean(rel))
+
+
+def main():
+    args = sys.argv[1:]
+    size = int(args[0]) if args else 1024
+    ref_spp = int(args[1]) if len(args) > 1 else 64
+    spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
+    bakes = (args[3] if len(args) > 3 else
+             "50000;200000;50000,METHOD=walk,WALKS=16;50000,METHOD=walk,WALKS=64").split(";")
+    cam = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), width=size, height=size)
+    h1, h2 = reference(cam, size, ref_spp)
+    ref, noise2 = (h1 + h2) / 2, (h1 - h2) ** 2 / 4
+    rows = []
+    print(f"{size} x {size}; reference: Mitsuba 2 x {ref_spp} spp", flush=True)
+    print("| tool | setting | CPU (s) | RMS relative error | mean relative error |")
+    print("|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        cam_file = d / "cam.json"
+        cam_file.write_text(json.dumps(cam))
+        mask = None
+        for b in bakes:
+            count, *extra = b.split(",")
+            img, a, t = bake(cam_file, int(count), extra, d, size)
+            if mask is None:
+                mask = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
+                rel_noise = np.sqrt(np.mean(noise2[mask] / np.maximum(ref[mask], 1e-6) ** 2))
+                print(f"(the reference's own noise: {rel_noise:.3f} RMS relative; "
+                      f"{int(mask.sum())} pixels compared)", flush=True)
+            e = error(img, ref, noise2, mask)
+            setting = " ".join([f"{int(count) // 1000}k points"] + extra)
+            rows.append({"tool": "bake, indirect", "setting": int(count), "extra": extra, "seconds": t,
+                         "rms": e[0], "mean": e[1]})
+            print(f"| bake | {setting} | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
+        for s in spps:
+            img, t = mitsuba(cam, s, 7)
+            e = error(img, ref, noise2, mask)
+            rows.append({"tool": "Mitsuba", "setting": s, "seconds": t, "rms": e[0], "mean": e[1]})
+            print(f"| Mitsuba | {s} spp | {t:.1f} | {e[0]:.3f} | {e[1]:+.3f} |", flush=True)
+    if len(sys.argv) == 1:
+        RESULTS.write_text(json.dumps({"reference_spp": 2 * ref_spp, "size": size, "rows": rows},
+                                      indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
