@@ -787,6 +787,21 @@ pub fn radiance_scale(cloud: &Cloud, source: &Source) -> f64 {
     }
 }
 
+/// The physical medium whose multiple scattering a source's `ssM` is
+/// (the lazy run's, or the cloud's ssmulti record), for the way its
+/// radiance leaves ([`crate::stages::render::Exit`]); `None` for the
+/// seed model, `ssS` and other attributes.
+pub fn exit_medium(cloud: &Cloud, source: &Source) -> Option<crate::medium::Medium> {
+    match source {
+        Source::Multi(p, _) => p.medium,
+        Source::Stored("ssM") if radiance_scale(cloud, source) != 1.0 => {
+            let s = ssmulti::Record::of(cloud).medium?;
+            crate::medium::Medium::new(s.albedo?, s.mfp?, s.eta?, s.g?).ok()
+        }
+        _ => None,
+    }
+}
+
 /// `red green blue` (uchar) on the points, the vertex colours MeshLab
 /// and Blender show: sRGB of the beauty as `render` sums it (each of
 /// `terms`, a name and its [`radiance_scale`]), tone mapped as render's

@@ -329,11 +329,19 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         .iter()
         .map(|s| (s.name(), filter::radiance_scale(scene.cloud, s)))
         .collect();
-    beauty(&mut shade, &terms, direct, progress)?;
+    let eye = DVec3::from_array(scene.camera.position);
+    let exit = scene
+        .sources
+        .iter()
+        .find_map(|s| filter::exit_medium(scene.cloud, s).map(|m| (s.name(), Exit::new(&m, eye))));
+    let exit_ref = exit.as_ref().map(|(n, e)| (*n, e));
+    beauty(&mut shade, &terms, exit_ref, direct, progress)?;
     let sum: Vec<String> = terms
         .iter()
         .map(|(n, k)| {
-            if *k == 1.0 {
+            if exit_ref.is_some_and(|(e, _)| e == *n) {
+                format!("{n} / pi * R_m(mu) / R_md")
+            } else if *k == 1.0 {
                 n.to_string()
             } else {
                 format!("{n} / pi")
@@ -628,23 +636,76 @@ fn splat(sx: f64, sy: f64, r: i64, w: i64, h: i64, px: &Pixels, mut add: impl Fn
     }
 }
 
+/// How the physical model's multiple scattering leaves towards the eye
+/// (`docs/DESIGN.md#the-exit`): `ssM` is an exitance; its radiance
+/// towards a view at cosine `mu` with the normal is that of a half-space
+/// under light from the whole sky, `ssM / pi * R_m(mu) / R_md` per
+/// channel (by reciprocity: the light leaving towards `mu` is the light
+/// arriving from `mu` that the medium returns), where a Lambertian exit
+/// would take `ssM / pi` whatever the view.
+pub struct Exit {
+    eye: DVec3,
+    inc: crate::medium::Incidence,
+    /// `R_m(1) / R_md` per channel.
+    k: [f64; 3],
+}
+
+impl Exit {
+    /// The exit of `medium`'s multiple scattering seen from `eye`.
+    pub fn new(medium: &crate::medium::Medium, eye: DVec3) -> Exit {
+        let d = medium.rm_diffuse();
+        Exit {
+            eye,
+            inc: medium.incidence(),
+            k: [0, 1, 2].map(|c| if d[c] > 0.0 { medium.rm[c] / d[c] } else { 1.0 }),
+        }
+    }
+
+    /// The factor on `ssM / pi` at the point `p` of normal `n`.
+    pub fn factor(&self, p: DVec3, n: DVec3) -> [f64; 3] {
+        let mu = n
+            .normalize_or_zero()
+            .dot((self.eye - p).normalize_or_zero())
+            .clamp(0.0, 1.0);
+        let f = self.inc.factor(mu);
+        [0, 1, 2].map(|c| f[c] * self.k[c])
+    }
+}
+
 /// The beauty at the shade points: the sum of the colour attributes
-/// `terms` (`ssM`, `ssS`), each times its scale ([`filter::radiance_scale`]),
-/// plus `kd * illum`, with `illum` the direct
+/// `terms` (`ssM`, `ssS`), each times its scale ([`filter::radiance_scale`])
+/// and, for the term `exit` names, its [`Exit`] factor at the point's `P`
+/// and `N`, plus `kd * illum`, with `illum` the direct
 /// diffuse light from `lights` (`illum`'s code: `Cl max(0, N.L)` with
 /// shadow rays against the mesh of `shadows`, kept as the attribute
 /// `illum`).
 pub fn beauty(
     shade: &mut Cloud,
     terms: &[(&str, f64)],
+    exit: Option<(&str, &Exit)>,
     direct: Option<(&[Light], &Shadows, [f64; 3])>,
     progress: &Progress,
 ) -> Result<()> {
     let mut sum = vec![[0.0f64; 3]; shade.len()];
+    let at = match exit {
+        Some(_) => Some((shade.points().vec3_f64("P")?, shade.points().vec3_f64("N")?)),
+        None => None,
+    };
     for (name, k) in terms {
-        for (acc, v) in sum.iter_mut().zip(shade.points().vec3_f64(name)?) {
+        let view = exit.filter(|(n, _)| n == name).map(|(_, e)| e);
+        for (i, (acc, v)) in sum
+            .iter_mut()
+            .zip(shade.points().vec3_f64(name)?)
+            .enumerate()
+        {
+            let f = match (view, &at) {
+                (Some(e), Some((p, n))) => {
+                    e.factor(DVec3::from_array(p[i]), DVec3::from_array(n[i]))
+                }
+                _ => [1.0; 3],
+            };
             for c in 0..3 {
-                acc[c] += k * v[c];
+                acc[c] += k * v[c] * f[c];
             }
         }
     }

@@ -671,6 +671,7 @@ fn the_direct_term_adds_kd_times_the_light() {
     render::beauty(
         &mut shade,
         &[("ssM", 1.0)],
+        None,
         Some((&lights, &shadows, kd)),
         &Progress::hidden(),
     )
@@ -682,7 +683,7 @@ fn the_direct_term_adds_kd_times_the_light() {
         }
     }
     // Without lights the beauty is ssM.
-    render::beauty(&mut shade, &[("ssM", 1.0)], None, &Progress::hidden()).unwrap();
+    render::beauty(&mut shade, &[("ssM", 1.0)], None, None, &Progress::hidden()).unwrap();
     let b = shade.points().vec3_f64("beauty").unwrap();
     assert!((b[0][0] - 0.5).abs() < 1e-6);
 }
