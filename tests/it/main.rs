@@ -20,6 +20,7 @@ mod facet;
 mod filter_render;
 mod follow;
 mod frames;
+mod furnace;
 mod fuzz_replay;
 mod hostile;
 mod hostile4;

@@ -130,7 +130,9 @@ pub fn check(plan: &super::Plan, w: &WalkParams) -> Result<()> {
 }
 
 /// The physical model's medium the walks take; an error for the seed
-/// model.
+/// model. (A medium that absorbs nothing is the walk's: a walk ends by
+/// leaving the mesh, where the diffusion kernel would reach without end.
+/// Its reach, which a tile's halo must hold, is then unbounded.)
 fn medium_of(p: &Params) -> Result<&Medium> {
     p.medium.as_ref().ok_or_else(|| {
         let why = "walk needs the physical model's medium (--material, or --model physical)";
@@ -281,7 +283,6 @@ pub fn ssmulti_walk(
     w: &WalkParams,
     progress: &Progress,
 ) -> Result<WalkReport> {
-    super::params::validate(p)?;
     let media = Media {
         list: vec![*medium_of(p)?],
         which: None,
@@ -302,7 +303,6 @@ pub fn ssmulti_walk_per_point(
     progress: &Progress,
 ) -> Result<(WalkReport, usize)> {
     let p = &plan.params;
-    super::params::validate(p)?;
     medium_of(p)?;
     let groups = if plan.per_point.attrs.is_empty() {
         None
@@ -369,7 +369,6 @@ pub fn walk_values(
     want: Option<&[bool]>,
     progress: &Progress,
 ) -> Result<(Vec<[f32; 3]>, WalkReport)> {
-    super::params::validate(p)?;
     let media = Media {
         list: vec![*medium_of(p)?],
         which: None,

@@ -1,0 +1,215 @@
+//! The white furnace (issue 58): a medium that absorbs nothing (albedo
+//! 1), under a constant dome of radiance `L`, returns all the light it
+//! takes in: every direction leaves with `L`, of which the surface's
+//! Fresnel reflection is `F(mu) L` and the subsurface light (single
+//! scattering, `ssS`, plus multiple, `ssM` as render shows it:
+//! `render::Exit`) the rest, `(1 - F(mu)) L`. On a sphere, a cube and a
+//! thin box, at eta 1 and 1.33, through the library's stages (illum's
+//! dome, the walk method, sssingle, the exit), at the points a view sees
+//! through at least eight mean free paths of the medium (the light the
+//! dome sends straight through a shorter chord is not subsurface light
+//! the bake holds).
+
+use glam::DVec3;
+use rand_pcg::Pcg32;
+
+use crate::util::*;
+use pcsss::cloud::Role;
+use pcsss::geom::bvh::{Facing, Occluder};
+use pcsss::geom::mesh::TriMesh;
+use pcsss::maths::uniform53;
+use pcsss::medium::Medium;
+use pcsss::optics::fresnel;
+use pcsss::progress::Progress;
+use pcsss::stages::render::Exit;
+use pcsss::stages::ssmulti::walk::{ssmulti_walk, WalkParams};
+use pcsss::stages::sssingle::{self, Model};
+use pcsss::Cloud;
+
+const MFP: f64 = 0.05;
+
+/// `n` points spread over `mesh`'s triangles by area, each with its
+/// triangle's outward normal.
+fn points_on(mesh: &TriMesh, n: usize, seed: u64) -> Cloud {
+    let areas: Vec<f64> = (0..mesh.tris.len())
+        .map(|t| {
+            let [a, b, c] = mesh.tri(t);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .collect();
+    let total: f64 = areas.iter().sum();
+    let mut r = Pcg32::new(seed, 1);
+    let (mut p, mut nrm) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let mut u = uniform53(&mut r) * total;
+        let t = areas
+            .iter()
+            .position(|&a| {
+                u -= a;
+                u < 0.0
+            })
+            .unwrap_or(areas.len() - 1);
+        let [a, b, c] = mesh.tri(t);
+        let (mut s, mut v) = (uniform53(&mut r), uniform53(&mut r));
+        if s + v > 1.0 {
+            (s, v) = (1.0 - s, 1.0 - v);
+        }
+        p.push((a + (b - a) * s + (c - a) * v).to_array());
+        nrm.push((b - a).cross(c - a).normalize().as_vec3().to_array());
+    }
+    let mut c = Cloud::with_points(n);
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
+    c
+}
+
+fn mesh_of(obj: &str) -> TriMesh {
+    TriMesh::from_cloud(&from_bytes(obj.as_bytes())).unwrap()
+}
+
+/// What a view found: the mean beauty over the light over all the points
+/// it sees through enough medium, over those at least two mean free paths
+/// from a box's edge, and the worst point's deviation.
+struct Found {
+    mean: f64,
+    inside: f64,
+    worst: f64,
+}
+
+/// The beauty `ssS + ssM / pi * exit` over `(1 - F(mu)) L` at the points
+/// of `mesh` each view sees through enough medium, at `eta`; `bounds` a
+/// box's corners (its edges).
+fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Vec<Found> {
+    let dome = pcsss::lights::parse(
+        r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 1, 1], "samples": 256}]}"#,
+        "sky.json",
+    )
+    .unwrap();
+    let m = Medium::new([1.0; 3], [MFP; 3], eta, 0.0).unwrap();
+    let mut c = points_on(mesh, 400, 5);
+    pcsss::stages::illum::illum(&mut c, &dome, None, 1, &Progress::hidden()).unwrap();
+    let sp = pcsss::stages::ssmulti::Params {
+        medium: Some(m),
+        ..Default::default()
+    };
+    let w = WalkParams {
+        walks: 400,
+        seed: 6,
+        ..WalkParams::default()
+    };
+    ssmulti_walk(&mut c, mesh, &sp, &w, &Progress::hidden()).unwrap();
+    let ssm = c.points().vec3_f64("ssM").unwrap();
+    let pos = c.points().vec3_f64("P").unwrap();
+    let nrm = c.points().vec3_f64("N").unwrap();
+    let occ = Occluder::new(mesh);
+    let mut out = Vec::new();
+    for dir in [
+        DVec3::new(0.3, 0.4, 1.0),
+        DVec3::new(-1.0, 0.2, 0.3),
+        DVec3::new(0.5, -1.0, -0.6),
+    ] {
+        let dir = dir.normalize();
+        let p = sssingle::Params {
+            model: Model::Physical,
+            albedo: [1.0; 3],
+            mfp: [MFP; 3],
+            g: 0.0,
+            eta,
+            samples: 64,
+            eye: dir * 1e7,
+            ..sssingle::Params::default()
+        };
+        let mut lit = c.clone();
+        sssingle::sssingle(&mut lit, mesh, &dome, &p, &Progress::hidden()).unwrap();
+        let sss = lit.points().vec3_f64("ssS").unwrap();
+        let exit = Exit::new(&m, p.eye);
+        let mut ratios = Vec::new();
+        let mut inside = Vec::new();
+        for i in 0..pos.len() {
+            let (x, n) = (DVec3::from_array(pos[i]), DVec3::from_array(nrm[i]));
+            let mu = n.dot(dir);
+            if mu < 0.3 {
+                continue;
+            }
+            // The chord the view sees through (refracted at eta != 1).
+            let mu_t = (1.0 - (1.0 - mu * mu) / (eta * eta)).max(0.0).sqrt();
+            let t = ((dir - n * mu) / eta - n * mu_t).normalize();
+            let chord = occ
+                .nearest(x - n * 1e-6, t, 0.0, f64::INFINITY, Facing::Leaving)
+                .map_or(f64::INFINITY, |h| h.1);
+            if chord < 8.0 * MFP {
+                continue;
+            }
+            let f = exit.factor(x, n);
+            let want = 1.0 - fresnel(mu, eta);
+            // How far the point is from its face's edges (a box's faces
+            // are axis-aligned: the two coordinates along the face).
+            let edge = bounds.map_or(f64::INFINITY, |(lo, hi)| {
+                (0..3)
+                    .filter(|&a| n[a].abs() < 0.5)
+                    .map(|a| (x[a] - lo[a]).min(hi[a] - x[a]))
+                    .fold(f64::INFINITY, f64::min)
+            });
+            for ch in 0..3 {
+                let b = sss[i][ch] + ssm[i][ch] / std::f64::consts::PI * f[ch];
+                ratios.push(b / want);
+                if edge >= 2.0 * MFP {
+                    inside.push(b / want);
+                }
+            }
+        }
+        assert!(ratios.len() > 30, "{} samples", ratios.len());
+        let mean_of = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let worst = ratios.iter().fold(0.0f64, |a, r| a.max((r - 1.0).abs()));
+        out.push(Found {
+            mean: mean_of(&ratios),
+            inside: mean_of(&inside),
+            worst,
+        });
+    }
+    out
+}
+
+/// Found (400 points, 400 walks each, three views): the sphere's mean
+/// within 0.5% at both indices. A box's points within a mean free path of
+/// an edge read up to 57% (cube) and 68% (thin box) low: the walk's
+/// exitance there is short of the multiple scattering that leaves through
+/// the neighbouring face, while the eye looks through the long chord
+/// (the half-space exit does not hold at an edge); over the points two
+/// mean free paths or more from an edge the mean is within 1%, over all a
+/// box's points 0.966-0.998. (At 300 points and 250 walks the noise
+/// alone moves a view's mean by 1%.) The diffusion method cannot take a
+/// medium that absorbs nothing: its kernel would reach without end.
+#[test]
+fn a_medium_that_absorbs_nothing_returns_the_dome_s_light() {
+    let sphere = TriMesh::from_cloud(&from_bytes(
+        &std::fs::read(fixtures().join("mesh/icosphere3.obj")).unwrap(),
+    ))
+    .unwrap();
+    let (cube_lo, cube_hi) = ([0.0; 3], [1.0; 3]);
+    let (thin_lo, thin_hi) = ([-1.0, -1.0, -0.25], [1.0, 1.0, 0.25]);
+    let cube = mesh_of(&box_obj(cube_lo, cube_hi));
+    let thin = mesh_of(&box_obj(thin_lo, thin_hi));
+    for (name, mesh, bounds) in [
+        ("sphere", &sphere, None),
+        ("cube", &cube, Some((cube_lo, cube_hi))),
+        ("thin box", &thin, Some((thin_lo, thin_hi))),
+    ] {
+        for eta in [1.0, 1.33] {
+            for (k, f) in furnace(mesh, eta, bounds).into_iter().enumerate() {
+                let what = format!("{name}, eta {eta}, view {k}");
+                assert!(
+                    (f.inside - 1.0).abs() < 0.01,
+                    "{what}: the mean beauty away from edges is {} of the light",
+                    f.inside
+                );
+                assert!(
+                    (f.mean - 1.0).abs() < 0.04,
+                    "{what}: the mean beauty is {} of the light (worst point {})",
+                    f.mean,
+                    f.worst
+                );
+            }
+        }
+    }
+}
