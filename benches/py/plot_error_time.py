@@ -7,6 +7,7 @@ Each file: {"reference_spp": N, "rows": [{"tool": "bake" | "bake, indirect" | "M
 (mitsuba_NAME.json) labels its curves.
 """
 import json
+import os
 import pathlib
 import sys
 
@@ -35,13 +36,15 @@ def main():
             unit = "k" if baked else " spp"
             for r in rows:
                 s = r["setting"] // 1000 if baked else r["setting"]
-                ax.annotate(f"{s}{unit}", (r["seconds"], r["rms"]), fontsize=7, color=col,
+                extra = "".join(" " + e.split("=")[-1] if e.startswith("WALKS") else "" for e in r.get("extra", []))
+                label = f"{s}{unit}" + (f", {extra.strip()} walks" if extra else "")
+                ax.annotate(label, (r["seconds"], r["rms"]), fontsize=7, color=col,
                             textcoords="offset points", xytext=(3, 3))
     ax.axhline(0.02, color="grey", lw=0.8, ls=":")
     ax.axhline(0.05, color="grey", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time, seconds (2 cores; the bake: scatter to render)")
+    ax.set_xlabel(os.environ.get("XLABEL", "wall time, seconds (2 cores; the bake: scatter to render)"))
     ax.set_ylabel("RMS relative error of the picture against Mitsuba's converged one")
     ax.set_title("Error against time: the physical bake and Mitsuba 3 (volpath)")
     ax.grid(True, which="both", alpha=0.3)
