@@ -176,13 +176,13 @@ impl<'a> Walker<'a> {
                     let nd = (n * mu + (t1 * phi.cos() + t2 * phi.sin()) * s).normalize();
                     let hg = hg_pdf(g, d.dot(nd));
                     d = nd;
-                    lobes = Some(gd.lobes(d.dot(n), hg, back));
-                    let l = lobes.as_ref().unwrap();
+                    let l = gd.lobes(d.dot(n), hg, back);
                     sigma_h *= if backward {
                         l.back_stretch
                     } else {
                         l.fwd_stretch
                     };
+                    lobes = Some(l);
                 } else {
                     let nd = scatter(d, g, r);
                     let hg = hg_pdf(g, d.dot(nd));
