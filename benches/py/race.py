@@ -23,12 +23,20 @@ and with walks, all with light between surfaces (`INDIRECT=16`). Cycles
 (bpy) is not in the race yet.
 
     python race.py [SIZE] [REF] [SPPS] [BAKES]
+    python race.py --views N [SIZE] [REF] [SPPS] [BAKE]
+
+`--views N`: N views of the same lit bunny (the camera turned about the
+vertical through its target by 360/N degrees at a time), one bake for
+all (`ssM` once; `sssingle` and `render` again for each view, which is
+all `make` redoes when only the camera changes) against N path traces;
+the CPU summed over the views, the error their mean.
 
 BAKES: `;`-separated runs, each `COUNT[,VAR=VALUE...]`, e.g.
 `50000;50000,METHOD=walk,WALKS=16`. Rows go to benches/results/race.json
 (for plot_error_time.py) when run with the default arguments.
 """
 import json
+import math
 import os
 import pathlib
 import resource
@@ -82,12 +90,12 @@ def mitsuba(cam, spp, seed):
     return img, cpu(resource.RUSAGE_SELF) - c0
 
 
-def reference(cam, size, ref_spp):
+def reference(cam, size, ref_spp, tag=""):
     """The two halves of the reference, rendered once and kept."""
     CACHE.mkdir(parents=True, exist_ok=True)
     halves = []
     for seed in (1001, 2002):
-        f = CACHE / f"bunny_{size}_{ref_spp}_{seed}.npy"
+        f = CACHE / f"bunny{tag}_{size}_{ref_spp}_{seed}.npy"
         if not f.exists():
             img, t = mitsuba(cam, ref_spp, seed)
             np.save(f, img)
@@ -123,18 +131,66 @@ def read_image(exr, d, size):
     return img, a
 
 
-def bake(cam_file, count, extra, d, size):
+def bake(cam_file, count, extra, d, size, keep=False, target=None):
+    """The bake's picture, coverage and CPU seconds; with `keep` its
+    folder stays for another view (`make` then redoes what the camera
+    changes)."""
     out = d / "out"
     c0 = cpu(resource.RUSAGE_CHILDREN)
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"BIN={BIN}", f"MESH={MESH}",
                     f"CAMERA={cam_file}", f"OUT={out}", f"COUNT={count}", "MODEL=physical", "INDIRECT=16",
                     f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=4",
-                    "PIXEL_FILTER=gaussian", "SAMPLES=16", "SHADOWS=1"] + extra,
+                    "PIXEL_FILTER=gaussian", "SAMPLES=16", "SHADOWS=1"] + extra + ([target] if target else []),
                    check=True, stdout=subprocess.DEVNULL)
     took = cpu(resource.RUSAGE_CHILDREN) - c0
     img, a = read_image(out / "bunny.exr", d, size)
-    subprocess.run(["rm", "-rf", out], check=True)
+    if not keep:
+        subprocess.run(["rm", "-rf", out], check=True)
     return img, a, took
+
+
+def turned(cam, degrees):
+    """`cam` turned about the vertical through its target."""
+    t = math.radians(degrees)
+    p, c = np.array(cam["position"], float), np.array(cam["look_at"], float)
+    v = p - c
+    r = np.array([v[0] * math.cos(t) + v[2] * math.sin(t), v[1], -v[0] * math.sin(t) + v[2] * math.cos(t)])
+    return dict(cam, position=(c + r).tolist())
+
+
+def views(n, size, ref_spp, spps, bake_spec):
+    """One bake, `n` views, against `n` path traces."""
+    base = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), width=size, height=size)
+    cams = [turned(base, 360.0 * k / n) for k in range(n)]
+    refs = [reference(c, size, ref_spp, f"_view{k}of{n}") for k, c in enumerate(cams)]
+    count, *extra = bake_spec.split(",")
+    found = {"bake": [], **{s: [] for s in spps}}
+    cpu_of = {"bake": 0.0, **{s: 0.0 for s in spps}}
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        for k, (cam, (h1, h2)) in enumerate(zip(cams, refs)):
+            ref, noise2 = (h1 + h2) / 2, (h1 - h2) ** 2 / 4
+            cam_file = d / f"cam{k}.json"
+            cam_file.write_text(json.dumps(cam))
+            img, a, t = bake(cam_file, int(count), extra, d, size, keep=True, target=str(d / "out" / "bunny.exr"))
+            cpu_of["bake"] += t
+            mask = (a >= 1.0) & (ref.min(axis=2) > 1e-3)
+            bright = mask & (ref.min(axis=2) > 0.2 * ref[mask].mean())
+            found["bake"].append(error(img, ref, noise2, mask) + error(img, ref, noise2, bright))
+            print(f"view {k}: bake {t:.1f} s, RMS {found['bake'][-1][0]:.3f}, bright {found['bake'][-1][2]:.3f}",
+                  flush=True)
+            for s in spps:
+                img, t = mitsuba(cam, s, 7 + k)
+                cpu_of[s] += t
+                found[s].append(error(img, ref, noise2, mask) + error(img, ref, noise2, bright))
+    print(f"{n} views at {size} x {size}; references: Mitsuba 2 x {ref_spp} spp each")
+    print("| tool | setting | CPU, all views (s) | mean RMS | mean bright RMS |")
+    print("|---|---|---|---|---|")
+    rows = [("bake", " ".join([f"{int(count) // 1000}k points"] + extra), "bake")] + \
+        [("Mitsuba", f"{s} spp", s) for s in spps]
+    for tool, setting, key in rows:
+        e = np.array(found[key])
+        print(f"| {tool} | {setting} | {cpu_of[key]:.1f} | {e[:, 0].mean():.3f} | {e[:, 2].mean():.3f} |")
 
 
 def error(img, ref, noise2, mask):
@@ -148,6 +204,13 @@ def error(img, ref, noise2, mask):
 
 def main():
     args = sys.argv[1:]
+    if args[:1] == ["--views"]:
+        n = int(args[1])
+        rest = args[2:]
+        views(n, int(rest[0]) if rest else 256, int(rest[1]) if len(rest) > 1 else 64,
+              [int(x) for x in (rest[2] if len(rest) > 2 else "16,64").split(",")],
+              rest[3] if len(rest) > 3 else "50000")
+        return
     size = int(args[0]) if args else 1024
     ref_spp = int(args[1]) if len(args) > 1 else 64
     spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
