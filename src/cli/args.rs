@@ -371,6 +371,7 @@ impl SsArgs {
             },
             medium,
             per_point,
+            walk: false,
         })
     }
 }

@@ -31,7 +31,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // material file is read once, here.
     let mut medium = args.material.given()?;
     let per_point = args.per_point.given()?;
-    let early = args.ss.given(medium.clone(), per_point.clone())?.plan()?;
+    let by_walks = args.walk.method == ssmulti::Method::Walk;
+    let early = ssmulti::Given {
+        walk: by_walks,
+        ..args.ss.given(medium.clone(), per_point.clone())?
+    }
+    .plan()?;
     // The walk method's mesh before the cloud: a missing one fails fast.
     let walk = match (args.walk.method, &args.walk.mesh) {
         (ssmulti::Method::Walk, Some(path)) => {
@@ -70,7 +75,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         params,
         per_point,
         base,
-    } = args.ss.given(medium, per_point)?.plan()?;
+    } = ssmulti::Given {
+        walk: by_walks,
+        ..args.ss.given(medium, per_point)?
+    }
+    .plan()?;
     let progress = msg.progress();
     if let Some((mesh, w)) = &walk {
         let plan = ssmulti::Plan {

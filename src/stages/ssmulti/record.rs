@@ -32,6 +32,10 @@ pub struct Given {
     /// The seed model's per-point parameters (the physical model's are
     /// in its material).
     pub per_point: Option<PerPoint>,
+    /// The run is the walk method's (`--method walk`): no kernel, so a
+    /// medium that absorbs nothing is allowed (a walk ends by leaving the
+    /// mesh), and the kernel's checks do not apply.
+    pub walk: bool,
 }
 
 impl Default for Given {
@@ -48,6 +52,7 @@ impl Default for Given {
             simd: Simd::Auto,
             medium: medium::Given::default(),
             per_point: None,
+            walk: false,
         }
     }
 }
@@ -84,7 +89,9 @@ impl Given {
             simd: self.simd,
             medium,
         };
-        validate(&params)?;
+        if !self.walk {
+            validate(&params)?;
+        }
         let per_point = match &self.per_point {
             None => {
                 let (attrs, levels) = self.medium.per_point();

@@ -619,3 +619,41 @@ fn a_dome_s_light_weighs_as_light_from_the_whole_sky() {
         }
     }
 }
+
+/// A medium that absorbs nothing is the walk method's alone: a walk ends
+/// by leaving the mesh, the diffusion kernel would reach without end.
+#[test]
+fn albedo_1_is_taken_by_walks_and_refused_by_the_kernel() {
+    let d = tempdir();
+    let mut c = cloud_of(&[
+        ([0.5, 0.5, 1.0], [0.0, 0.0, 1.0], [1.0; 3], 1.0),
+        ([0.5, 0.5, 0.0], [0.0, 0.0, -1.0], [1.0; 3], 1.0),
+    ]);
+    c.points_mut().set_scalar("ptarea", vec![0.5; 2]).unwrap();
+    std::fs::write(
+        d.path().join("lit.ply"),
+        to_bytes(&c, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let mesh = fixtures().join("mesh/cube.obj").display().to_string();
+    let medium = ["--model", "physical", "--albedo", "1", "--mfp", "0.05"];
+    let mut walk = vec![
+        "lit.ply", "-o", "walk.ply", "--method", "walk", "--mesh", &mesh,
+    ];
+    walk.extend(medium);
+    let o = run_in(Some(d.path()), "ssmulti", &walk, b"");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = from_bytes(&std::fs::read(d.path().join("walk.ply")).unwrap());
+    assert!(out
+        .points()
+        .vec3_f64("ssM")
+        .unwrap()
+        .iter()
+        .all(|v| v[0] > 0.0));
+    let mut kernel = vec!["lit.ply", "-o", "kernel.ply"];
+    kernel.extend(medium);
+    let o = run_in(Some(d.path()), "ssmulti", &kernel, b"");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--albedo"), "{}", stderr(&o));
+    assert!(!d.path().join("kernel.ply").exists());
+}
