@@ -111,16 +111,32 @@ impl<'a> Walker<'a> {
         self
     }
 
-    /// One walk in `medium` from the surface point `p` of outward unit
-    /// normal `n`, with the random stream `r`.
-    pub fn walk(&self, medium: &Medium, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
-        let sigma_t = medium.mfp.map(|m| 1.0 / m);
-        let (albedo, g, eta) = (medium.albedo, medium.g, medium.eta);
-        let guide = if self.guided {
-            Guide::new(medium)
-        } else {
-            None
-        };
+    /// `medium` as this walker's walks take it: its extinctions and
+    /// guide, worked out once for all the walks in it.
+    pub fn medium(&self, medium: &Medium) -> WalkMedium {
+        WalkMedium {
+            sigma_t: medium.mfp.map(|m| 1.0 / m),
+            albedo: medium.albedo,
+            g: medium.g,
+            eta: medium.eta,
+            guide: if self.guided {
+                Guide::new(medium)
+            } else {
+                None
+            },
+        }
+    }
+
+    /// One walk in `medium` (from [`Walker::medium`]) from the surface
+    /// point `p` of outward unit normal `n`, with the random stream `r`.
+    pub fn walk(&self, medium: &WalkMedium, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
+        let WalkMedium {
+            sigma_t,
+            albedo,
+            g,
+            eta,
+            ref guide,
+        } = *medium;
         // The outside direction, cosine-weighted about n, and the light
         // refracted in along it (Fresnel's share reflected is not
         // subsurface light).
@@ -275,6 +291,15 @@ impl<'a> Walker<'a> {
             }
         }
     }
+}
+
+/// A medium as a walk takes it ([`Walker::medium`]).
+pub struct WalkMedium {
+    sigma_t: [f64; 3],
+    albedo: [f64; 3],
+    g: f64,
+    eta: f64,
+    guide: Option<Guide>,
 }
 
 /// Guided walks (Dwivedi's sampling, Krivanek and d'Eon 2014, with Meng,

@@ -426,6 +426,7 @@ fn walk_rows(
         .collect();
     let occ = Occluder::new(mesh);
     let walker = Walker::new(mesh, &occ);
+    let walk_media: Vec<_> = media.list.iter().map(|m| walker.medium(m)).collect();
     // The points that walk: those wanted (with the filter, their
     // neighbours too), and of a tile its own (and with the filter its
     // halo: its own points near the tile's edge average them as untiled).
@@ -458,7 +459,7 @@ fn walk_rows(
             let mut counts = [0u64; 6];
             let start = DVec3::from_array(pos[i]);
             let k = media.which.as_ref().map_or(0, |g| g[i] as usize);
-            let medium = &media.list[k];
+            let medium = &walk_media[k];
             for _ in 0..w.walks {
                 counts[0] += 1;
                 match walker.walk(medium, start, unit[i], &mut r) {

@@ -519,10 +519,11 @@ fn guided_walks_keep_the_classic_mean_with_less_noise() {
     // The mean and standard error of what walks from the top's centre
     // carry out after two events or more, channel 0 and 2.
     let stats = |walker: &Walker, m: &Medium, walks: u64| -> [(f64, f64); 2] {
+        let m = walker.medium(m);
         let mut r = Pcg32::new(11, 0);
         let (mut s, mut q) = ([0.0; 2], [0.0; 2]);
         for _ in 0..walks {
-            let e = walker.walk(m, glam::DVec3::ZERO, glam::DVec3::Z, &mut r);
+            let e = walker.walk(&m, glam::DVec3::ZERO, glam::DVec3::Z, &mut r);
             if let End::Exit { events, weight, .. } = e {
                 if events >= 2 {
                     for (k, c) in [0, 2].into_iter().enumerate() {
