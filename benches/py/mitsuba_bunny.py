@@ -61,8 +61,10 @@ CAMERA = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), wi
 MESH = ROOT / "fixtures/mesh/bunny.obj"
 
 
-def mitsuba(spp, max_depth=-1):
-    scene = {
+def scene(cam, spp, max_depth=-1):
+    """The bunny scene for Mitsuba, seen by the toolkit's camera `cam`
+    (also race.py's)."""
+    s = {
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": RR_DEPTH},
         "bunny": {
@@ -70,16 +72,20 @@ def mitsuba(spp, max_depth=-1):
             "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
                          "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
         },
-        "camera": camera(CAMERA, spp),
+        "camera": camera(cam, spp),
     }
     # A distant light of colour * intensity gives an irradiance of that
     # across its direction (illum's Cl).
     for l in LIGHTS:
         e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
-        scene[l["name"]] = {"type": "directional", "direction": l["direction"],
-                            "irradiance": {"type": "rgb", "value": e}}
+        s[l["name"]] = {"type": "directional", "direction": l["direction"],
+                        "irradiance": {"type": "rgb", "value": e}}
+    return s
+
+
+def mitsuba(spp, max_depth=-1):
     t = time.time()
-    img = np.array(mi.render(mi.load_dict(scene), spp=spp))
+    img = np.array(mi.render(mi.load_dict(scene(CAMERA, spp, max_depth)), spp=spp))
     return img[:, :, :3], time.time() - t
 
 

@@ -27,21 +27,30 @@ def camera(cam, spp):
     }
 
 
-def read_image(exr, d, size):
+def read_image(exr, d, size, pcconvert=ROOT / "target/release/pcconvert"):
     """(beauty premultiplied, coverage) as size x size arrays, from the
-    render's OpenEXR (through pcconvert to ASCII PLY)."""
+    render's OpenEXR (through `pcconvert` to binary PLY)."""
     ply = d / "img.ply"
-    subprocess.run([ROOT / "target/release/pcconvert", "-q", exr, "--format", "ply-ascii", "-o", ply],
-                   check=True)
-    text = ply.read_text().split("end_header\n")
-    names = [l.split()[-1] for l in text[0].splitlines() if l.startswith("property")]
-    rows = np.loadtxt(text[1].splitlines(), ndmin=2)
-    col = {n: rows[:, k] for k, n in enumerate(names)}
+    subprocess.run([pcconvert, "-q", exr, "--format", "ply", "-o", ply], check=True)
+    raw = ply.read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    types = {"float": "<f4", "double": "<f8", "int": "<i4", "uint": "<u4", "uchar": "u1", "char": "i1",
+             "short": "<i2", "ushort": "<u2"}
+    props, count = [], 0
+    for line in raw[:end].decode().splitlines():
+        w = line.split()
+        if w[:2] == ["element", "vertex"]:
+            count = int(w[2])
+        elif w and w[0] == "element":
+            break
+        elif w and w[0] == "property" and count:
+            props.append((w[2], types[w[1]]))
+    rows = np.frombuffer(raw, dtype=np.dtype(props), count=count, offset=end)
     img, a = np.zeros((size, size, 3)), np.zeros((size, size))
-    x, y = col["pixel_x"].astype(int), col["pixel_y"].astype(int)
+    x, y = rows["pixel_x"].astype(int), rows["pixel_y"].astype(int)
     for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
-        img[y, x, c] = col[n]
-    a[y, x] = col["A"]
+        img[y, x, c] = rows[n]
+    a[y, x] = rows["A"]
     return img, a
 
 

@@ -47,39 +47,18 @@ import tempfile
 import mitsuba as mi
 import numpy as np
 
-from mitsuba_images import RR_DEPTH, camera
+from mitsuba_bunny import ALBEDO, MESH, MFP, scene
+from mitsuba_images import read_image
 
-mi.set_variant("scalar_rgb")
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 CACHE = ROOT / "target" / "race"
 RESULTS = ROOT / "benches" / "results" / "race.json"
-ALBEDO, MFP = [0.95, 0.85, 0.7], 0.1
-LIGHTS = json.loads((ROOT / "fixtures/lights/bunny.json").read_text())["lights"]
-MESH = ROOT / "fixtures/mesh/bunny.obj"
 BIN = os.environ.get("BIN", str(ROOT / "target" / "release"))
 
 
 def cpu(who):
     r = resource.getrusage(who)
     return r.ru_utime + r.ru_stime
-
-
-def scene(cam, spp):
-    s = {
-        "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": -1, "rr_depth": RR_DEPTH},
-        "bunny": {
-            "type": "obj", "filename": str(MESH), "face_normals": True, "bsdf": {"type": "null"},
-            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
-                         "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
-        },
-        "camera": camera(cam, spp),
-    }
-    for l in LIGHTS:
-        e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
-        s[l["name"]] = {"type": "directional", "direction": l["direction"],
-                        "irradiance": {"type": "rgb", "value": e}}
-    return s
 
 
 def mitsuba(cam, spp, seed):
@@ -104,33 +83,6 @@ def reference(cam, size, ref_spp, tag=""):
     return halves
 
 
-def read_image(exr, d, size):
-    """(beauty, coverage) from the render's OpenEXR, through pcconvert to
-    binary PLY."""
-    ply = d / "img.ply"
-    subprocess.run([pathlib.Path(BIN) / "pcconvert", "-q", exr, "--format", "ply", "-o", ply], check=True)
-    raw = ply.read_bytes()
-    end = raw.index(b"end_header\n") + len(b"end_header\n")
-    types = {"float": "<f4", "double": "<f8", "int": "<i4", "uint": "<u4", "uchar": "u1", "char": "i1",
-             "short": "<i2", "ushort": "<u2"}
-    props, count = [], 0
-    for line in raw[:end].decode().splitlines():
-        w = line.split()
-        if w[:2] == ["element", "vertex"]:
-            count = int(w[2])
-        elif w and w[0] == "element":
-            break
-        elif w and w[0] == "property" and count:
-            props.append((w[2], types[w[1]]))
-    rows = np.frombuffer(raw, dtype=np.dtype(props), count=count, offset=end)
-    img, a = np.zeros((size, size, 3)), np.zeros((size, size))
-    x, y = rows["pixel_x"].astype(int), rows["pixel_y"].astype(int)
-    for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
-        img[y, x, c] = rows[n]
-    a[y, x] = rows["A"]
-    return img, a
-
-
 def bake(cam_file, count, extra, d, size, keep=False, target=None):
     """The bake's picture, coverage and CPU seconds; with `keep` its
     folder stays for another view (`make` then redoes what the camera
@@ -143,7 +95,7 @@ def bake(cam_file, count, extra, d, size, keep=False, target=None):
                     "PIXEL_FILTER=gaussian", "SAMPLES=16", "SHADOWS=1"] + extra + ([target] if target else []),
                    check=True, stdout=subprocess.DEVNULL)
     took = cpu(resource.RUSAGE_CHILDREN) - c0
-    img, a = read_image(out / "bunny.exr", d, size)
+    img, a = read_image(out / "bunny.exr", d, size, pathlib.Path(BIN) / "pcconvert")
     if not keep:
         subprocess.run(["rm", "-rf", out], check=True)
     return img, a, took
