@@ -28,8 +28,10 @@ def camera(cam, spp):
 
 
 def read_image(exr, d, size, pcconvert=ROOT / "target/release/pcconvert"):
-    """(beauty premultiplied, coverage) as size x size arrays, from the
-    render's OpenEXR (through `pcconvert` to binary PLY)."""
+    """(beauty premultiplied, coverage) as size x size arrays (`size` an
+    int, or (width, height)), from the render's OpenEXR (through
+    `pcconvert` to binary PLY)."""
+    width, height = (size, size) if isinstance(size, int) else size
     ply = d / "img.ply"
     subprocess.run([pcconvert, "-q", exr, "--format", "ply", "-o", ply], check=True)
     raw = ply.read_bytes()
@@ -46,7 +48,7 @@ def read_image(exr, d, size, pcconvert=ROOT / "target/release/pcconvert"):
         elif w and w[0] == "property" and count:
             props.append((w[2], types[w[1]]))
     rows = np.frombuffer(raw, dtype=np.dtype(props), count=count, offset=end)
-    img, a = np.zeros((size, size, 3)), np.zeros((size, size))
+    img, a = np.zeros((height, width, 3)), np.zeros((height, width))
     x, y = rows["pixel_x"].astype(int), rows["pixel_y"].astype(int)
     for c, n in enumerate(["beauty_r", "beauty_g", "beauty_b"]):
         img[y, x, c] = rows[n]

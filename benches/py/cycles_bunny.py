@@ -1,0 +1,238 @@
+"""The bunny scene of mitsuba_bunny.py in Blender Cycles (bpy from PyPI),
+for race.py: the same mesh (flat facets), the two distant lights, the
+camera, a Gaussian pixel filter of the same width, and the medium given
+to Cycles' Random Walk subsurface method.
+
+How the medium is given. Cycles' Random Walk does not take a medium's
+coefficients: it takes a surface colour `A` and a radius `r`, and its
+kernel turns them into a single-scattering albedo by a fit,
+`alpha(A, g)`, and an extinction `sigma_t = 4 pi / (r (1 - g))` (the
+radius over 4 pi is the reduced mean free path). So the colour is found
+by inverting Cycles' fit (bisection on `A`: `alpha` rises with it) for
+the medium's own albedo per channel, and the radius is `4 pi mfp / (1 -
+g)`; `check()` reads the medium back through the same formulas.
+Checked in pictures too: race.py `--cycles-check` prints the ratio of
+Cycles' reference to Mitsuba's over the bunny, per channel.
+
+What is not the same medium. Cycles' walk enters half the time through
+a diffuse (cosine) bounce and half through a rough refraction, and the
+light leaving is a diffuse (Lambertian) surface at the exit point; the
+walk counts single scattering too. Mitsuba (and the bake) refract
+exactly at the index-matched boundary. So Cycles' converged picture is
+not Mitsuba's, and race.py measures each tool against each path
+tracer's own reference.
+
+    python cycles_bunny.py [SIZE] [SPP]   # one picture, its CPU and means
+"""
+import math
+import pathlib
+import resource
+import sys
+import tempfile
+
+import numpy as np
+
+from mitsuba_bunny import ALBEDO, LIGHTS, MESH, MFP
+
+G = 0.0
+# Cycles' Gaussian pixel filter is exp(-2 (6 v / width)^2): a standard
+# deviation of width / 12 pixels. Mitsuba's (and render's) is 0.5.
+FILTER_WIDTH = 6.0
+
+
+def cycles_alpha(a, g):
+    """The single-scattering albedo Cycles' Random Walk gives a surface
+    colour `a` at anisotropy `g` (the fit in Cycles'
+    `subsurface_random_walk_remap`, Blender 5.0)."""
+    gp = [g ** k for k in range(8)]
+
+    def poly(c):
+        return sum(ci * gi for ci, gi in zip(c, gp))
+
+    fa = poly([1.8260523782, -1.28451056436, -1.79904629312, 9.19393289202, -22.8215585862,
+               32.0234874259, -23.6264803333, 7.21067002658])
+    fb = 4.98511194385 + 0.127355959438 * math.exp(
+        poly([0.0, 31.1491581433, -201.847017512, 841.576016723, -2018.09288505, 2731.71560286,
+              -1935.41424244, 559.009054474]))
+    fc = poly([1.09686102424, -0.394704063468, 1.05258115941, -8.83963712726, 28.8643230661,
+               -46.8802913581, 38.5402837518, -12.7181042538])
+    fd = poly([0.496310210422, 0.360146581622, -2.15139309747, 17.8896899217, -55.2984010333,
+               82.065982243, -58.5106008578, 15.8478295021])
+    fe = 4.23190299701 + 0.00310603949088 * math.exp(
+        poly([0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912,
+              -4763.54467887, 1303.5318055]))
+    ff = poly([2.40602999408, -2.51814844609, 9.18494908356, -79.2191708682, 259.082868209,
+               -403.613804597, 302.85712436, -87.4370473567])
+    blend = a ** 0.25
+    alpha = (1 - blend) * fa * math.atan(fb * a) ** fc + blend * fd * math.atan(fe * a) ** ff
+    return min(max(alpha, 0.0), 0.999999)
+
+
+def surface_colour(alpha, g):
+    """The colour whose Cycles albedo is `alpha` (bisection)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        if cycles_alpha(mid, g) < alpha:
+            lo = mid
+        else:
+            hi = mid
+    return (lo + hi) / 2
+
+
+def medium(albedo=ALBEDO, mfp=MFP, g=G):
+    """(base colour, radius) per channel for Cycles' Random Walk."""
+    mfps = mfp if isinstance(mfp, (list, tuple)) else [mfp] * 3
+    return ([surface_colour(a, g) for a in albedo], [4 * math.pi * m / (1 - g) for m in mfps])
+
+
+def check(albedo=ALBEDO, mfp=MFP, g=G):
+    """The medium read back through Cycles' formulas: the largest
+    relative difference of albedo and extinction from the medium's."""
+    colour, radius = medium(albedo, mfp, g)
+    mfps = mfp if isinstance(mfp, (list, tuple)) else [mfp] * 3
+    da = max(abs(cycles_alpha(c, g) / a - 1) for c, a in zip(colour, albedo))
+    ds = max(abs((4 * math.pi / (r * (1 - g))) * m - 1) for r, m in zip(radius, mfps))
+    return da, ds
+
+
+def _cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _mesh(bpy):
+    """The fixture's OBJ as a Blender mesh, as it is (no axis change)."""
+    verts, faces = [], []
+    for line in pathlib.Path(MESH).read_text().splitlines():
+        w = line.split()
+        if w[:1] == ["v"]:
+            verts.append(tuple(float(x) for x in w[1:4]))
+        elif w[:1] == ["f"]:
+            faces.append(tuple(int(x.split("/")[0]) - 1 for x in w[1:]))
+    me = bpy.data.meshes.new("bunny")
+    me.from_pydata(verts, [], faces)
+    me.update()
+    for p in me.polygons:
+        p.use_smooth = False
+    return bpy.data.objects.new("bunny", me)
+
+
+def _look_at(mathutils, position, target, up):
+    p, t, u = (mathutils.Vector(v) for v in (position, target, up))
+    back = (p - t).normalized()
+    right = u.cross(back).normalized()
+    up2 = back.cross(right)
+    m = mathutils.Matrix.Identity(4)
+    for i in range(3):
+        m[i][0], m[i][1], m[i][2], m[i][3] = right[i], up2[i], back[i], p[i]
+    return m
+
+
+def setup(cam, spp, seed=0, denoise=False, threads=2):
+    """A fresh Blender scene of the bunny for Cycles; returns bpy."""
+    import bpy
+    import mathutils
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = "CYCLES"
+    cy = sc.cycles
+    cy.device = "CPU"
+    cy.samples = spp
+    cy.use_adaptive_sampling = False
+    cy.seed = seed
+    cy.use_denoising = denoise
+    if denoise:
+        cy.denoiser = "OPENIMAGEDENOISE"
+    cy.pixel_filter_type = "GAUSSIAN"
+    cy.filter_width = FILTER_WIDTH
+    # Every path followed as far as a walk goes: no bounce caps below the
+    # walk's own, caustics on (the light of a refracting entry).
+    cy.max_bounces = 1024
+    cy.diffuse_bounces = 1024
+    cy.transmission_bounces = 1024
+    cy.min_light_bounces = 1024
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.use_light_tree = True
+    sc.render.threads_mode = "FIXED"
+    sc.render.threads = threads
+    sc.render.resolution_x = cam["width"]
+    sc.render.resolution_y = cam["height"]
+    sc.render.resolution_percentage = 100
+    sc.render.film_transparent = False
+    sc.view_settings.view_transform = "Standard"
+    sc.view_settings.look = "None"
+    sc.view_settings.exposure = 0.0
+    sc.view_settings.gamma = 1.0
+    world = bpy.data.worlds.new("black")
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    sc.world = world
+
+    obj = _mesh(bpy)
+    sc.collection.objects.link(obj)
+    mat = bpy.data.materials.new("medium")
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    colour, radius = medium()
+    bsdf.subsurface_method = "RANDOM_WALK"
+    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
+    bsdf.inputs["Subsurface Weight"].default_value = 1.0
+    bsdf.inputs["Subsurface Radius"].default_value = radius
+    bsdf.inputs["Subsurface Scale"].default_value = 1.0
+    bsdf.inputs["Subsurface Anisotropy"].default_value = G
+    # Index-matched as in Mitsuba: no specular layer, no bend at entry
+    # (Random Walk refracts by the main IOR, clamped just above 1).
+    bsdf.inputs["IOR"].default_value = 1.0
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    obj.data.materials.append(mat)
+
+    for l in LIGHTS:
+        d = mathutils.Vector(l["direction"]).normalized()
+        data = bpy.data.lights.new(l["name"], type="SUN")
+        data.energy = l.get("intensity", 1.0)
+        data.color = l.get("color", [1, 1, 1])
+        data.angle = 0.0
+        lo = bpy.data.objects.new(l["name"], data)
+        # A sun shines along its local -Z.
+        lo.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
+        sc.collection.objects.link(lo)
+
+    cd = bpy.data.cameras.new("camera")
+    cd.sensor_fit = "VERTICAL"
+    cd.angle_y = math.radians(cam["fov"])
+    co = bpy.data.objects.new("camera", cd)
+    co.matrix_world = _look_at(mathutils, cam["position"], cam["look_at"], cam["up"])
+    sc.collection.objects.link(co)
+    sc.camera = co
+    return bpy
+
+
+def render(cam, spp, seed=0, denoise=False, threads=2):
+    """Cycles' picture (linear RGB, rows from the top) and the CPU seconds
+    the render took."""
+    bpy = setup(cam, spp, seed, denoise, threads)
+    sc = bpy.context.scene
+    with tempfile.TemporaryDirectory() as d:
+        out = pathlib.Path(d) / "c.exr"
+        sc.render.image_settings.file_format = "OPEN_EXR"
+        sc.render.image_settings.color_depth = "32"
+        sc.render.filepath = str(out)
+        c0 = _cpu()
+        bpy.ops.render.render(write_still=True)
+        took = _cpu() - c0
+        img = bpy.data.images.load(str(out))
+        w, h = img.size
+        px = np.array(img.pixels[:], dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
+        bpy.data.images.remove(img)
+    return px.copy(), took
+
+
+if __name__ == "__main__":
+    import json
+    size = int(sys.argv[1]) if len(sys.argv) > 1 else 128
+    spp = int(sys.argv[2]) if len(sys.argv) > 2 else 16
+    root = pathlib.Path(__file__).resolve().parents[2]
+    cam = dict(json.loads((root / "fixtures/cameras/bunny.json").read_text()), width=size, height=size)
+    print("medium:", medium(), "read back:", check())
+    img, t = render(cam, spp)
+    print(f"{size} x {size}, {spp} spp: {t:.1f} s of CPU; mean {img.reshape(-1, 3).mean(axis=0)}")
