@@ -165,6 +165,14 @@ pub struct WalkArgs {
     /// noise (ssM_err holds each point's, unfiltered).
     #[arg(long)]
     pub denoise: bool,
+    /// The walk method: sample these lights (illum's, JSON or USD) at the
+    /// walks' scattering events, rather than take their light from illum
+    /// where a walk leaves (docs/DESIGN.md, "The light a walk takes").
+    #[arg(long, value_name = "FILE")]
+    pub lights: Option<PathBuf>,
+    /// With --lights: the lights to use, as illum's --lmask.
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    pub lmask: String,
 }
 
 /// The walk method for the `ssM` that `filter` and `render` compute
@@ -187,9 +195,32 @@ pub struct LazyWalkArgs {
     /// Lazy ssM by walks: filter the walks' noise on the cloud.
     #[arg(long)]
     pub denoise: bool,
+    /// Lazy ssM by walks: sample these lights at the walks' events, as
+    /// ssmulti --lights.
+    #[arg(long, value_name = "FILE")]
+    pub walk_lights: Option<PathBuf>,
+    /// With --walk-lights: the lights to use, as illum's --lmask.
+    #[arg(long, value_name = "PATTERNS", default_value = "*")]
+    pub walk_lmask: String,
 }
 
 impl LazyWalkArgs {
+    /// The lights the lazy walks sample (`--walk-lights`), moved into the
+    /// cloud's `frame`; none without it.
+    pub fn lights(
+        &self,
+        frame: &crate::frame::Frame,
+    ) -> anyhow::Result<Option<Vec<crate::lights::Light>>> {
+        match &self.walk_lights {
+            None => Ok(None),
+            Some(path) => {
+                let file = super::read_lights(path, &self.walk_lmask)
+                    .map_err(|e| super::as_param(e, "walk_lmask"))?;
+                Ok(Some(file.in_frame(frame)))
+            }
+        }
+    }
+
     /// The walks asked for (none for the diffusion method), checked, and
     /// the mesh they go through: `--walk-mesh`, else `default`; without
     /// either, an error naming `--walk-mesh`.

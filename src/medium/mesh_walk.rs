@@ -63,6 +63,19 @@ pub enum End {
     Lost,
 }
 
+/// A walk's scattering event, as [`Walker::walk_with`] shows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Event {
+    /// Where it scatters.
+    pub pos: DVec3,
+    /// The unit direction it arrived in.
+    pub dir: DVec3,
+    /// The throughput per channel, this event's albedo in.
+    pub weight: [f64; 3],
+    /// Its count: 1 for the walk's first event.
+    pub events: u32,
+}
+
 /// What walks through one mesh share (each walk takes its medium: a
 /// per-point material's walk keeps its starting point's throughout, as
 /// Cycles' random walk keeps its shading point's).
@@ -130,6 +143,33 @@ impl<'a> Walker<'a> {
     /// One walk in `medium` (from [`Walker::medium`]) from the surface
     /// point `p` of outward unit normal `n`, with the random stream `r`.
     pub fn walk(&self, medium: &WalkMedium, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
+        self.walk_with(medium, p, n, r, |_, _| {})
+    }
+
+    /// The BVH the walks go through.
+    pub fn occluder(&self) -> &'a Occluder {
+        self.occ
+    }
+
+    /// Triangle `t`'s outward unit normal.
+    pub fn normal(&self, t: usize) -> DVec3 {
+        self.normals[t]
+    }
+
+    /// [`Walker::walk`], calling `at_event` at each scattering event with
+    /// where the walk is, the direction it arrived in, its throughput
+    /// there (the event's albedo in) and its event count: where a caller
+    /// samples the lights (next-event estimation). The callback may draw
+    /// from the walk's stream; one that draws nothing leaves the walk as
+    /// [`Walker::walk`] takes it, bit for bit.
+    pub fn walk_with(
+        &self,
+        medium: &WalkMedium,
+        p: DVec3,
+        n: DVec3,
+        r: &mut Pcg32,
+        mut at_event: impl FnMut(&Event, &mut Pcg32),
+    ) -> End {
         let WalkMedium {
             sigma_t,
             albedo,
@@ -275,6 +315,15 @@ impl<'a> Walker<'a> {
                     if events >= MAX_EVENTS {
                         return End::Cut;
                     }
+                    at_event(
+                        &Event {
+                            pos: x,
+                            dir: d,
+                            weight: w,
+                            events,
+                        },
+                        r,
+                    );
                     if guide.is_none() {
                         d = scatter(d, g, r);
                     }

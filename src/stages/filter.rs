@@ -239,6 +239,8 @@ pub struct SingleSetup<'a> {
 pub struct WalkSetup<'a> {
     pub mesh: &'a TriMesh,
     pub walk: ssmulti::walk::WalkParams,
+    /// The lights the walks sample (`ssmulti --lights`), if they do.
+    pub lights: Option<&'a [crate::lights::Light]>,
 }
 
 /// How `ssM` and `ssS` a cloud lacks are computed (none: they are not).
@@ -666,9 +668,16 @@ pub fn filter(
                 v
             }
             Source::Multi(sp, Some(ws)) => {
-                let (v, rep) =
-                    ssmulti::walk::walk_values(cloud, ws.mesh, sp, &ws.walk, Some(&want), progress)
-                        .map_err(about_cloud)?;
+                let (v, rep) = ssmulti::walk::walk_values(
+                    cloud,
+                    ws.mesh,
+                    sp,
+                    &ws.walk,
+                    ws.lights,
+                    Some(&want),
+                    progress,
+                )
+                .map_err(about_cloud)?;
                 report.lazy.push(("ssM".into(), read, rep.computed));
                 report.warnings.extend(rep.warnings());
                 v

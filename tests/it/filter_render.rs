@@ -891,7 +891,11 @@ fn lazy_walks_equal_the_stored_ones() {
         let (mut eager, mut lazy) = (shade_at(&top), shade_at(&top));
         let stored = [Source::Stored("ssM")];
         filter::filter(&full, "cloud", &mut eager, &params, &stored, &hidden).unwrap();
-        let setup = filter::WalkSetup { mesh: &mesh, walk };
+        let setup = filter::WalkSetup {
+            mesh: &mesh,
+            walk,
+            lights: None,
+        };
         let by_walks = [Source::Multi(&sp, Some(&setup))];
         let rep = filter::filter(&cloud, "cloud", &mut lazy, &params, &by_walks, &hidden).unwrap();
         let a = eager.points().vec3_f32("ssM").unwrap();

@@ -119,13 +119,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lights,
         params,
     });
+    let walk_lights = args.walk.lights(&frame)?;
     let walk = match &walk {
         Some((path, w)) => Some((cli::read_mesh(path)?, *w)),
         None => None,
     };
-    let walk_setup = walk
-        .as_ref()
-        .map(|(mesh, walk)| WalkSetup { mesh, walk: *walk });
+    let walk_setup = walk.as_ref().map(|(mesh, walk)| WalkSetup {
+        mesh,
+        walk: *walk,
+        lights: walk_lights.as_deref(),
+    });
     let lazy = Lazy {
         multi: multi.as_ref(),
         walk: walk_setup.as_ref(),

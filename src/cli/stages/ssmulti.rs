@@ -50,6 +50,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         _ => None,
     };
+    // The lights the walks sample, read before the cloud.
+    let lights = match (&walk, &args.walk.lights) {
+        (Some(_), Some(path)) => Some(cli::read_lights(path, &args.walk.lmask)?),
+        (None, Some(_)) => {
+            let why = "samples lights at the walks' events: it takes --method walk";
+            return Err(crate::Error::param("lights", why).into());
+        }
+        _ => None,
+    };
     let mut wanted = vec![
         "P",
         "N",
@@ -87,9 +96,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             per_point,
             base,
         };
-        let (rep, groups) =
-            ssmulti::walk::ssmulti_walk_per_point(&mut cloud, mesh, &plan, w, &progress)
-                .map_err(cli::at(&name))?;
+        let used = lights.as_ref().map(|f| f.in_frame(&frame));
+        let (rep, groups) = ssmulti::walk::ssmulti_walk_per_point(
+            &mut cloud,
+            mesh,
+            &plan,
+            w,
+            used.as_deref(),
+            &progress,
+        )
+        .map_err(cli::at(&name))?;
         if groups > 1 {
             msg.info(format!("per-point parameters: {groups} groups of points"));
         }

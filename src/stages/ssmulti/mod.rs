@@ -50,6 +50,7 @@ mod gather;
 mod inputs;
 pub mod kernel;
 mod lanes;
+mod nee;
 mod normalise;
 mod pairs;
 mod params;

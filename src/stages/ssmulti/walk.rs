@@ -23,6 +23,7 @@ use glam::DVec3;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
+use super::nee::Sampled;
 use super::params::Params;
 use crate::cloud::{Attribute, Cloud, DetailValue, Role};
 use crate::column::Scalar;
@@ -30,6 +31,7 @@ use crate::error::{Error, Result};
 use crate::geom::bvh::Occluder;
 use crate::geom::kdtree::PointTree;
 use crate::geom::mesh::TriMesh;
+use crate::lights::Light;
 use crate::medium::mesh_walk::{End, Walker};
 use crate::medium::Medium;
 use crate::progress::Progress;
@@ -152,7 +154,7 @@ pub fn validate(w: &WalkParams) -> Result<()> {
 }
 
 /// The light each cloud point gives a walk that leaves beside it.
-struct Light {
+struct ExitLight {
     illum: Vec<[f64; 3]>,
     /// `illum_cos`, where the cloud has it.
     cos: Option<Vec<f64>>,
@@ -162,6 +164,9 @@ struct Light {
     spread: Option<Vec<[f64; 3]>>,
     /// What a walk of one event takes: `illum_indirect`, or nothing.
     single: Vec<[f64; 3]>,
+    /// The lights are sampled at the walk's events: a walk of two or
+    /// more events takes the spread light alone where it leaves.
+    sampled: bool,
 }
 
 /// How a medium weighs `illum` for a walk of two or more events: its
@@ -188,13 +193,17 @@ impl Weigh {
     }
 }
 
-impl Light {
+impl ExitLight {
     /// What a walk of `events` events that leaves beside point `j` takes,
     /// in a medium weighing it by `w`.
     fn at(&self, j: usize, events: u32, w: &Weigh) -> [f64; 3] {
         match events {
             0 => [0.0; 3],
             1 => self.single[j],
+            _ if self.sampled => match &self.spread {
+                Some(d) => [0, 1, 2].map(|c| d[j][c].min(self.illum[j][c])),
+                None => [0.0; 3],
+            },
             _ => {
                 let f = match &self.cos {
                     Some(c) => w.inc.factor(c[j]),
@@ -213,7 +222,7 @@ impl Light {
 }
 
 /// The cloud's light (see the module's doc).
-fn light(cloud: &Cloud, rep: &mut WalkReport) -> Result<Light> {
+fn light(cloud: &Cloud, rep: &mut WalkReport) -> Result<ExitLight> {
     let pts = cloud.points();
     let illum = pts.vec3_f64("illum")?;
     let n = illum.len();
@@ -249,11 +258,12 @@ fn light(cloud: &Cloud, rep: &mut WalkReport) -> Result<Light> {
         vec![[0.0; 3]; n]
     };
     let spread = super::inputs::spread_light(cloud)?;
-    Ok(Light {
+    Ok(ExitLight {
         illum,
         cos,
         spread,
         single,
+        sampled: false,
     })
 }
 
@@ -283,13 +293,27 @@ pub fn ssmulti_walk(
     w: &WalkParams,
     progress: &Progress,
 ) -> Result<WalkReport> {
+    ssmulti_walk_lit(cloud, mesh, p, w, None, progress)
+}
+
+/// [`ssmulti_walk`], sampling `lights` at the walks' events when given
+/// (the lights `illum` lit the cloud with: [`super::nee`]) rather than
+/// taking their light from `illum` where a walk leaves.
+pub fn ssmulti_walk_lit(
+    cloud: &mut Cloud,
+    mesh: &TriMesh,
+    p: &Params,
+    w: &WalkParams,
+    lights: Option<&[Light]>,
+    progress: &Progress,
+) -> Result<WalkReport> {
     let media = Media {
         list: vec![*medium_of(p)?],
         which: None,
         per_point: None,
         reach: p.reach(),
     };
-    walks(cloud, mesh, p, &media, w, progress)
+    walks(cloud, mesh, p, &media, w, lights, progress)
 }
 
 /// [`ssmulti_walk`] with `plan`'s per-point material: each point's walks
@@ -300,6 +324,7 @@ pub fn ssmulti_walk_per_point(
     mesh: &TriMesh,
     plan: &super::Plan,
     w: &WalkParams,
+    lights: Option<&[Light]>,
     progress: &Progress,
 ) -> Result<(WalkReport, usize)> {
     let p = &plan.params;
@@ -310,7 +335,7 @@ pub fn ssmulti_walk_per_point(
         super::per_point::groups(cloud, p, &plan.base, &plan.per_point)?
     };
     let Some(g) = groups else {
-        return Ok((ssmulti_walk(cloud, mesh, p, w, progress)?, 1));
+        return Ok((ssmulti_walk_lit(cloud, mesh, p, w, lights, progress)?, 1));
     };
     let mut which = vec![0u32; cloud.len()];
     for (k, m) in g.members.iter().enumerate() {
@@ -329,7 +354,7 @@ pub fn ssmulti_walk_per_point(
         per_point: Some(g.detail),
         reach: g.params.iter().map(|q| q.reach()).fold(0.0, f64::max),
     };
-    let rep = walks(cloud, mesh, p, &media, w, progress)?;
+    let rep = walks(cloud, mesh, p, &media, w, lights, progress)?;
     Ok((rep, g.members.len()))
 }
 
@@ -341,14 +366,19 @@ fn walks(
     p: &Params,
     media: &Media,
     w: &WalkParams,
+    lights: Option<&[Light]>,
     progress: &Progress,
 ) -> Result<WalkReport> {
-    let (value, err, rep) = walk_rows(cloud, mesh, media, w, None, progress)?;
+    let (value, err, rep) = walk_rows(cloud, mesh, media, w, lights, None, progress)?;
     let cols = [0, 1, 2].map(|c| value.iter().map(|r| r[c]).collect::<Vec<f32>>());
     let ssm = Attribute::vec3("ssM", Role::Color, cols.map(f32::wrap));
     cloud.points_mut().set(ssm)?;
     cloud.points_mut().set_vec3("ssM_err", Role::Vector, &err)?;
     let mut details = record(p, w, mesh, &rep);
+    if let Some(l) = lights {
+        let d = crate::lights::digest(l);
+        details.push(("ssmulti_lights_digest", DetailValue::Str(d)));
+    }
     if let Some(d) = &media.per_point {
         details.push(("ssmulti_per_point", DetailValue::Str(d.clone())));
     }
@@ -366,6 +396,7 @@ pub fn walk_values(
     mesh: &TriMesh,
     p: &Params,
     w: &WalkParams,
+    lights: Option<&[Light]>,
     want: Option<&[bool]>,
     progress: &Progress,
 ) -> Result<(Vec<[f32; 3]>, WalkReport)> {
@@ -375,7 +406,7 @@ pub fn walk_values(
         per_point: None,
         reach: p.reach(),
     };
-    let (value, _, rep) = walk_rows(cloud, mesh, &media, w, want, progress)?;
+    let (value, _, rep) = walk_rows(cloud, mesh, &media, w, lights, want, progress)?;
     Ok((value, rep))
 }
 
@@ -389,6 +420,7 @@ fn walk_rows(
     mesh: &TriMesh,
     media: &Media,
     w: &WalkParams,
+    lights: Option<&[Light]>,
     want: Option<&[bool]>,
     progress: &Progress,
 ) -> Result<(Rows, Rows, WalkReport)> {
@@ -408,7 +440,8 @@ fn walk_rows(
             pos[i], nrm[i]
         )));
     }
-    let light = light(cloud, &mut rep)?;
+    let mut light = light(cloud, &mut rep)?;
+    light.sampled = lights.is_some();
     let weigh: Vec<Weigh> = media.list.iter().map(Weigh::of).collect();
     // A tile's point walks the stream of its index in the untiled cloud:
     // the tiled bake draws the untiled one's walks.
@@ -427,6 +460,17 @@ fn walk_rows(
     let occ = Occluder::new(mesh);
     let walker = Walker::new(mesh, &occ);
     let walk_media: Vec<_> = media.list.iter().map(|m| walker.medium(m)).collect();
+    // The lights sampled at the events, with each medium's shadows.
+    let sampled: Option<Vec<Sampled>> = match lights {
+        Some(l) => Some(
+            media
+                .list
+                .iter()
+                .map(|m| Sampled::new(l, cloud, mesh, &occ, m))
+                .collect::<Result<_>>()?,
+        ),
+        None => None,
+    };
     // The points that walk: those wanted (with the filter, their
     // neighbours too), and of a tile its own (and with the filter its
     // halo: its own points near the tile's edge average them as untiled).
@@ -460,9 +504,22 @@ fn walk_rows(
             let start = DVec3::from_array(pos[i]);
             let k = media.which.as_ref().map_or(0, |g| g[i] as usize);
             let medium = &walk_media[k];
+            let mut buf = Vec::new();
             for _ in 0..w.walks {
                 counts[0] += 1;
-                match walker.walk(medium, start, unit[i], &mut r) {
+                // The lights sampled at the walk's events of two or more.
+                let mut got = [0.0f64; 3];
+                let end = match &sampled {
+                    Some(s) => walker.walk_with(medium, start, unit[i], &mut r, |e, r| {
+                        if e.events >= 2 {
+                            let x = s[k].at(e, &media.list[k], &walker, r, &mut buf);
+                            (0..3).for_each(|c| got[c] += x[c]);
+                        }
+                    }),
+                    None => walker.walk(medium, start, unit[i], &mut r),
+                };
+                let mut left = [0.0f64; 3];
+                match end {
                     End::Exit {
                         pos: x,
                         normal,
@@ -483,15 +540,16 @@ fn walk_rows(
                         // (illum holds illum_indirect too: its
                         // multiple scattering is in the first term.)
                         let e = light.at(j, events, &weigh[k]);
-                        for c in 0..3 {
-                            let x = weight[c] * e[c];
-                            sum[c] += x;
-                            sq[c] += x * x;
-                        }
+                        left = [0, 1, 2].map(|c| weight[c] * e[c]);
                     }
                     End::Absorbed => {}
                     End::Lost => counts[4] += 1,
                     End::Cut => counts[5] += 1,
+                }
+                for c in 0..3 {
+                    let x = got[c] + left[c];
+                    sum[c] += x;
+                    sq[c] += x * x;
                 }
             }
             // The mean and its variance (the walks' sample variance over

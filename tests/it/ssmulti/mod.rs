@@ -18,6 +18,7 @@ use pcsss::Cloud;
 mod approx;
 mod closed_form;
 mod exact;
+mod nee;
 mod physical;
 mod pipe;
 mod scale;

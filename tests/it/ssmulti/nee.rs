@@ -1,0 +1,246 @@
+//! The walk method sampling the lights at its events (`ssmulti --method
+//! walk --lights`) against independent truth: a flat slab's reflectance
+//! (the medium's walk table) under a distant light, through an
+//! index-matched and a dielectric boundary; and the lit pole of a ball,
+//! where a forward light tracer written here (photons from the sun into
+//! the mesh, followed to where they leave) gives the exitance. On the
+//! ball the light taken from the cloud where a walk leaves is 7% high
+//! (docs/DESIGN.md, "The light a walk takes").
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+use crate::util::*;
+use pcsss::cloud::Role;
+use pcsss::geom::bvh::{Facing, Occluder};
+use pcsss::geom::mesh::TriMesh;
+use pcsss::geom::tangent_basis;
+use pcsss::lights::Light;
+use pcsss::maths::uniform53;
+use pcsss::medium::walk::sample_hg;
+use pcsss::medium::Medium;
+use pcsss::progress::Progress;
+use pcsss::stages::ssmulti::walk::{ssmulti_walk_lit, WalkParams};
+use pcsss::stages::ssmulti::Params;
+use pcsss::Cloud;
+
+fn sun(to_light: [f64; 3]) -> Vec<Light> {
+    let t = format!(
+        r#"{{"lights": [{{"type": "distant", "name": "sun", "color": [1, 1, 1], "direction": [{}, {}, {}]}}]}}"#,
+        -to_light[0], -to_light[1], -to_light[2]
+    );
+    pcsss::lights::parse(&t, "sun.json").unwrap()
+}
+
+/// Points on the triangles `tris` of `mesh`, evenly by area, with their
+/// faces' normals.
+fn points_on(mesh: &TriMesh, tris: &[usize], n: usize, seed: u64) -> Cloud {
+    let area = |t: usize| {
+        let [a, b, c] = mesh.tri(t);
+        0.5 * (b - a).cross(c - a).length()
+    };
+    let total: f64 = tris.iter().map(|&t| area(t)).sum();
+    let mut r = Pcg32::new(seed, 3);
+    let (mut p, mut nrm) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let mut u = uniform53(&mut r) * total;
+        let t = *tris
+            .iter()
+            .find(|&&t| {
+                u -= area(t);
+                u < 0.0
+            })
+            .unwrap_or(tris.last().unwrap());
+        let [a, b, c] = mesh.tri(t);
+        let (mut s, mut v) = (uniform53(&mut r), uniform53(&mut r));
+        if s + v > 1.0 {
+            (s, v) = (1.0 - s, 1.0 - v);
+        }
+        p.push((a + (b - a) * s + (c - a) * v).to_array());
+        nrm.push((b - a).cross(c - a).normalize().as_vec3().to_array());
+    }
+    let mut c = Cloud::with_points(n);
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
+    c
+}
+
+/// The mean `ssM` over `cloud` lit by `lights` (through `illum`), walked
+/// through `mesh` in `m`, sampling the lights or not.
+fn walked(mesh: &TriMesh, mut cloud: Cloud, m: Medium, lights: &[Light], sample: bool) -> [f64; 3] {
+    pcsss::stages::illum::illum(&mut cloud, lights, None, 1, &Progress::hidden()).unwrap();
+    let p = Params {
+        medium: Some(m),
+        ..Default::default()
+    };
+    let w = WalkParams {
+        walks: 1000,
+        seed: 4,
+        ..WalkParams::default()
+    };
+    let l = sample.then_some(lights);
+    ssmulti_walk_lit(&mut cloud, mesh, &p, &w, l, &Progress::hidden()).unwrap();
+    let v = cloud.points().vec3_f64("ssM").unwrap();
+    let n = v.len() as f64;
+    [0, 1, 2].map(|c| v.iter().map(|x| x[c]).sum::<f64>() / n)
+}
+
+#[test]
+fn sampled_lights_give_a_flat_slab_its_reflectance() {
+    // 200 mean free paths wide, 60 deep: a half-space at the top's middle.
+    let mfp = 0.05;
+    let mesh = TriMesh::from_cloud(&from_bytes(
+        box_obj([-5.0, -5.0, -3.0], [5.0, 5.0, 0.0]).as_bytes(),
+    ))
+    .unwrap();
+    // Points on the top within a unit of its middle.
+    let mut r = Pcg32::new(9, 1);
+    let (p, n): (Vec<[f64; 3]>, Vec<[f32; 3]>) = (0..40)
+        .map(|_| {
+            let x = 2.0 * uniform53(&mut r) - 1.0;
+            let y = 2.0 * uniform53(&mut r) - 1.0;
+            ([x, y, 0.0], [0.0, 0.0, 1.0])
+        })
+        .unzip();
+    for eta in [1.0, 1.3] {
+        for mu in [1.0f64, 0.5] {
+            let m = Medium::new([0.95, 0.8, 0.5], [mfp; 3], eta, 0.0).unwrap();
+            let mut c = Cloud::with_points(p.len());
+            c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+            c.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+            let l = sun([(1.0 - mu * mu).sqrt(), 0.0, mu]);
+            let got = walked(&mesh, c, m, &l, true);
+            let want = m.rm_at(mu).map(|r| r * mu);
+            for ch in 0..3 {
+                let e = got[ch] / want[ch] - 1.0;
+                assert!(
+                    e.abs() < 0.015,
+                    "eta {eta}, mu {mu}, channel {ch}: {} against rm(mu) E {} ({e:+.4})",
+                    got[ch],
+                    want[ch]
+                );
+            }
+        }
+    }
+}
+
+/// The exitance of `n + 2`-event light over the triangles `cap` of `mesh`
+/// lit by a sun of irradiance 1 along `-z`, by a forward light tracer:
+/// photons over a disc of radius `r` above the mesh, followed from where
+/// they enter (eta 1) to where they leave, absorbed by the albedo's odds,
+/// scattered by Henyey-Greenstein `g`.
+fn traced(mesh: &TriMesh, cap: &[usize], m: &Medium, photons: u64, r: f64) -> f64 {
+    let occ = Occluder::new(mesh);
+    let in_cap: std::collections::HashSet<usize> = cap.iter().copied().collect();
+    let area: f64 = cap
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = mesh.tri(t);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let sigma = 1.0 / m.mfp[0];
+    let hits: u64 = (0..photons / 4096)
+        .into_par_iter()
+        .map(|k| {
+            let mut rng = Pcg32::new(77, k);
+            let mut hits = 0u64;
+            for _ in 0..4096 {
+                let (u, v) = (uniform53(&mut rng), uniform53(&mut rng));
+                let (rad, phi) = (r * u.sqrt(), 2.0 * PI * v);
+                let from = DVec3::new(rad * phi.cos(), rad * phi.sin(), 10.0);
+                let mut d = DVec3::new(0.0, 0.0, -1.0);
+                let Some((_, s)) = occ.nearest(from, d, 0.0, f64::INFINITY, Facing::Entering)
+                else {
+                    continue;
+                };
+                let mut x = from + d * (s + 1e-7);
+                let mut n = 0u32;
+                loop {
+                    let t = -(1.0 - uniform53(&mut rng)).ln() / sigma;
+                    if let Some((tri, _)) = occ.nearest(x, d, 0.0, t, Facing::Leaving) {
+                        if n >= 2 && in_cap.contains(&tri) {
+                            hits += 1;
+                        }
+                        break;
+                    }
+                    x += d * t;
+                    n += 1;
+                    if uniform53(&mut rng) >= m.albedo[0] {
+                        break;
+                    }
+                    let c = sample_hg(m.g, uniform53(&mut rng));
+                    let s = (1.0 - c * c).max(0.0).sqrt();
+                    let phi = 2.0 * PI * uniform53(&mut rng);
+                    let (t1, t2) = tangent_basis(d);
+                    d = (d * c + (t1 * phi.cos() + t2 * phi.sin()) * s).normalize();
+                }
+            }
+            hits
+        })
+        .sum();
+    // Each photon carries the disc's power over their count.
+    hits as f64 * (PI * r * r / photons as f64) / area
+}
+
+#[test]
+fn sampled_lights_on_a_ball_match_a_forward_light_tracer() {
+    let mesh = TriMesh::from_cloud(&icosphere(3)).unwrap();
+    // The ball's cap facing the sun: the triangles whose middle is within
+    // 0.25 of the axis (5 mean free paths).
+    let cap: Vec<usize> = (0..mesh.tris.len())
+        .filter(|&t| {
+            let [a, b, c] = mesh.tri(t);
+            let mid = (a + b + c) / 3.0;
+            mid.z > 0.0 && mid.x.hypot(mid.y) < 0.25
+        })
+        .collect();
+    for g in [0.0, 0.6] {
+        let m = Medium::new([0.95; 3], [0.05; 3], 1.0, g).unwrap();
+        let want = traced(&mesh, &cap, &m, 2_000_000, 1.02);
+        let l = sun([0.0, 0.0, 1.0]);
+        let got = walked(&mesh, points_on(&mesh, &cap, 200, 5), m, &l, true)[0];
+        let old = walked(&mesh, points_on(&mesh, &cap, 200, 5), m, &l, false)[0];
+        eprintln!("g {g}: traced {want:.4}, sampled {got:.4}, from the cloud {old:.4}");
+        let e = got / want - 1.0;
+        assert!(
+            e.abs() < 0.03,
+            "g {g}: the walks sampling the sun give {got:.4}, the light tracer {want:.4} ({e:+.4})"
+        );
+    }
+}
+
+#[test]
+fn lights_other_than_illum_s_or_a_mapped_dome_are_refused() {
+    let mesh = TriMesh::from_cloud(&icosphere(2)).unwrap();
+    let all: Vec<usize> = (0..mesh.tris.len()).collect();
+    let mut c = points_on(&mesh, &all, 20, 2);
+    let m = Medium::new([0.9; 3], [0.05; 3], 1.0, 0.0).unwrap();
+    let p = Params {
+        medium: Some(m),
+        ..Default::default()
+    };
+    let w = WalkParams {
+        walks: 4,
+        ..WalkParams::default()
+    };
+    let hidden = Progress::hidden();
+    // A cloud no illum lit.
+    let l = sun([0.0, 0.0, 1.0]);
+    c.points_mut()
+        .set_vec3("illum", Role::Color, &vec![[1f32; 3]; 20])
+        .unwrap();
+    let e = ssmulti_walk_lit(&mut c.clone(), &mesh, &p, &w, Some(&l), &hidden).unwrap_err();
+    assert!(e.to_string().contains("illum_lights_digest"), "{e}");
+    // Lit by other lights.
+    pcsss::stages::illum::illum(&mut c, &l, None, 1, &hidden).unwrap();
+    let other = sun([0.0, 1.0, 0.0]);
+    let e = ssmulti_walk_lit(&mut c.clone(), &mesh, &p, &w, Some(&other), &hidden).unwrap_err();
+    assert!(e.to_string().contains("not the lights illum lit"), "{e}");
+    // The same lights: taken, and recorded.
+    ssmulti_walk_lit(&mut c, &mesh, &p, &w, Some(&l), &hidden).unwrap();
+    assert!(c.detail("ssmulti_lights_digest").is_some());
+}
