@@ -173,6 +173,20 @@ pub struct WalkArgs {
     /// With --lights: the lights to use, as illum's --lmask.
     #[arg(long, value_name = "PATTERNS", default_value = "*")]
     pub lmask: String,
+    /// The walk method: walk from the direction of this eye, X,Y,Z:
+    /// ssM is then the light towards it (exact at edges and for any
+    /// light; render takes it as it is), baked for that eye as sssingle's
+    /// ssS is (docs/DESIGN.md, "The exit").
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        conflicts_with = "camera"
+    )]
+    pub eye: Option<String>,
+    /// The walk method: --eye at a camera file's position (formats/CAMERA.md).
+    #[arg(long, value_name = "FILE")]
+    pub camera: Option<PathBuf>,
 }
 
 /// The walk method for the `ssM` that `filter` and `render` compute
@@ -235,6 +249,7 @@ impl LazyWalkArgs {
             walks: self.walks,
             seed: self.walk_seed,
             denoise: self.denoise,
+            eye: None,
         };
         ssmulti::walk::validate(&w)?;
         let mesh = match (&self.walk_mesh, default) {

@@ -143,7 +143,7 @@ impl<'a> Walker<'a> {
     /// One walk in `medium` (from [`Walker::medium`]) from the surface
     /// point `p` of outward unit normal `n`, with the random stream `r`.
     pub fn walk(&self, medium: &WalkMedium, p: DVec3, n: DVec3, r: &mut Pcg32) -> End {
-        self.walk_with(medium, p, n, r, |_, _| {})
+        self.walk_with(medium, p, n, None, r, |_, _| {})
     }
 
     /// The BVH the walks go through.
@@ -156,7 +156,11 @@ impl<'a> Walker<'a> {
         self.normals[t]
     }
 
-    /// [`Walker::walk`], calling `at_event` at each scattering event with
+    /// [`Walker::walk`] (from the outside direction `towards`, a unit
+    /// vector, when given, rather than one drawn cosine-weighted: the
+    /// walks then estimate the radiance towards it, not the exitance; a
+    /// point facing away from it ends at once), calling `at_event` at
+    /// each scattering event with
     /// where the walk is, the direction it arrived in, its throughput
     /// there (the event's albedo in) and its event count: where a caller
     /// samples the lights (next-event estimation). The callback may draw
@@ -167,6 +171,7 @@ impl<'a> Walker<'a> {
         medium: &WalkMedium,
         p: DVec3,
         n: DVec3,
+        towards: Option<DVec3>,
         r: &mut Pcg32,
         mut at_event: impl FnMut(&Event, &mut Pcg32),
     ) -> End {
@@ -180,10 +185,21 @@ impl<'a> Walker<'a> {
         // The outside direction, cosine-weighted about n, and the light
         // refracted in along it (Fresnel's share reflected is not
         // subsurface light).
-        let (mu_o, phi) = (uniform53(r).sqrt(), 2.0 * PI * uniform53(r));
         let (t1, t2) = tangent_basis(n);
-        let s_o = (1.0 - mu_o * mu_o).max(0.0).sqrt();
-        let out = n * mu_o + (t1 * phi.cos() + t2 * phi.sin()) * s_o;
+        let (out, mu_o) = match towards {
+            Some(v) => {
+                let mu = v.dot(n);
+                if mu <= 0.0 {
+                    return End::Absorbed;
+                }
+                (v, mu)
+            }
+            None => {
+                let (mu_o, phi) = (uniform53(r).sqrt(), 2.0 * PI * uniform53(r));
+                let s_o = (1.0 - mu_o * mu_o).max(0.0).sqrt();
+                (n * mu_o + (t1 * phi.cos() + t2 * phi.sin()) * s_o, mu_o)
+            }
+        };
         let t_in = 1.0 - fresnel(mu_o, eta);
         let mu_in = super::walk::refracted(mu_o, eta);
         let mut d = (-(out - n * mu_o) / eta - n * mu_in).normalize();

@@ -802,7 +802,10 @@ pub fn radiance_scale(cloud: &Cloud, source: &Source) -> f64 {
 /// seed model, `ssS` and other attributes.
 pub fn exit_medium(cloud: &Cloud, source: &Source) -> Option<crate::medium::Medium> {
     match source {
+        // Walks from an eye's direction hold the light towards it.
+        Source::Multi(_, Some(ws)) if ws.walk.eye.is_some() => None,
         Source::Multi(p, _) => p.medium,
+        Source::Stored("ssM") if cloud.detail("ssmulti_eye").is_some() => None,
         Source::Stored("ssM") if radiance_scale(cloud, source) != 1.0 => {
             let s = ssmulti::Record::of(cloud).medium?;
             crate::medium::Medium::new(s.albedo?, s.mfp?, s.eta?, s.g?).ok()

@@ -330,6 +330,25 @@ pub fn render_scene(scene: &Scene, progress: &Progress) -> Result<(Cloud, Report
         .map(|s| (s.name(), filter::radiance_scale(scene.cloud, s)))
         .collect();
     let eye = DVec3::from_array(scene.camera.position);
+    // ssM walked towards an eye is the light towards that eye alone.
+    if let Some(crate::cloud::DetailValue::V3D(baked)) = scene.cloud.detail("ssmulti_eye") {
+        let baked = DVec3::from_array(*baked);
+        let uses = scene
+            .sources
+            .iter()
+            .any(|s| matches!(s, filter::Source::Stored("ssM")));
+        if uses && (baked - eye).length() > 1e-6 * eye.length().max(baked.length()).max(1.0) {
+            return Err(crate::error::Error::param(
+                "camera",
+                format!(
+                    "the cloud's ssM was walked towards the eye {:?} (ssmulti --eye/--camera), \
+                     this camera is at {:?}: bake ssM for this camera, or without --eye",
+                    baked.to_array(),
+                    eye.to_array()
+                ),
+            ));
+        }
+    }
     let exit = scene
         .sources
         .iter()

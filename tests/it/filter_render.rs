@@ -885,6 +885,7 @@ fn lazy_walks_equal_the_stored_ones() {
             walks: 16,
             seed: 8,
             denoise,
+            ..WalkParams::default()
         };
         let mut full = cloud.clone();
         ssmulti_walk(&mut full, &mesh, &sp, &walk, &hidden).unwrap();

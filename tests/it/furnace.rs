@@ -80,25 +80,42 @@ struct Found {
 /// of `mesh` each view sees through enough medium, at `eta`; `bounds` a
 /// box's corners (its edges).
 fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Vec<Found> {
+    furnace_by(mesh, eta, bounds, None)
+}
+
+/// [`furnace`], with `eye` the walks from each view's direction
+/// (`WalkParams::eye`: `ssM` the light towards it, taken as it is) at
+/// `eye.0` points and `eye.1` walks, rather than the exitance through the
+/// exit.
+fn furnace_by(
+    mesh: &TriMesh,
+    eta: f64,
+    bounds: Option<([f64; 3], [f64; 3])>,
+    eye: Option<(usize, u32)>,
+) -> Vec<Found> {
     let dome = pcsss::lights::parse(
         r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 1, 1], "samples": 256}]}"#,
         "sky.json",
     )
     .unwrap();
     let m = Medium::new([1.0; 3], [MFP; 3], eta, 0.0).unwrap();
-    let mut c = points_on(mesh, 400, 5);
+    let mut c = points_on(mesh, eye.map_or(400, |e| e.0), 5);
     pcsss::stages::illum::illum(&mut c, &dome, None, 1, &Progress::hidden()).unwrap();
     let sp = pcsss::stages::ssmulti::Params {
         medium: Some(m),
         ..Default::default()
     };
     let w = WalkParams {
-        walks: 400,
+        walks: eye.map_or(400, |e| e.1),
         seed: 6,
         ..WalkParams::default()
     };
-    ssmulti_walk(&mut c, mesh, &sp, &w, &Progress::hidden()).unwrap();
-    let ssm = c.points().vec3_f64("ssM").unwrap();
+    let sky = if eye.is_none() {
+        ssmulti_walk(&mut c, mesh, &sp, &w, &Progress::hidden()).unwrap();
+        c.points().vec3_f64("ssM").unwrap()
+    } else {
+        Vec::new()
+    };
     let pos = c.points().vec3_f64("P").unwrap();
     let nrm = c.points().vec3_f64("N").unwrap();
     let occ = Occluder::new(mesh);
@@ -123,6 +140,18 @@ fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Ve
         sssingle::sssingle(&mut lit, mesh, &dome, &p, &Progress::hidden()).unwrap();
         let sss = lit.points().vec3_f64("ssS").unwrap();
         let exit = Exit::new(&m, p.eye);
+        let ssm = match eye {
+            None => sky.clone(),
+            Some(_) => {
+                let mut v = c.clone();
+                let w = WalkParams {
+                    eye: Some(p.eye),
+                    ..w
+                };
+                ssmulti_walk(&mut v, mesh, &sp, &w, &Progress::hidden()).unwrap();
+                v.points().vec3_f64("ssM").unwrap()
+            }
+        };
         let mut ratios = Vec::new();
         let mut inside = Vec::new();
         for i in 0..pos.len() {
@@ -133,14 +162,19 @@ fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Ve
             }
             // The chord the view sees through (refracted at eta != 1).
             let mu_t = (1.0 - (1.0 - mu * mu) / (eta * eta)).max(0.0).sqrt();
-            let t = ((dir - n * mu) / eta - n * mu_t).normalize();
+            // The view's ray refracted in: the tangential part of its
+            // travel (-dir) shrinks by eta.
+            let t = (-(dir - n * mu) / eta - n * mu_t).normalize();
             let chord = occ
                 .nearest(x - n * 1e-6, t, 0.0, f64::INFINITY, Facing::Leaving)
                 .map_or(f64::INFINITY, |h| h.1);
             if chord < 8.0 * MFP {
                 continue;
             }
-            let f = exit.factor(x, n);
+            let f = match eye {
+                None => exit.factor(x, n),
+                Some(_) => [1.0; 3],
+            };
             let want = 1.0 - fresnel(mu, eta);
             // How far the point is from its face's edges (a box's faces
             // are axis-aligned: the two coordinates along the face).
@@ -171,14 +205,12 @@ fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Ve
 }
 
 /// Found (400 points, 400 walks each, three views): the sphere's mean
-/// within 0.5% at both indices. A box's points within a mean free path of
-/// an edge read up to 57% (cube) and 68% (thin box) low: the walk's
-/// exitance there is short of the multiple scattering that leaves through
-/// the neighbouring face, while the eye looks through the long chord
-/// (the half-space exit does not hold at an edge); over the points two
-/// mean free paths or more from an edge the mean is within 1%, over all a
-/// box's points 0.966-0.998. (At 300 points and 250 walks the noise
-/// alone moves a view's mean by 1%.) The diffusion method cannot take a
+/// within 0.5% at both indices. Over a box's points two mean free paths
+/// or more from an edge the mean is within 0.7%, over all 0.957-0.991:
+/// within a mean free path of an edge a point reads up to 32% low, the
+/// exitance's one exit profile not holding there (the eye looks through
+/// the corner at light that left through the neighbouring face; the
+/// walks from the eye, below, hold). The diffusion method cannot take a
 /// medium that absorbs nothing: its kernel would reach without end.
 #[test]
 fn a_medium_that_absorbs_nothing_returns_the_dome_s_light() {
@@ -203,10 +235,53 @@ fn a_medium_that_absorbs_nothing_returns_the_dome_s_light() {
                     "{what}: the mean beauty away from edges is {} of the light",
                     f.inside
                 );
+                eprintln!(
+                    "{what}: mean {:.4}, inside {:.4}, worst {:.4}",
+                    f.mean, f.inside, f.worst
+                );
                 assert!(
-                    (f.mean - 1.0).abs() < 0.04,
+                    (f.mean - 1.0).abs() < 0.05,
                     "{what}: the mean beauty is {} of the light (worst point {})",
                     f.mean,
+                    f.worst
+                );
+            }
+        }
+    }
+}
+
+/// Walks from the eye's direction (`ssmulti --eye`) hold the light towards
+/// the eye, where the exitance's one exit profile does not hold: at a
+/// box's edges. Every point a view sees through enough medium returns
+/// the dome's light. Found (200 points, 200 walks each, three views):
+/// see docs/DESIGN.md#the-exit.
+#[test]
+fn walks_from_the_eye_return_the_dome_s_light_at_edges_too() {
+    let (cube_lo, cube_hi) = ([0.0; 3], [1.0; 3]);
+    let (thin_lo, thin_hi) = ([-1.0, -1.0, -0.25], [1.0, 1.0, 0.25]);
+    let cube = mesh_of(&box_obj(cube_lo, cube_hi));
+    let thin = mesh_of(&box_obj(thin_lo, thin_hi));
+    for (name, mesh, bounds) in [
+        ("cube", &cube, Some((cube_lo, cube_hi))),
+        ("thin box", &thin, Some((thin_lo, thin_hi))),
+    ] {
+        for eta in [1.0, 1.33] {
+            for (k, f) in furnace_by(mesh, eta, bounds, Some((200, 200)))
+                .into_iter()
+                .enumerate()
+            {
+                eprintln!(
+                    "{name}, eta {eta}, view {k}: mean {:.4}, inside {:.4}, worst {:.4}",
+                    f.mean, f.inside, f.worst
+                );
+                assert!(
+                    (f.mean - 1.0).abs() < 0.01,
+                    "{name}, eta {eta}, view {k}: the mean beauty is {} of the light",
+                    f.mean
+                );
+                assert!(
+                    f.worst < 0.12,
+                    "{name}, eta {eta}, view {k}: a point is {} off the light",
                     f.worst
                 );
             }

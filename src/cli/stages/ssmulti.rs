@@ -44,11 +44,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 walks: args.walk.walks,
                 seed: args.walk.seed,
                 denoise: args.walk.denoise,
+                eye: None,
             };
             ssmulti::walk::check(&early, &w)?;
             Some((cli::read_mesh(path)?, w))
         }
         _ => None,
+    };
+    let eye_given = args.walk.eye.is_some() || args.walk.camera.is_some();
+    if eye_given && walk.is_none() {
+        let why = "walks from the eye's direction: it takes --method walk";
+        return Err(crate::Error::param("eye", why).into());
+    }
+    let eye = match &args.walk.eye {
+        Some(e) => Some(cli::parse_xyz("--eye", e)?),
+        None => None,
+    };
+    let camera = match &args.walk.camera {
+        Some(c) => Some(cli::read_camera(c)?),
+        None => None,
     };
     // The lights the walks sample, read before the cloud.
     let lights = match (&walk, &args.walk.lights) {
@@ -91,6 +105,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     .plan()?;
     let progress = msg.progress();
     if let Some((mesh, w)) = &walk {
+        // The eye in the cloud's frame (a camera's is moved there).
+        let w = &ssmulti::walk::WalkParams {
+            eye: camera
+                .as_ref()
+                .map(|c| c.in_frame(&frame).position)
+                .or(eye)
+                .map(glam::DVec3::from_array),
+            ..*w
+        };
         let plan = ssmulti::Plan {
             params,
             per_point,

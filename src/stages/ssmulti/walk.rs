@@ -40,11 +40,13 @@ use crate::progress::Progress;
 pub const MAX_WALKS: u32 = 1 << 20;
 
 /// Cloud points asked for at an exit, among which the nearest on the
-/// exit's side gives the light.
+/// exit's side gives the light; where none of them is on that side, the
+/// wider ask.
 const NEAR: usize = 8;
+const NEAR_MORE: usize = 64;
 
 /// The walk method's own parameters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WalkParams {
     /// Walks a point.
     pub walks: u32,
@@ -52,6 +54,10 @@ pub struct WalkParams {
     pub seed: u64,
     /// Filter the walks' noise on the cloud ([`denoise`]).
     pub denoise: bool,
+    /// Walks that start from the direction of this eye, not evenly over
+    /// the hemisphere: `ssM` is then `pi` times the radiance towards the
+    /// eye, not the exitance (`docs/DESIGN.md#the-exit`).
+    pub eye: Option<DVec3>,
 }
 
 impl Default for WalkParams {
@@ -60,6 +66,7 @@ impl Default for WalkParams {
             walks: 64,
             seed: 0,
             denoise: false,
+            eye: None,
         }
     }
 }
@@ -505,18 +512,21 @@ fn walk_rows(
             let k = media.which.as_ref().map_or(0, |g| g[i] as usize);
             let medium = &walk_media[k];
             let mut buf = Vec::new();
+            // From the eye's direction (none where the point faces away
+            // from it), or evenly.
+            let towards = w.eye.map(|e| (e - start).normalize_or_zero());
             for _ in 0..w.walks {
                 counts[0] += 1;
                 // The lights sampled at the walk's events of two or more.
                 let mut got = [0.0f64; 3];
                 let end = match &sampled {
-                    Some(s) => walker.walk_with(medium, start, unit[i], &mut r, |e, r| {
+                    Some(s) => walker.walk_with(medium, start, unit[i], towards, &mut r, |e, r| {
                         if e.events >= 2 {
                             let x = s[k].at(e, &media.list[k], &walker, r, &mut buf);
                             (0..3).for_each(|c| got[c] += x[c]);
                         }
                     }),
-                    None => walker.walk(medium, start, unit[i], &mut r),
+                    None => walker.walk_with(medium, start, unit[i], towards, &mut r, |_, _| {}),
                 };
                 let mut left = [0.0f64; 3];
                 match end {
@@ -527,12 +537,15 @@ fn walk_rows(
                         weight,
                     } => {
                         counts[1] += events as u64;
-                        let near = tree.nearest(x, NEAR);
-                        let Some(j) = near
-                            .iter()
-                            .map(|q| q.item as usize)
-                            .find(|&j| unit[j].dot(normal) > 0.0)
-                        else {
+                        // The nearest few, then more where they all
+                        // face another way (at an edge of a sparse cloud).
+                        let facing = |k: usize| {
+                            tree.nearest(x, k)
+                                .iter()
+                                .map(|q| q.item as usize)
+                                .find(|&j| unit[j].dot(normal) > 0.0)
+                        };
+                        let Some(j) = facing(NEAR).or_else(|| facing(NEAR_MORE)) else {
                             counts[3] += 1;
                             continue;
                         };
@@ -690,6 +703,9 @@ fn record(
         ("ssmulti_mesh", DetailValue::Str(mesh.digest())),
         ("ssmulti_denoise", DetailValue::I32(w.denoise as i32)),
     ]);
+    if let Some(e) = w.eye {
+        d.push(("ssmulti_eye", DetailValue::V3D(e.to_array())));
+    }
     let how = if rep.by_incidence {
         "illum_cos"
     } else {

@@ -244,3 +244,61 @@ fn lights_other_than_illum_s_or_a_mapped_dome_are_refused() {
     ssmulti_walk_lit(&mut c, &mesh, &p, &w, Some(&l), &hidden).unwrap();
     assert!(c.detail("ssmulti_lights_digest").is_some());
 }
+
+/// `make METHOD=walk EXIT=eye`: the walks start from the camera's
+/// direction, the cloud records the eye, and render takes that ssM for
+/// that camera alone (another is refused, naming the camera).
+#[test]
+fn walks_towards_the_camera_render_for_that_camera_alone() {
+    let d = tempdir();
+    let out = d.path().join("out");
+    let o = std::process::Command::new("make")
+        .args(["-s", "-C"])
+        .arg(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines"))
+        .arg(format!("OUT={}", out.display()))
+        .arg(format!("BIN={}", bin("render").parent().unwrap().display()))
+        .args([
+            "MODEL=physical",
+            "METHOD=walk",
+            "WALKS=4",
+            "EXIT=eye",
+            "COUNT=3000",
+            "SAMPLES=4",
+            "SPP=1",
+            "ALBEDO=0.9",
+            "MFP=0.2",
+            "ETA=1.3",
+        ])
+        .output()
+        .expect("make runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ss = from_bytes(&std::fs::read(out.join("bunny_ss.ply")).unwrap());
+    assert!(ss.detail("ssmulti_eye").is_some());
+    assert!(ss.detail("ssmulti_lights_digest").is_some());
+    // Another camera: refused before any work, exit 2.
+    let cam = d.path().join("other.json");
+    std::fs::write(
+        &cam,
+        r#"{"position": [6.0, 8.0, 22.0], "look_at": [0.0, 4.6, 0.0], "up": [0, 1, 0], "fov": 30, "width": 32, "height": 32}"#,
+    )
+    .unwrap();
+    let r = std::process::Command::new(bin("render"))
+        .arg("--mesh")
+        .arg(out.join("bunny_mesh.ply"))
+        .arg("--camera")
+        .arg(&cam)
+        .arg("--cloud")
+        .arg(out.join("bunny_sss.ply"))
+        .arg("-o")
+        .arg(d.path().join("x.exr"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        r.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    let msg = String::from_utf8_lossy(&r.stderr);
+    assert!(msg.contains("walked towards the eye"), "{msg}");
+}

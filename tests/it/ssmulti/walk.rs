@@ -390,6 +390,7 @@ fn the_filter_takes_the_noise_and_keeps_a_shadow_s_edge() {
             walks,
             seed: 21,
             denoise,
+            ..WalkParams::default()
         };
         ssmulti_walk(&mut c, &mesh, &physical(m), &w, &Progress::hidden()).unwrap();
         c.points().vec3_f64("ssM").unwrap()
