@@ -285,9 +285,12 @@ def plot(data, out):
         groups = {}
         for r in data["rows"]:
             if r["tool"].startswith("bake"):
-                walks = [e.split("=")[1] for e in r.get("extra", []) if e.startswith("WALKS=")]
-                name = f"bake, {walks[0]} walks" if walks else "bake, kernel"
-                label = f"{r['setting'] // 1000}k"
+                extra = r.get("extra", [])
+                walks = [e.split("=")[1] for e in extra if e.startswith("WALKS=")]
+                how = ("from the eye" if "EXIT=eye" in extra else
+                       "cloud's light" if "SAMPLE_LIGHTS=0" in extra else "lights sampled")
+                name = f"bake, walks ({how})" if walks else "bake, kernel"
+                label = f"{r['setting'] // 1000}k" + (f" x{walks[0]}" if walks else "")
             else:
                 name, label = r["tool"], f"{r['setting']} spp"
             groups.setdefault(name, []).append((r["seconds"], r[f"rms_{ref.lower()}"], label))
@@ -336,7 +339,9 @@ def main():
     ref_spp = int(args[1]) if len(args) > 1 else 64
     spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
     bakes = (args[3] if len(args) > 3 else
-             "50000;200000;50000,METHOD=walk,WALKS=16;50000,METHOD=walk,WALKS=64").split(";")
+             "50000;200000;50000,METHOD=walk,WALKS=16,SAMPLE_LIGHTS=0;50000,METHOD=walk,WALKS=16;"
+             "200000,METHOD=walk,WALKS=16;50000,METHOD=walk,WALKS=16,EXIT=eye;"
+             "200000,METHOD=walk,WALKS=16,EXIT=eye;200000,METHOD=walk,WALKS=64,EXIT=eye").split(";")
     cref = int(args[4]) if len(args) > 4 else 128
     cam = dict(base, width=size, height=size)
     rows = race(cam, ref_spp, spps, bakes, cref, tracers)
