@@ -339,8 +339,9 @@ def main():
     ref_spp = int(args[1]) if len(args) > 1 else 64
     spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
     bakes = (args[3] if len(args) > 3 else
-             "50000;200000;50000,METHOD=walk,WALKS=16,SAMPLE_LIGHTS=0;50000,METHOD=walk,WALKS=16;"
-             "200000,METHOD=walk,WALKS=16;50000,METHOD=walk,WALKS=16,EXIT=eye;"
+             "50000;200000;50000,METHOD=walk,WALKS=16,SAMPLE_LIGHTS=0,EXIT=sky;"
+             "50000,METHOD=walk,WALKS=16,EXIT=sky;200000,METHOD=walk,WALKS=16,EXIT=sky;"
+             "50000,METHOD=walk,WALKS=16,EXIT=eye;"
              "200000,METHOD=walk,WALKS=16,EXIT=eye;200000,METHOD=walk,WALKS=64,EXIT=eye").split(";")
     cref = int(args[4]) if len(args) > 4 else 128
     cam = dict(base, width=size, height=size)
