@@ -880,12 +880,13 @@ fn lazy_walks_equal_the_stored_ones() {
         facing: false,
     };
     let hidden = Progress::hidden();
-    for denoise in [false, true] {
+    // With and without the filter, evenly and from an eye above.
+    for (denoise, eye) in [(false, None), (true, None), (true, Some([0.2, 0.3, 9.0]))] {
         let walk = WalkParams {
             walks: 16,
             seed: 8,
             denoise,
-            ..WalkParams::default()
+            eye: eye.map(glam::DVec3::from_array),
         };
         let mut full = cloud.clone();
         ssmulti_walk(&mut full, &mesh, &sp, &walk, &hidden).unwrap();
@@ -902,7 +903,7 @@ fn lazy_walks_equal_the_stored_ones() {
         let a = eager.points().vec3_f32("ssM").unwrap();
         let b = lazy.points().vec3_f32("ssM").unwrap();
         assert!(a.iter().flatten().any(|&x| x > 0.0));
-        assert_eq!(a, b, "denoise {denoise}");
+        assert_eq!(a, b, "denoise {denoise}, eye {eye:?}");
         let (_, read, computed) = rep.lazy[0].clone();
         assert!(read < cloud.len() / 20, "read {read}");
         assert_eq!(computed, read, "denoise {denoise}");

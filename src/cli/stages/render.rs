@@ -159,9 +159,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some((path, w)) => Some((cli::read_mesh(path)?, *w)),
         None => None,
     };
+    // Render's walks start from its camera: the light towards it
+    // (docs/DESIGN.md, the exit).
     let walk_setup = walk_mesh.as_ref().map(|(mesh, walk)| WalkSetup {
         mesh,
-        walk: *walk,
+        walk: crate::stages::ssmulti::walk::WalkParams {
+            eye: Some(glam::DVec3::from_array(cam.position)),
+            ..*walk
+        },
         lights: walk_lights.as_deref(),
     });
     let lazy = Lazy {
