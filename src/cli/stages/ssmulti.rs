@@ -133,8 +133,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             msg.info(format!("per-point parameters: {groups} groups of points"));
         }
         msg.info(format!(
-            "{} points, {} walks, {} scattering events, {} left the mesh lit",
-            rep.points, rep.walks, rep.events, rep.exits
+            "{} points, {} of them walked, {} walks, {} scattering events, {} left the mesh lit",
+            rep.points, rep.computed, rep.walks, rep.events, rep.exits
         ));
         for w in rep.warnings() {
             msg.warn(w);

@@ -512,9 +512,12 @@ fn walk_rows(
             let k = media.which.as_ref().map_or(0, |g| g[i] as usize);
             let medium = &walk_media[k];
             let mut buf = Vec::new();
-            // From the eye's direction (none where the point faces away
-            // from it), or evenly.
+            // From the eye's direction, or evenly; a point facing away
+            // from the eye does not walk (nor count as computed).
             let towards = w.eye.map(|e| (e - start).normalize_or_zero());
+            if towards.is_some_and(|v| v.dot(unit[i]) <= 0.0) {
+                return ([0.0; 3], [0.0; 3], [0; 6]);
+            }
             for _ in 0..w.walks {
                 counts[0] += 1;
                 // The lights sampled at the walk's events of two or more.
@@ -587,7 +590,10 @@ fn walk_rows(
         .map(|i| own.as_ref().is_none_or(|o| o[i]) && want.is_none_or(|m| m[i]))
         .collect();
     let value = if w.denoise {
-        denoise(&tree, &pos, &unit, &mean, &var, &given)
+        // (A point that did not walk, facing away from the eye, has no
+        // estimate to lend.)
+        let walked: Vec<bool> = per_point.iter().map(|p| p.2[0] > 0).collect();
+        denoise(&tree, &pos, &unit, &mean, &var, &given, &walked)
     } else {
         mean
     };
@@ -620,7 +626,8 @@ fn walk_rows(
 /// (`max(0, N_i . N_j)^8`: not across a crease) and, channel by channel,
 /// how far apart the two estimates are against their noise `var`
 /// (`e^(-d^2 / 2 k^2 (v_i + v_j))`, `k` [`DENOISE_RANGE`]: not across a
-/// shadow's edge the walks resolve).
+/// shadow's edge the walks resolve); the neighbours that did not walk
+/// (not `walked`) lend nothing.
 fn denoise(
     tree: &PointTree,
     pos: &[[f64; 3]],
@@ -628,6 +635,7 @@ fn denoise(
     mean: &[[f64; 3]],
     var: &[[f64; 3]],
     own: &[bool],
+    walked: &[bool],
 ) -> Vec<[f64; 3]> {
     let k2 = DENOISE_RANGE * DENOISE_RANGE;
     (0..mean.len())
@@ -644,6 +652,9 @@ fn denoise(
             let (mut acc, mut wsum) = ([0.0f64; 3], [0.0f64; 3]);
             for q in &near {
                 let j = q.item as usize;
+                if !walked[j] {
+                    continue;
+                }
                 let ws = (-2.0 * q.distance / h2).exp();
                 let wn = unit[i].dot(unit[j]).max(0.0).powi(8);
                 if ws * wn <= 0.0 {

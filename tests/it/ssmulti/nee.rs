@@ -35,39 +35,6 @@ fn sun(to_light: [f64; 3]) -> Vec<Light> {
     pcsss::lights::parse(&t, "sun.json").unwrap()
 }
 
-/// Points on the triangles `tris` of `mesh`, evenly by area, with their
-/// faces' normals.
-fn points_on(mesh: &TriMesh, tris: &[usize], n: usize, seed: u64) -> Cloud {
-    let area = |t: usize| {
-        let [a, b, c] = mesh.tri(t);
-        0.5 * (b - a).cross(c - a).length()
-    };
-    let total: f64 = tris.iter().map(|&t| area(t)).sum();
-    let mut r = Pcg32::new(seed, 3);
-    let (mut p, mut nrm) = (Vec::new(), Vec::new());
-    for _ in 0..n {
-        let mut u = uniform53(&mut r) * total;
-        let t = *tris
-            .iter()
-            .find(|&&t| {
-                u -= area(t);
-                u < 0.0
-            })
-            .unwrap_or(tris.last().unwrap());
-        let [a, b, c] = mesh.tri(t);
-        let (mut s, mut v) = (uniform53(&mut r), uniform53(&mut r));
-        if s + v > 1.0 {
-            (s, v) = (1.0 - s, 1.0 - v);
-        }
-        p.push((a + (b - a) * s + (c - a) * v).to_array());
-        nrm.push((b - a).cross(c - a).normalize().as_vec3().to_array());
-    }
-    let mut c = Cloud::with_points(n);
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
-    c
-}
-
 /// The mean `ssM` over `cloud` lit by `lights` (through `illum`), walked
 /// through `mesh` in `m`, sampling the lights or not.
 fn walked(mesh: &TriMesh, mut cloud: Cloud, m: Medium, lights: &[Light], sample: bool) -> [f64; 3] {
@@ -202,8 +169,14 @@ fn sampled_lights_on_a_ball_match_a_forward_light_tracer() {
         let m = Medium::new([0.95; 3], [0.05; 3], 1.0, g).unwrap();
         let want = traced(&mesh, &cap, &m, 2_000_000, 1.02);
         let l = sun([0.0, 0.0, 1.0]);
-        let got = walked(&mesh, points_on(&mesh, &cap, 200, 5), m, &l, true)[0];
-        let old = walked(&mesh, points_on(&mesh, &cap, 200, 5), m, &l, false)[0];
+        let got = walked(&mesh, points_on_triangles(&mesh, &cap, 200, 5), m, &l, true)[0];
+        let old = walked(
+            &mesh,
+            points_on_triangles(&mesh, &cap, 200, 5),
+            m,
+            &l,
+            false,
+        )[0];
         eprintln!("g {g}: traced {want:.4}, sampled {got:.4}, from the cloud {old:.4}");
         let e = got / want - 1.0;
         assert!(
@@ -216,8 +189,7 @@ fn sampled_lights_on_a_ball_match_a_forward_light_tracer() {
 #[test]
 fn lights_other_than_illum_s_or_a_mapped_dome_are_refused() {
     let mesh = TriMesh::from_cloud(&icosphere(2)).unwrap();
-    let all: Vec<usize> = (0..mesh.tris.len()).collect();
-    let mut c = points_on(&mesh, &all, 20, 2);
+    let mut c = points_on_triangles(&mesh, &all_triangles(&mesh), 20, 2);
     let m = Medium::new([0.9; 3], [0.05; 3], 1.0, 0.0).unwrap();
     let p = Params {
         medium: Some(m),
@@ -301,4 +273,40 @@ fn walks_towards_the_camera_render_for_that_camera_alone() {
     );
     let msg = String::from_utf8_lossy(&r.stderr);
     assert!(msg.contains("walked towards the eye"), "{msg}");
+}
+
+/// Walks from an eye: a point facing away from it does not walk (0, not
+/// counted as computed), one facing it does.
+#[test]
+fn points_facing_away_from_the_eye_do_not_walk() {
+    let mesh = TriMesh::from_cloud(&icosphere(2)).unwrap();
+    let mut c = points_on_triangles(&mesh, &all_triangles(&mesh), 200, 7);
+    let l = sun([0.0, 0.0, 1.0]);
+    pcsss::stages::illum::illum(&mut c, &l, None, 1, &Progress::hidden()).unwrap();
+    let p = Params {
+        medium: Some(Medium::new([0.9; 3], [0.05; 3], 1.0, 0.0).unwrap()),
+        ..Default::default()
+    };
+    let eye = DVec3::new(0.0, 0.0, 10.0);
+    let w = WalkParams {
+        walks: 8,
+        eye: Some(eye),
+        ..WalkParams::default()
+    };
+    let rep = ssmulti_walk_lit(&mut c, &mesh, &p, &w, Some(&l), &Progress::hidden()).unwrap();
+    let pos = c.points().vec3_f64("P").unwrap();
+    let nrm = c.points().vec3_f64("N").unwrap();
+    let ssm = c.points().vec3_f64("ssM").unwrap();
+    let facing: Vec<bool> = (0..pos.len())
+        .map(|i| DVec3::from_array(nrm[i]).dot(eye - DVec3::from_array(pos[i])) > 0.0)
+        .collect();
+    assert_eq!(rep.computed, facing.iter().filter(|&&f| f).count());
+    assert_eq!(rep.walks, 8 * rep.computed as u64);
+    for i in 0..pos.len() {
+        if !facing[i] {
+            assert_eq!(ssm[i], [0.0; 3], "point {i}");
+        }
+    }
+    // Those facing the eye and the sun are lit.
+    assert!((0..pos.len()).any(|i| facing[i] && ssm[i][0] > 0.0));
 }
