@@ -11,57 +11,18 @@
 //! the bake holds).
 
 use glam::DVec3;
-use rand_pcg::Pcg32;
 
 use crate::util::*;
-use pcsss::cloud::Role;
 use pcsss::geom::bvh::{Facing, Occluder};
 use pcsss::geom::mesh::TriMesh;
-use pcsss::maths::uniform53;
 use pcsss::medium::Medium;
 use pcsss::optics::fresnel;
 use pcsss::progress::Progress;
 use pcsss::stages::render::Exit;
 use pcsss::stages::ssmulti::walk::{ssmulti_walk, WalkParams};
 use pcsss::stages::sssingle::{self, Model};
-use pcsss::Cloud;
 
 const MFP: f64 = 0.05;
-
-/// `n` points spread over `mesh`'s triangles by area, each with its
-/// triangle's outward normal.
-fn points_on(mesh: &TriMesh, n: usize, seed: u64) -> Cloud {
-    let areas: Vec<f64> = (0..mesh.tris.len())
-        .map(|t| {
-            let [a, b, c] = mesh.tri(t);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .collect();
-    let total: f64 = areas.iter().sum();
-    let mut r = Pcg32::new(seed, 1);
-    let (mut p, mut nrm) = (Vec::new(), Vec::new());
-    for _ in 0..n {
-        let mut u = uniform53(&mut r) * total;
-        let t = areas
-            .iter()
-            .position(|&a| {
-                u -= a;
-                u < 0.0
-            })
-            .unwrap_or(areas.len() - 1);
-        let [a, b, c] = mesh.tri(t);
-        let (mut s, mut v) = (uniform53(&mut r), uniform53(&mut r));
-        if s + v > 1.0 {
-            (s, v) = (1.0 - s, 1.0 - v);
-        }
-        p.push((a + (b - a) * s + (c - a) * v).to_array());
-        nrm.push((b - a).cross(c - a).normalize().as_vec3().to_array());
-    }
-    let mut c = Cloud::with_points(n);
-    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-    c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
-    c
-}
 
 fn mesh_of(obj: &str) -> TriMesh {
     TriMesh::from_cloud(&from_bytes(obj.as_bytes())).unwrap()
@@ -99,7 +60,7 @@ fn furnace_by(
     )
     .unwrap();
     let m = Medium::new([1.0; 3], [MFP; 3], eta, 0.0).unwrap();
-    let mut c = points_on(mesh, eye.map_or(400, |e| e.0), 5);
+    let mut c = points_on_triangles(mesh, &all_triangles(mesh), eye.map_or(400, |e| e.0), 5);
     pcsss::stages::illum::illum(&mut c, &dome, None, 1, &Progress::hidden()).unwrap();
     let sp = pcsss::stages::ssmulti::Params {
         medium: Some(m),

@@ -456,3 +456,50 @@ pub fn positions(c: &Cloud) -> Vec<glam::DVec3> {
         .map(glam::DVec3::from_array)
         .collect()
 }
+
+/// Every triangle index of `mesh`.
+pub fn all_triangles(mesh: &pcsss::geom::mesh::TriMesh) -> Vec<usize> {
+    (0..mesh.tris.len()).collect()
+}
+
+/// `n` points spread over the triangles `tris` of `mesh` by area (seeded
+/// by `seed`), each with its triangle's outward normal.
+pub fn points_on_triangles(
+    mesh: &pcsss::geom::mesh::TriMesh,
+    tris: &[usize],
+    n: usize,
+    seed: u64,
+) -> Cloud {
+    use pcsss::maths::uniform53;
+    let areas: Vec<f64> = tris
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = mesh.tri(t);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .collect();
+    let total: f64 = areas.iter().sum();
+    let mut r = rand_pcg::Pcg32::new(seed, 1);
+    let (mut p, mut nrm) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let mut u = uniform53(&mut r) * total;
+        let k = areas
+            .iter()
+            .position(|&a| {
+                u -= a;
+                u < 0.0
+            })
+            .unwrap_or(areas.len() - 1);
+        let [a, b, c] = mesh.tri(tris[k]);
+        let (mut s, mut v) = (uniform53(&mut r), uniform53(&mut r));
+        if s + v > 1.0 {
+            (s, v) = (1.0 - s, 1.0 - v);
+        }
+        p.push((a + (b - a) * s + (c - a) * v).to_array());
+        nrm.push((b - a).cross(c - a).normalize().as_vec3().to_array());
+    }
+    let mut c = Cloud::with_points(n);
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
+    c
+}
