@@ -11,8 +11,9 @@ radius over 4 pi is the reduced mean free path). So the colour is found
 by inverting Cycles' fit (bisection on `A`: `alpha` rises with it) for
 the medium's own albedo per channel, and the radius is `4 pi mfp / (1 -
 g)`; `check()` reads the medium back through the same formulas.
-Checked in pictures too: race.py `--cycles-check` prints the ratio of
-Cycles' reference to Mitsuba's over the bunny, per channel.
+Checked in pictures too: `--check` prints the ratio of Cycles' picture
+to Mitsuba's over the bunny, per channel (the mean over the pixels both
+light).
 
 What is not the same medium. Cycles' walk enters half the time through
 a diffuse (cosine) bounce and half through a rough refraction, and the
@@ -22,7 +23,8 @@ exactly at the index-matched boundary. So Cycles' converged picture is
 not Mitsuba's, and race.py measures each tool against each path
 tracer's own reference.
 
-    python cycles_bunny.py [SIZE] [SPP]   # one picture, its CPU and means
+    python cycles_bunny.py [SIZE] [SPP]          # one picture, its CPU and means
+    python cycles_bunny.py --check [SIZE] [SPP]  # beside Mitsuba (SPP; Cycles 4 x SPP)
 """
 import math
 import pathlib
@@ -227,12 +229,31 @@ def render(cam, spp, seed=0, denoise=False, threads=2):
     return px.copy(), took
 
 
+def compare(cam, spp):
+    """Cycles' picture (4 x `spp`) over Mitsuba's (`spp`), per channel:
+    the ratio of their means over the pixels both light."""
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    from mitsuba_bunny import scene
+    m = np.array(mi.render(mi.load_dict(scene(cam, spp)), spp=spp, seed=3))[:, :, :3]
+    c, _ = render(cam, 4 * spp, seed=3)
+    lit = (m.min(axis=2) > 1e-3) & (c.min(axis=2) > 1e-3)
+    return c[lit].mean(axis=0) / m[lit].mean(axis=0), int(lit.sum())
+
+
 if __name__ == "__main__":
     import json
-    size = int(sys.argv[1]) if len(sys.argv) > 1 else 128
-    spp = int(sys.argv[2]) if len(sys.argv) > 2 else 16
+    args = sys.argv[1:]
+    beside = args[:1] == ["--check"]
+    args = args[1:] if beside else args
+    size = int(args[0]) if args else 128
+    spp = int(args[1]) if len(args) > 1 else (256 if beside else 16)
     root = pathlib.Path(__file__).resolve().parents[2]
     cam = dict(json.loads((root / "fixtures/cameras/bunny.json").read_text()), width=size, height=size)
     print("medium:", medium(), "read back:", check())
-    img, t = render(cam, spp)
-    print(f"{size} x {size}, {spp} spp: {t:.1f} s of CPU; mean {img.reshape(-1, 3).mean(axis=0)}")
+    if beside:
+        ratio, n = compare(cam, spp)
+        print(f"Cycles / Mitsuba, mean over {n} pixels: {np.round(ratio, 4)}")
+    else:
+        img, t = render(cam, spp)
+        print(f"{size} x {size}, {spp} spp: {t:.1f} s of CPU; mean {img.reshape(-1, 3).mean(axis=0)}")

@@ -18,8 +18,10 @@ error of the beauty over the pixels the sphere covers whole.
 
 `--split`: where the bake's error is, at one point count: its `ssS` and
 `ssM` pictures apart against Mitsuba's single scattering (the path cut
-after one event) and the rest, and the bake over Mitsuba by quarters of
-the reference's brightness (from the terminator to the lit pole).
+after one event) and the rest, the beauty's RMS and mean, and the bake
+over Mitsuba by quarters of the reference's brightness (from the
+terminator to the lit pole), all and the multiple part (the references
+kept in target/ for the next run).
 """
 import json
 import os
@@ -105,8 +107,16 @@ def bake(count, d):
 
 
 def split(ref_spp, count):
-    ref, _ = mitsuba(ref_spp)
-    single, _ = mitsuba(ref_spp, max_depth=2)
+    # The references kept for the next run (each takes minutes).
+    kept = ROOT / "target" / f"mitsuba_sphere_split_{ref_spp}.npz"
+    if kept.exists():
+        z = np.load(kept)
+        ref, single = z["ref"], z["single"]
+    else:
+        ref, _ = mitsuba(ref_spp)
+        single, _ = mitsuba(ref_spp, max_depth=2)
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(kept, ref=ref, single=single)
     with tempfile.TemporaryDirectory() as dd:
         d = pathlib.Path(dd)
         img, a, _ = bake(count, d)
@@ -120,11 +130,18 @@ def split(ref_spp, count):
     print(f"single scattering: bake {part['ssS'][mask].mean():.4f}, Mitsuba {single[mask].mean():.4f}")
     print(f"multiple scattering (ssM / pi): bake {part['ssM'][mask].mean():.4f}, "
           f"Mitsuba {(ref - single)[mask].mean():.4f}")
+    e = errors(img, ref, mask)
+    print(f"the beauty: RMS {e[0]:.3f}, mean {e[1]:+.3f}")
+    # The multiple part: the beauty less the bake's ssS, Mitsuba's less
+    # its single scattering.
     r, b = ref[mask][:, 0], img[mask][:, 0]
+    rm, bm = (ref - single)[mask][:, 0], (img - part["ssS"])[mask][:, 0]
+    print(f"multiple scattering, bake / Mitsuba: {bm.mean() / rm.mean():.3f}")
     q = np.quantile(r, [0, 0.25, 0.5, 0.75, 1])
     for lo, hi in zip(q[:-1], q[1:]):
         s = (r >= lo) & (r <= hi)
-        print(f"reference in [{lo:.4f}, {hi:.4f}]: bake / Mitsuba {b[s].mean() / r[s].mean():.3f}")
+        print(f"reference in [{lo:.4f}, {hi:.4f}]: bake / Mitsuba {b[s].mean() / r[s].mean():.3f}, "
+              f"multiple {bm[s].mean() / rm[s].mean():.3f}")
 
 
 if __name__ == "__main__":
