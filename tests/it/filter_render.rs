@@ -906,6 +906,11 @@ fn lazy_walks_equal_the_stored_ones() {
         assert_eq!(a, b, "denoise {denoise}, eye {eye:?}");
         let (_, read, computed) = rep.lazy[0].clone();
         assert!(read < cloud.len() / 20, "read {read}");
-        assert_eq!(computed, read, "denoise {denoise}");
+        // (From an eye, the points read that face away do not walk.)
+        if eye.is_none() {
+            assert_eq!(computed, read, "denoise {denoise}");
+        } else {
+            assert!(0 < computed && computed < read, "{computed} of {read}");
+        }
     }
 }
