@@ -103,21 +103,39 @@ def _cpu():
     return r.ru_utime + r.ru_stime
 
 
-def _mesh(bpy):
-    """The fixture's OBJ as a Blender mesh, as it is (no axis change)."""
+def _read_mesh(path):
+    """(vertices, triangles) of an OBJ or a PLY, as they are (no axis
+    change)."""
+    path = pathlib.Path(path)
+    if path.suffix == ".ply":
+        from plyfile import PlyData
+        p = PlyData.read(str(path))
+        v = np.stack([p["vertex"][k] for k in "xyz"], 1).astype(np.float32)
+        return v, np.vstack(p["face"]["vertex_indices"]).astype(np.int32)
     verts, faces = [], []
-    for line in pathlib.Path(MESH).read_text().splitlines():
+    for line in path.read_text().splitlines():
         w = line.split()
         if w[:1] == ["v"]:
             verts.append(tuple(float(x) for x in w[1:4]))
         elif w[:1] == ["f"]:
             faces.append(tuple(int(x.split("/")[0]) - 1 for x in w[1:]))
-    me = bpy.data.meshes.new("bunny")
-    me.from_pydata(verts, [], faces)
+    return np.array(verts, np.float32), np.array(faces, np.int32)
+
+
+def _mesh(bpy, path, flat):
+    """The mesh as a Blender object, flat or smooth."""
+    v, f = _read_mesh(path)
+    me = bpy.data.meshes.new("mesh")
+    me.vertices.add(len(v))
+    me.vertices.foreach_set("co", v.ravel())
+    me.loops.add(f.size)
+    me.loops.foreach_set("vertex_index", f.ravel())
+    me.polygons.add(len(f))
+    me.polygons.foreach_set("loop_start", np.arange(0, f.size, 3, dtype=np.int32))
     me.update()
-    for p in me.polygons:
-        p.use_smooth = False
-    return bpy.data.objects.new("bunny", me)
+    me.validate()
+    me.polygons.foreach_set("use_smooth", np.full(len(f), not flat))
+    return bpy.data.objects.new("mesh", me)
 
 
 def _look_at(mathutils, position, target, up):
@@ -131,8 +149,11 @@ def _look_at(mathutils, position, target, up):
     return m
 
 
-def setup(cam, spp, seed=0, denoise=False, threads=2):
-    """A fresh Blender scene of the bunny for Cycles; returns bpy."""
+def setup(cam, spp, seed=0, denoise=False, threads=2, scn=None):
+    """A fresh Blender scene of the bunny (or race_scenes.py's scene `scn`,
+    its mesh given as a path) for Cycles; returns bpy."""
+    if scn is None:
+        scn = dict(mesh=MESH, flat=True, lights=LIGHTS, albedo=ALBEDO, mfp=[MFP] * 3)
     import bpy
     import mathutils
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -171,11 +192,11 @@ def setup(cam, spp, seed=0, denoise=False, threads=2):
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
     sc.world = world
 
-    obj = _mesh(bpy)
+    obj = _mesh(bpy, scn["mesh"], scn["flat"])
     sc.collection.objects.link(obj)
     mat = bpy.data.materials.new("medium")
     bsdf = mat.node_tree.nodes["Principled BSDF"]
-    colour, radius = medium()
+    colour, radius = medium(scn["albedo"], scn["mfp"])
     bsdf.subsurface_method = "RANDOM_WALK"
     bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
     bsdf.inputs["Subsurface Weight"].default_value = 1.0
@@ -188,15 +209,27 @@ def setup(cam, spp, seed=0, denoise=False, threads=2):
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
     obj.data.materials.append(mat)
 
-    for l in LIGHTS:
-        d = mathutils.Vector(l["direction"]).normalized()
-        data = bpy.data.lights.new(l["name"], type="SUN")
-        data.energy = l.get("intensity", 1.0)
+    for l in scn["lights"]:
+        if l["type"] == "distant":
+            d = mathutils.Vector(l["direction"]).normalized()
+            data = bpy.data.lights.new(l["name"], type="SUN")
+            data.energy = l.get("intensity", 1.0)
+            data.angle = 0.0
+            lo = bpy.data.objects.new(l["name"], data)
+            # A sun shines along its local -Z.
+            lo.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
+        elif l["type"] == "point":
+            # A point light of power P watts has a radiant intensity of
+            # P / (4 pi) (formats/LIGHTS.md).
+            data = bpy.data.lights.new(l["name"], type="POINT")
+            data.energy = 4 * math.pi * l.get("intensity", 1.0)
+            data.shadow_soft_size = 0.0
+            data.use_soft_falloff = False
+            lo = bpy.data.objects.new(l["name"], data)
+            lo.location = l["position"]
+        else:
+            raise SystemExit(f"light {l['name']}: only distant and point lights go to Cycles here")
         data.color = l.get("color", [1, 1, 1])
-        data.angle = 0.0
-        lo = bpy.data.objects.new(l["name"], data)
-        # A sun shines along its local -Z.
-        lo.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
         sc.collection.objects.link(lo)
 
     cd = bpy.data.cameras.new("camera")
@@ -209,10 +242,10 @@ def setup(cam, spp, seed=0, denoise=False, threads=2):
     return bpy
 
 
-def render(cam, spp, seed=0, denoise=False, threads=2):
+def render(cam, spp, seed=0, denoise=False, threads=2, scn=None):
     """Cycles' picture (linear RGB, rows from the top) and the CPU seconds
     the render took."""
-    bpy = setup(cam, spp, seed, denoise, threads)
+    bpy = setup(cam, spp, seed, denoise, threads, scn)
     sc = bpy.context.scene
     with tempfile.TemporaryDirectory() as d:
         out = pathlib.Path(d) / "c.exr"

@@ -61,25 +61,38 @@ CAMERA = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), wi
 MESH = ROOT / "fixtures/mesh/bunny.obj"
 
 
-def scene(cam, spp, max_depth=-1):
+def scene(cam, spp, max_depth=-1, sc=None):
     """The bunny scene for Mitsuba, seen by the toolkit's camera `cam`
-    (also race.py's)."""
+    (also race.py's); or race_scenes.py's scene `sc` (its mesh given as
+    a path)."""
+    if sc is None:
+        sc = dict(mesh=MESH, flat=True, lights=LIGHTS, albedo=ALBEDO, mfp=[MFP] * 3)
+    mesh = pathlib.Path(sc["mesh"])
+    # An RGB parameter is a reflectance in [0, 1]: the extinction is given
+    # over its largest channel, times that as the medium's scale.
+    top = max(1.0 / m for m in sc["mfp"])
     s = {
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": RR_DEPTH},
         "bunny": {
-            "type": "obj", "filename": str(MESH), "face_normals": True, "bsdf": {"type": "null"},
-            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": ALBEDO},
-                         "sigma_t": 1.0 / MFP, "phase": {"type": "hg", "g": 0.0}},
+            "type": mesh.suffix[1:], "filename": str(mesh), "face_normals": sc["flat"], "bsdf": {"type": "null"},
+            "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": sc["albedo"]},
+                         "sigma_t": {"type": "rgb", "value": [1.0 / m / top for m in sc["mfp"]]}, "scale": top,
+                         "phase": {"type": "hg", "g": 0.0}},
         },
         "camera": camera(cam, spp),
     }
     # A distant light of colour * intensity gives an irradiance of that
-    # across its direction (illum's Cl).
-    for l in LIGHTS:
-        e = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
-        s[l["name"]] = {"type": "directional", "direction": l["direction"],
-                        "irradiance": {"type": "rgb", "value": e}}
+    # across its direction (illum's Cl); a point light, a radiant
+    # intensity of that.
+    for l in sc["lights"]:
+        e = {"type": "rgb", "value": [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]}
+        if l["type"] == "distant":
+            s[l["name"]] = {"type": "directional", "direction": l["direction"], "irradiance": e}
+        elif l["type"] == "point":
+            s[l["name"]] = {"type": "point", "position": l["position"], "intensity": e}
+        else:
+            raise SystemExit(f"light {l['name']}: only distant and point lights go to Mitsuba here")
     return s
 
 

@@ -30,10 +30,16 @@ Cycles also with its denoiser, OpenImageDenoise), the bake (`make -C
 pipelines`, its children's CPU) over points, with the kernel and with
 walks, all with light between surfaces (`INDIRECT=16`).
 
-    python race.py [SIZE] [REF] [SPPS] [BAKES] [CREF]
-    python race.py --views N [SIZE] [REF] [SPPS] [BAKE] [CREF]
-    python race.py --wide [REF] [SPPS] [BAKES]
-    python race.py --plot   # race.png again from race.json
+    python race.py [--scene NAME] [SIZE] [REF] [SPPS] [BAKES] [CREF]
+    python race.py [--scene NAME] --views N [SIZE] [REF] [SPPS] [BAKE] [CREF]
+    python race.py [--scene NAME] --wide [REF] [SPPS] [BAKES]
+    python race.py [--scene NAME] --plot   # race.png again from race.json
+
+`--scene`: race_scenes.py's `bunny` (the default), `suzanne` (skin1,
+both ears lit from behind) or `dragon` (thin claws, horns and crest),
+each with its own lights, camera and medium; SIZE defaults to 1024 for
+the bunny, 512 for the others. `--save` (anywhere): the rows go to
+benches/results/race.json (the bunny) or race_NAME.json, with the plot.
 
 `--wide`: one frame at 1920 x 1080 (the bunny camera's vertical field of
 view, wider), against Cycles alone (2 x CREF samples a pixel).
@@ -45,8 +51,7 @@ all `make` redoes when only the camera changes) against N path traces;
 the CPU summed over the views, the error their mean.
 
 BAKES: `;`-separated runs, each `COUNT[,VAR=VALUE...]`, e.g.
-`50000;50000,METHOD=walk,WALKS=16`. Rows go to benches/results/race.json
-(for plot_error_time.py) when run with the default arguments.
+`50000;50000,METHOD=walk,WALKS=16`.
 """
 import json
 import math
@@ -60,14 +65,28 @@ import tempfile
 import mitsuba as mi
 import numpy as np
 
-from mitsuba_bunny import ALBEDO, MESH, MFP, scene
+from mitsuba_bunny import scene
 from mitsuba_images import read_image
+from race_scenes import SCENES
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 CACHE = ROOT / "target" / "race"
 RESULTS = ROOT / "benches" / "results" / "race.json"
 BIN = os.environ.get("BIN", str(ROOT / "target" / "release"))
 TRACERS = ("Mitsuba", "Cycles")
+# The scene raced (race_scenes.py), its mesh made or fetched once; set by
+# main from `--scene`.
+NAME = "bunny"
+SCENE = None
+
+
+def use(name):
+    """Race race_scenes.py's scene `name` from here on."""
+    global NAME, SCENE
+    if name not in SCENES:
+        raise SystemExit(f"--scene {name}: one of {', '.join(SCENES)}")
+    NAME = name
+    SCENE = dict(SCENES[name], mesh=SCENES[name]["mesh"]())
 
 
 def cpu(who):
@@ -80,9 +99,9 @@ def trace(tracer, cam, spp, seed, denoise=False):
     its CPU seconds."""
     if tracer == "Cycles":
         import cycles_bunny
-        return cycles_bunny.render(cam, spp, seed, denoise)
+        return cycles_bunny.render(cam, spp, seed, denoise, scn=SCENE)
     c0 = cpu(resource.RUSAGE_SELF)
-    img = np.array(mi.render(mi.load_dict(scene(cam, spp)), spp=spp, seed=seed))[:, :, :3]
+    img = np.array(mi.render(mi.load_dict(scene(cam, spp, sc=SCENE)), spp=spp, seed=seed))[:, :, :3]
     return img, cpu(resource.RUSAGE_SELF) - c0
 
 
@@ -93,8 +112,8 @@ def reference(tracer, cam, ref_spp, tag=""):
     halves = []
     prefix = "" if tracer == "Mitsuba" else tracer.lower() + "_"
     for seed in (1001, 2002):
-        f = CACHE / f"{prefix}bunny{tag}_{cam['width']}x{cam['height']}_{ref_spp}_{seed}.npy"
-        old = CACHE / f"{prefix}bunny{tag}_{cam['width']}_{ref_spp}_{seed}.npy"
+        f = CACHE / f"{prefix}{NAME}{tag}_{cam['width']}x{cam['height']}_{ref_spp}_{seed}.npy"
+        old = CACHE / f"{prefix}{NAME}{tag}_{cam['width']}_{ref_spp}_{seed}.npy"
         if cam["width"] == cam["height"] and old.exists():
             f = old
         if not f.exists():
@@ -111,14 +130,17 @@ def bake(cam_file, count, extra, d, cam, keep=False, target=None):
     folder stays for another view (`make` then redoes what the camera
     changes)."""
     out = d / "out"
+    lights = d / "lights.json"
+    lights.write_text(json.dumps({"lights": SCENE["lights"]}))
     c0 = cpu(resource.RUSAGE_CHILDREN)
-    subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"BIN={BIN}", f"MESH={MESH}",
-                    f"CAMERA={cam_file}", f"OUT={out}", f"COUNT={count}", "MODEL=physical", "INDIRECT=16",
-                    f"ALBEDO={','.join(map(str, ALBEDO))}", f"MFP={MFP}", "ETA=1", "G=0", "SPP=4",
+    subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"BIN={BIN}", f"MESH={SCENE['mesh']}",
+                    f"LIGHTS={lights}", f"CAMERA={cam_file}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
+                    "INDIRECT=16", f"ALBEDO={','.join(map(str, SCENE['albedo']))}",
+                    f"MFP={','.join(map(str, SCENE['mfp']))}", "ETA=1", "G=0", "SPP=4",
                     "PIXEL_FILTER=gaussian", "SAMPLES=16", "SHADOWS=1"] + extra + ([target] if target else []),
                    check=True, stdout=subprocess.DEVNULL)
     took = cpu(resource.RUSAGE_CHILDREN) - c0
-    img, a = read_image(out / "bunny.exr", d, (cam["width"], cam["height"]), pathlib.Path(BIN) / "pcconvert")
+    img, a = read_image(out / f"{pathlib.Path(SCENE['mesh']).stem}.exr", d, (cam["width"], cam["height"]), pathlib.Path(BIN) / "pcconvert")
     if not keep:
         subprocess.run(["rm", "-rf", out], check=True)
     return img, a, took
@@ -185,7 +207,7 @@ def label(tracer, spp, denoise):
 
 def views(n, size, ref_spp, spps, bake_spec, cref, tracers):
     """One bake, `n` views, against `n` path traces of each tracer."""
-    base = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), width=size, height=size)
+    base = dict(SCENE["camera"], width=size, height=size)
     cams = [turned(base, 360.0 * k / n) for k in range(n)]
     count, *extra = bake_spec.split(",")
     runs = [("bake", None, None)] + sweep(tracers, spps)
@@ -197,7 +219,8 @@ def views(n, size, ref_spp, spps, bake_spec, cref, tracers):
             refs = {t: reference(t, cam, ref_spp if t == "Mitsuba" else cref, f"_view{k}of{n}") for t in tracers}
             cam_file = d / f"cam{k}.json"
             cam_file.write_text(json.dumps(cam))
-            img, a, t = bake(cam_file, int(count), extra, d, cam, keep=True, target=str(d / "out" / "bunny.exr"))
+            img, a, t = bake(cam_file, int(count), extra, d, cam, keep=True,
+                             target=str(d / "out" / f"{pathlib.Path(SCENE['mesh']).stem}.exr"))
             judge = Judge(refs, a)
             cpu_of[runs[0]] += t
             found[runs[0]].append(judge(img))
@@ -307,7 +330,7 @@ def plot(data, out):
         ax.set_xlabel("CPU seconds (user + sys)")
         ax.set_ylabel("RMS relative error per pixel")
         whose = ref + ("'" if ref.endswith("s") else "'s")
-        ax.set_title(f"against {whose} reference ({data['reference_spp'][ref]} spp), "
+        ax.set_title(f"{data.get('scene', 'bunny')} against {whose} reference ({data['reference_spp'][ref]} spp), "
                      f"{data['size']} x {data['size']}", fontsize=9)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -316,9 +339,16 @@ def plot(data, out):
 
 def main():
     args = sys.argv[1:]
+    name = "bunny"
+    save = "--save" in args
+    args = [a for a in args if a != "--save"]
+    if args[:1] == ["--scene"]:
+        name, args = args[1], args[2:]
+    results = RESULTS if name == "bunny" else RESULTS.with_name(f"race_{name}.json")
     if args[:1] == ["--plot"]:
-        plot(json.loads(RESULTS.read_text()), RESULTS.with_suffix(".png"))
+        plot(json.loads(results.read_text()), results.with_suffix(".png"))
         return
+    use(name)
     tracers = tuple(t for t in os.environ.get("TRACERS", ",".join(TRACERS)).split(",") if t)
     if args[:1] == ["--views"]:
         n = int(args[1])
@@ -327,7 +357,7 @@ def main():
               [int(x) for x in (rest[2] if len(rest) > 2 else "16,64").split(",")],
               rest[3] if len(rest) > 3 else "50000", int(rest[4]) if len(rest) > 4 else 128, tracers)
         return
-    base = json.loads((ROOT / "fixtures/cameras/bunny.json").read_text())
+    base = SCENE["camera"]
     if args[:1] == ["--wide"]:
         rest = args[1:]
         cam = dict(base, width=1920, height=1080)
@@ -335,21 +365,24 @@ def main():
              (rest[2] if len(rest) > 2 else "50000;50000,METHOD=walk,WALKS=64").split(";"),
              int(rest[0]) if rest else 64, ("Cycles",))
         return
-    size = int(args[0]) if args else 1024
+    size = int(args[0]) if args else (1024 if name == "bunny" else 512)
     ref_spp = int(args[1]) if len(args) > 1 else 64
     spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
     bakes = (args[3] if len(args) > 3 else
              "50000;200000;50000,METHOD=walk,WALKS=16,SAMPLE_LIGHTS=0,EXIT=sky;"
              "50000,METHOD=walk,WALKS=16,EXIT=sky;200000,METHOD=walk,WALKS=16,EXIT=sky;"
              "50000,METHOD=walk,WALKS=16,EXIT=eye;"
+             "200000,METHOD=walk,WALKS=16,EXIT=eye;200000,METHOD=walk,WALKS=64,EXIT=eye" if name == "bunny" else
+             "50000;200000;50000,METHOD=walk,WALKS=16,EXIT=sky;50000,METHOD=walk,WALKS=16,EXIT=eye;"
              "200000,METHOD=walk,WALKS=16,EXIT=eye;200000,METHOD=walk,WALKS=64,EXIT=eye").split(";")
     cref = int(args[4]) if len(args) > 4 else 128
     cam = dict(base, width=size, height=size)
     rows = race(cam, ref_spp, spps, bakes, cref, tracers)
-    if len(sys.argv) == 1 and tracers == TRACERS:
-        data = {"reference_spp": {"Mitsuba": 2 * ref_spp, "Cycles": 2 * cref}, "size": size, "rows": rows}
-        RESULTS.write_text(json.dumps(data, indent=1) + "\n")
-        plot(data, RESULTS.with_suffix(".png"))
+    if save:
+        data = {"scene": name, "reference_spp": {"Mitsuba": 2 * ref_spp, "Cycles": 2 * cref}, "size": size,
+                "rows": rows}
+        results.write_text(json.dumps(data, indent=1) + "\n")
+        plot(data, results.with_suffix(".png"))
 
 
 if __name__ == "__main__":
