@@ -97,6 +97,10 @@ fn main() {
         .collect();
     let (t1, blocked) = trace(&rays, 1, |r| occ.occluded_ray(r));
     let (t2, _) = trace(&rays, 2, |r| occ.occluded_ray(r));
+    // The code path for processors without AVX, on the same tree.
+    let base = Occluder::new(&m).without_avx();
+    let (s1, base_blocked) = trace(&rays, 1, |r| base.occluded_ray(r));
+    let (s2, _) = trace(&rays, 2, |r| base.occluded_ray(r));
     // obvhs's own CWBVH traversal on the same triangles and rays (kept to
     // show why the project traverses its own 4-wide BVH).
     let t = Instant::now();
@@ -154,9 +158,15 @@ fn main() {
         "| case | build s | 1 thread | 2 threads |\n|---|---|---|---|",
     );
     tab.row(format!(
-        "| pcsss (4-wide BVH from obvhs's PLOC build), M rays/s | {build:.3} | {:.2} | {:.2} |",
+        "| pcsss (4-wide BVH from obvhs's PLOC build, {}), M rays/s | {build:.3} | {:.2} | {:.2} |",
+        if occ.uses_avx() { "AVX" } else { "no AVX here" },
         nr / t1 / 1e6,
         nr / t2 / 1e6
+    ));
+    tab.row(format!(
+        "| pcsss, the code path without AVX ({base_blocked} blocked), M rays/s | | {:.2} | {:.2} |",
+        nr / s1 / 1e6,
+        nr / s2 / 1e6
     ));
     tab.row(format!(
         "| obvhs CWBVH traversal ({cw_blocked} blocked), M rays/s | {cw_build:.3} | {:.2} | {:.2} |",
@@ -191,8 +201,18 @@ fn main() {
                 f("seconds_2") / t2
             ));
             tab.row(format!(
-                "| blocked rays: pcsss {blocked}, Embree {} | | | |",
-                e["blocked"]
+                "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
+                nr / f("seconds_1_robust") / 1e6,
+                nr / f("seconds_2_robust") / 1e6
+            ));
+            tab.row(format!(
+                "| pcsss / Embree robust | | {:.2} | {:.2} |",
+                f("seconds_1_robust") / t1,
+                f("seconds_2_robust") / t2
+            ));
+            tab.row(format!(
+                "| blocked rays: pcsss {blocked}, Embree {}, robust {} | | | |",
+                e["blocked"], e["blocked_robust"]
             ));
         }
         None => tab.row("| Embree (embreex) not available: run `make bench` | | | |".into()),

@@ -36,7 +36,7 @@ use glam::DVec3;
 use obvhs::ray::Ray;
 use pcsss::cloud::Role;
 use pcsss::formats::{self, Format};
-use pcsss::geom::bvh::Facing;
+use pcsss::geom::bvh::{Facing, Occluder};
 use pcsss::geom::columns::Columns;
 use pcsss::geom::mesh::TriMesh;
 use pcsss::lights::{self, Arrival};
@@ -143,6 +143,14 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
     };
     let (t1, hits, dist) = trace(&rays, 1, nearest(Facing::Any));
     let (t2, _, _) = trace(&rays, 2, nearest(Facing::Any));
+    // The code path for processors without AVX, on the same tree.
+    let base = Occluder::new(&m).without_avx();
+    let base_nearest = |r: &Ray| {
+        let mut r = *r;
+        base.nearest_ray(&mut r, Facing::Any).map(|_| r.tmax)
+    };
+    let (s1, shits, _) = trace(&rays, 1, base_nearest);
+    let (s2, _, _) = trace(&rays, 2, base_nearest);
     let (l1, lhits, _) = trace(&rays, 1, nearest(Facing::Leaving));
     let (l2, _, _) = trace(&rays, 2, nearest(Facing::Leaving));
     // The distant light's rays alone, through the BVH and through the
@@ -179,9 +187,15 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
         cloud.len()
     ));
     tab.row(format!(
-        "| pcsss nearest hit (4-wide BVH), M rays/s | {build:.3} | {:.2} | {:.2} |",
+        "| pcsss nearest hit (4-wide BVH, {}), M rays/s | {build:.3} | {:.2} | {:.2} |",
+        if occ.uses_avx() { "AVX" } else { "no AVX here" },
         nr / t1 / 1e6,
         nr / t2 / 1e6
+    ));
+    tab.row(format!(
+        "| the same, the code path without AVX ({shits} hits), M rays/s | | {:.2} | {:.2} |",
+        nr / s1 / 1e6,
+        nr / s2 / 1e6
     ));
     tab.row(format!(
         "| pcsss nearest leaving hit (sssingle's query), M rays/s | | {:.2} | {:.2} |",
@@ -219,6 +233,16 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
                 "| pcsss / Embree (per thread) | | {:.2} | {:.2} |",
                 f("seconds_1") / t1,
                 f("seconds_2") / t2
+            ));
+            tab.row(format!(
+                "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
+                nr / f("seconds_1_robust") / 1e6,
+                nr / f("seconds_2_robust") / 1e6
+            ));
+            tab.row(format!(
+                "| pcsss / Embree robust | | {:.2} | {:.2} |",
+                f("seconds_1_robust") / t1,
+                f("seconds_2_robust") / t2
             ));
             tab.row(format!(
                 "| hits: pcsss {hits} (leaving {lhits}), Embree {}; mean distance pcsss {:.6}, Embree {:.6} | | | |",

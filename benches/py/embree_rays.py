@@ -8,7 +8,8 @@ benches/sssingle.rs: nearest hits, QUERY intersect). Prints one JSON line:
 build seconds; the rays blocked (occluded) or that hit, with the sum of
 their hit distances (intersect); trace seconds on 1 and 2 processes (each
 process traces half the rays on its own copy of the scene: embreex traces
-on one thread per call).
+on one thread per call); the same in Embree's robust mode (its watertight
+triangle test, as the project's), `_robust`.
 """
 import json
 import multiprocessing as mp
@@ -20,10 +21,10 @@ from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
 
-def load(tris_path):
+def load(tris_path, robust=False):
     tris = np.fromfile(tris_path, dtype=np.float32).reshape(-1, 3, 3)
     t = time.perf_counter()
-    scene = rtcore_scene.EmbreeScene(robust=False)
+    scene = rtcore_scene.EmbreeScene(robust=robust)
     TriangleMesh(scene, tris)
     # Commit happens on the first run: force it with one ray.
     scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
@@ -31,8 +32,8 @@ def load(tris_path):
 
 
 def trace(args):
-    tris_path, rays, query = args
-    scene, _ = load(tris_path)
+    tris_path, rays, query, robust = args
+    scene, _ = load(tris_path, robust)
     o = np.ascontiguousarray(rays[:, 0:3])
     d = np.ascontiguousarray(rays[:, 3:6])
     tmax = np.where(np.isinf(rays[:, 6]), np.float32(1e30), rays[:, 6]).astype(np.float32)
@@ -52,13 +53,17 @@ def main():
     tris_path, rays_path, query = sys.argv[1], sys.argv[2], sys.argv[3]
     rays = np.fromfile(rays_path, dtype=np.float32).reshape(-1, 7)
     _, build = load(tris_path)
-    one, hits, dist = trace((tris_path, rays, query))
-    halves = np.array_split(rays, 2)
-    with mp.get_context("fork").Pool(2) as pool:
-        res = pool.map(trace, [(tris_path, h, query) for h in halves])
-    two = max(r[0] for r in res)
-    print(json.dumps({"rays": len(rays), "build": build, "hits": hits, "blocked": hits,
-                      "dist": dist, "seconds_1": one, "seconds_2": two}))
+    out = {"rays": len(rays), "build": build}
+    for robust in (False, True):
+        one, hits, dist = trace((tris_path, rays, query, robust))
+        halves = np.array_split(rays, 2)
+        with mp.get_context("fork").Pool(2) as pool:
+            res = pool.map(trace, [(tris_path, h, query, robust) for h in halves])
+        two = max(r[0] for r in res)
+        tag = "_robust" if robust else ""
+        out.update({f"hits{tag}": hits, f"blocked{tag}": hits, f"dist{tag}": dist, f"seconds_1{tag}": one,
+                    f"seconds_2{tag}": two})
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":

@@ -1,11 +1,15 @@
 //! Shadow-ray occlusion against a mesh. The tree is built by `obvhs` (PLOC
 //! with reinsertion: a binary BVH of high quality), then collapsed into a
 //! 4-wide BVH whose nodes keep the four children's boxes as columns, and
-//! traversed here for any hit: four box tests at a time, leaves of up to
-//! four triangles with their edges precomputed. Chosen by measurement
-//! (`benches/illum.rs`; benches/results/HISTORY.md, "Measurements behind
-//! the code"): on the same shadow rays it is faster than obvhs's own
-//! CWBVH traversal, both measured as a share of Embree's rate.
+//! traversed here: four box tests at a time, the crossed children as a
+//! bit mask, leaves of up to four triangles under a watertight test
+//! ([`Tri::hit_t`]). The traversals are compiled twice, for processors
+//! with AVX (chosen at run time) and without; both do the same
+//! arithmetic in the same order (no fused multiply-add), so they find the
+//! same hits to the bit. Chosen by measurement (`benches/illum.rs`,
+//! `benches/sssingle.rs`; benches/results/HISTORY.md, "Measurements behind
+//! the code"): on the same rays it is faster than obvhs's own CWBVH
+//! traversal, and than 8-wide nodes, measured as a share of Embree's rate.
 //!
 //! Precision: the BVH is f32, in the mesh's own frame `(p - centre) /
 //! scale` (centre and scale of its bounding box, computed in f64), so a
@@ -40,7 +44,8 @@ const STACK: usize = 64;
 
 /// A 4-wide node: the children's boxes as columns, and what each child
 /// is: `count[k] == 0` an inner node `child[k]`, `count[k] > 0` a leaf of
-/// `count[k]` triangles from `child[k]`, `count[k] == EMPTY` nothing.
+/// `count[k]` triangles from `child[k]`, `count[k] == EMPTY` nothing (its
+/// box all at `+inf`, which no ray crosses: see [`slabs`]).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Node {
@@ -52,8 +57,8 @@ struct Node {
 
 impl Node {
     const NONE: Node = Node {
-        lo: [[0.0; W]; 3],
-        hi: [[0.0; W]; 3],
+        lo: [[f32::INFINITY; W]; 3],
+        hi: [[f32::INFINITY; W]; 3],
         child: [0; W],
         count: [EMPTY; W],
     };
@@ -70,6 +75,8 @@ pub struct Occluder {
     ids: Vec<u32>,
     centre: DVec3,
     inv_scale: f64,
+    /// Traverse with AVX (the processor has it).
+    avx: bool,
     /// The mesh's fingerprint ([`TriMesh::digest`]), for the stages that
     /// record what they traced against.
     pub mesh_digest: String,
@@ -116,6 +123,7 @@ impl Occluder {
             ids: Vec::new(),
             centre,
             inv_scale,
+            avx: avx(),
             mesh_digest: mesh.digest(),
         };
         if input.is_empty() {
@@ -205,6 +213,20 @@ impl Occluder {
         }
     }
 
+    /// The same tree traversed by the code path for processors without
+    /// AVX (that path is the one taken where AVX is missing; this is for
+    /// the tests and benchmarks that hold the two side by side on a
+    /// machine that has both).
+    pub fn without_avx(mut self) -> Occluder {
+        self.avx = false;
+        self
+    }
+
+    /// Whether the traversals take the AVX code path.
+    pub fn uses_avx(&self) -> bool {
+        self.avx
+    }
+
     /// Number of triangles that can occlude.
     pub fn triangle_count(&self) -> usize {
         self.tris.len()
@@ -236,7 +258,26 @@ impl Occluder {
         if self.nodes.is_empty() {
             return false;
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor has AVX.
+            return unsafe { self.occluded_avx(ray) };
+        }
+        self.occluded_in(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn occluded_avx(&self, ray: &Ray) -> bool {
+        self.occluded_in(ray)
+    }
+
+    /// [`Occluder::occluded_ray`]'s traversal, inlined into each code
+    /// path.
+    #[inline(always)]
+    fn occluded_in(&self, ray: &Ray) -> bool {
         let (o, id) = ray_slabs(ray);
+        let sh = Sheared::new(ray);
         let mut stack = [0u32; STACK];
         let mut spill: Vec<u32> = Vec::new();
         let mut top = 1usize;
@@ -250,14 +291,13 @@ impl Occluder {
                 break;
             };
             let node = &self.nodes[at as usize];
-            let (tnear, tfar) = slabs(node, &o, &id, ray.tmin, ray.tmax);
+            let (_, mut crossed) = slabs(node, &o, &id, ray.tmin, ray.tmax);
             // Children in their stored order: sorting them by distance
             // cost more than it saved (measured).
-            for k in 0..W {
+            while crossed != 0 {
+                let k = crossed.trailing_zeros() as usize;
+                crossed &= crossed - 1;
                 let (child, count) = (node.child[k], node.count[k]);
-                if tnear[k] > tfar[k] || count == EMPTY {
-                    continue;
-                }
                 if count == 0 {
                     if top < STACK {
                         stack[top] = child;
@@ -267,7 +307,7 @@ impl Occluder {
                     }
                 } else {
                     let tris = &self.tris[child as usize..(child + count) as usize];
-                    if tris.iter().any(|t| t.hits(ray)) {
+                    if tris.iter().any(|t| t.hits(ray, &sh)) {
                         return true;
                     }
                 }
@@ -326,7 +366,25 @@ impl Occluder {
         if self.nodes.is_empty() {
             return None;
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the processor has AVX.
+            return unsafe { self.nearest_avx(ray, facing) };
+        }
+        self.nearest_in(ray, facing)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn nearest_avx(&self, ray: &mut Ray, facing: Facing) -> Option<u32> {
+        self.nearest_in(ray, facing)
+    }
+
+    /// [`Occluder::nearest_ray`]'s traversal, inlined into each code path.
+    #[inline(always)]
+    fn nearest_in(&self, ray: &mut Ray, facing: Facing) -> Option<u32> {
         let (o, id) = ray_slabs(ray);
+        let sh = Sheared::new(ray);
         let mut best: Option<u32> = None;
         // (Entry distance, node) pairs: a node is skipped when the nearest
         // hit found since it was pushed lies before its entry.
@@ -347,15 +405,14 @@ impl Occluder {
                 continue;
             }
             let node = &self.nodes[at as usize];
-            let (tnear, tfar) = slabs(node, &o, &id, ray.tmin, ray.tmax);
+            let (tnear, mut crossed) = slabs(node, &o, &id, ray.tmin, ray.tmax);
             // The inner children crossed, farthest first on the stack.
             let mut kids = [(0f32, 0u32); W];
             let mut nk = 0;
-            for k in 0..W {
+            while crossed != 0 {
+                let k = crossed.trailing_zeros() as usize;
+                crossed &= crossed - 1;
                 let (child, count) = (node.child[k], node.count[k]);
-                if tnear[k] > tfar[k] || count == EMPTY {
-                    continue;
-                }
                 if count == 0 {
                     let mut j = nk;
                     while j > 0 && kids[j - 1].0 < tnear[k] {
@@ -366,7 +423,7 @@ impl Occluder {
                     nk += 1;
                 } else {
                     for j in child..child + count {
-                        if let Some(t) = self.tris[j as usize].hit_t(ray, facing) {
+                        if let Some(t) = self.tris[j as usize].hit_t(ray, &sh, facing) {
                             // Nearest first; equal distances: lowest index.
                             let better = t < ray.tmax
                                 || best.is_none_or(|b| self.ids[j as usize] < self.ids[b as usize]);
@@ -480,14 +537,14 @@ impl Occluder {
     /// The ray test of triangle `j` of the leaf order (for
     /// [`crate::geom::columns`]).
     #[inline(always)]
-    pub(crate) fn hit_leaf(&self, j: u32, ray: &Ray, facing: Facing) -> Option<f32> {
-        self.tris[j as usize].hit_t(ray, facing)
+    pub(crate) fn hit_leaf(&self, j: u32, ray: &Ray, sh: &Sheared, facing: Facing) -> Option<f32> {
+        self.tris[j as usize].hit_t(ray, sh, facing)
     }
 
     /// The any-hit test of triangle `j` of the leaf order.
     #[inline(always)]
-    pub(crate) fn hits_leaf(&self, j: u32, ray: &Ray) -> bool {
-        self.tris[j as usize].hits(ray)
+    pub(crate) fn hits_leaf(&self, j: u32, ray: &Ray, sh: &Sheared) -> bool {
+        self.tris[j as usize].hits(ray, sh)
     }
 
     /// The mesh's index of triangle `j` of the leaf order.
@@ -533,22 +590,61 @@ fn ray_slabs(ray: &Ray) -> ([f32; 3], [f32; 3]) {
     )
 }
 
-/// The four children's entry and exit distances along the ray within
-/// `[tmin, tmax]` (a child is crossed when entry <= exit); `tmax` grown to
-/// be conservative (Ize, "Robust BVH Ray Traversal").
+/// The children's entry distances along the ray within `[tmin, tmax]`,
+/// and which are crossed (bit `k`: entry <= exit), `tmax` grown to be
+/// conservative (Ize, "Robust BVH Ray Traversal"). Written as lanes the
+/// compiler turns into vector instructions: `min` and `max` as
+/// comparisons (one instruction each, where `f32::min` also weighs NaNs;
+/// none arise: the reciprocal direction is finite and the boxes' corners
+/// are finite or, for an empty slot, both `+inf`, which gives an entry at
+/// `+inf` or an exit at `-inf`: never crossed).
 #[inline(always)]
-fn slabs(node: &Node, o: &[f32; 3], id: &[f32; 3], tmin: f32, tmax: f32) -> ([f32; W], [f32; W]) {
+fn slabs(node: &Node, o: &[f32; 3], id: &[f32; 3], tmin: f32, tmax: f32) -> ([f32; W], u32) {
+    #[inline(always)]
+    fn lesser(a: f32, b: f32) -> f32 {
+        if a < b {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn greater(a: f32, b: f32) -> f32 {
+        if a > b {
+            a
+        } else {
+            b
+        }
+    }
     let mut tnear = [tmin; W];
-    let mut tfar = [tmax * (1.0 + 2.0 * f32::EPSILON); W];
+    // At most the largest finite distance: an empty slot's entry at `+inf`
+    // then lies beyond it, also for a ray without end.
+    let mut tfar = [lesser(tmax * (1.0 + 2.0 * f32::EPSILON), f32::MAX); W];
     for a in 0..3 {
         for k in 0..W {
             let t0 = (node.lo[a][k] - o[a]) * id[a];
             let t1 = (node.hi[a][k] - o[a]) * id[a];
-            tnear[k] = tnear[k].max(t0.min(t1));
-            tfar[k] = tfar[k].min(t0.max(t1));
+            tnear[k] = greater(tnear[k], lesser(t0, t1));
+            tfar[k] = lesser(tfar[k], greater(t0, t1));
         }
     }
-    (tnear, tfar)
+    let mut crossed = 0u32;
+    for k in 0..W {
+        crossed |= ((tnear[k] <= tfar[k]) as u32) << k;
+    }
+    (tnear, crossed)
+}
+
+/// Whether the processor has AVX, for the traversals' AVX code path.
+fn avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 fn set_box(n: &mut Node, slot: usize, lo: Vec3A, hi: Vec3A) {
@@ -570,79 +666,128 @@ pub enum Facing {
     Leaving,
 }
 
-/// How far outside a triangle, in barycentric units, a ray still hits
-/// it: more than the rounding of the f32 weights, so that the triangles
-/// sharing an edge leave no crack between them along it.
-const EDGE: f32 = 1e-6;
+/// A ray made ready for the watertight triangle test (Woop, Benthin and
+/// Wald, "Watertight Ray/Triangle Intersection", JCGT 2013): the axis the
+/// ray runs most along (`kz`; `kx`, `ky` the others, swapped where the
+/// ray runs down `kz` so the winding is kept), the shear that makes the
+/// ray that axis, and the origin by those axes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sheared {
+    k: [usize; 3],
+    s: [f32; 3],
+    o: [f32; 3],
+}
 
-/// A triangle ready for the ray test: `v0`, the edges `e1 = v0 - v1`,
-/// `e2 = v2 - v0` and `n = e1 x e2` (the Möller-Trumbore variant of
-/// `obvhs::triangle::Triangle::intersect`, both sides, with the per-test
-/// cross product of the edges done once here).
+impl Sheared {
+    #[inline(always)]
+    pub(crate) fn new(ray: &Ray) -> Sheared {
+        let d = ray.direction;
+        let a = d.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z {
+                0
+            } else {
+                2
+            }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Sheared {
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+            o: [ray.origin[kx], ray.origin[ky], ray.origin[kz]],
+        }
+    }
+}
+
+/// A triangle for the ray test: its three corners (in the unit frame, the
+/// same f32 values in every triangle that shares one).
 #[derive(Clone, Copy, Debug)]
 struct Tri {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
-    n: Vec3A,
+    v: [[f32; 4]; 3],
 }
 
 impl Tri {
     fn new(t: &Triangle) -> Tri {
-        let e1 = t.v0 - t.v1;
-        let e2 = t.v2 - t.v0;
+        let c = |v: Vec3A| [v.x, v.y, v.z, 0.0];
         Tri {
-            v0: t.v0,
-            e1,
-            e2,
-            n: e1.cross(e2),
+            v: [c(t.v0), c(t.v1), c(t.v2)],
         }
     }
 
     /// The hit distance in `[tmin, tmax]`, if any, on a triangle that
     /// faces the ray as `facing` asks.
+    ///
+    /// Watertight: the corners are moved to the ray's origin and sheared
+    /// so that the ray runs down an axis, and the three edge functions
+    /// are taken from the corners of each edge alone, so two triangles
+    /// that share an edge compute it from the same two points and get the
+    /// same value with opposite signs: a ray through the edge hits one of
+    /// them or both, never neither, however far it comes from and however
+    /// small the triangles (an edge function of exactly 0 is taken again
+    /// in f64, where it is exact). The hit distance is as precise as the
+    /// unit frame's f32 (about 1e-7 of the mesh's size).
     #[inline(always)]
-    fn hit_t(&self, ray: &Ray, facing: Facing) -> Option<f32> {
-        let c = self.v0 - ray.origin;
-        let r = ray.direction.cross(c);
-        // (`n` is minus the counter-clockwise normal: the ray leaves
-        // through a triangle when `n . d < 0`.)
-        let det = self.n.dot(ray.direction);
+    fn hit_t(&self, ray: &Ray, sh: &Sheared, facing: Facing) -> Option<f32> {
+        let (det, t) = self.edges(ray, sh)?;
+        // Outward normals wind counter-clockwise: seen from the origin down
+        // the ray, a triangle the ray enters through winds
+        // counter-clockwise (`det > 0` in the sheared frame's handedness),
+        // one it leaves through clockwise.
         let faces = match facing {
             Facing::Any => true,
             Facing::Entering => det > 0.0,
             Facing::Leaving => det < 0.0,
         };
-        if !faces {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let u = r.dot(self.e2) * inv_det;
-        let v = r.dot(self.e1) * inv_det;
-        let w = 1.0 - u - v;
-        // Within `EDGE` of the triangle: a ray through an edge two
-        // triangles share hits both, never neither.
-        if inv_det != 0.0 && inv_det.is_finite() && u >= -EDGE && v >= -EDGE && w >= -EDGE {
-            let t = self.n.dot(c) * inv_det;
-            return (t >= ray.tmin && t <= ray.tmax).then_some(t);
-        }
-        None
+        faces.then_some(t)
     }
 
     /// Is there a hit in `[tmin, tmax]`?
     #[inline(always)]
-    fn hits(&self, ray: &Ray) -> bool {
-        let c = self.v0 - ray.origin;
-        let r = ray.direction.cross(c);
-        let inv_det = 1.0 / self.n.dot(ray.direction);
-        let u = r.dot(self.e2) * inv_det;
-        let v = r.dot(self.e1) * inv_det;
-        let w = 1.0 - u - v;
-        if inv_det != 0.0 && u >= -EDGE && v >= -EDGE && w >= -EDGE {
-            let t = self.n.dot(c) * inv_det;
-            return t >= ray.tmin && t <= ray.tmax;
+    fn hits(&self, ray: &Ray, sh: &Sheared) -> bool {
+        self.edges(ray, sh).is_some()
+    }
+
+    /// The sum of the edge functions (twice the triangle's area seen down
+    /// the ray, signed by its winding) and the hit distance, for a hit in
+    /// `[tmin, tmax]`.
+    #[inline(always)]
+    fn edges(&self, ray: &Ray, sh: &Sheared) -> Option<(f32, f32)> {
+        let [kx, ky, kz] = sh.k;
+        let [sx, sy, sz] = sh.s;
+        let at = |c: &[f32; 4]| {
+            let z = c[kz] - sh.o[2];
+            (c[kx] - sh.o[0] - sx * z, c[ky] - sh.o[1] - sy * z, z)
+        };
+        let (ax, ay, az) = at(&self.v[0]);
+        let (bx, by, bz) = at(&self.v[1]);
+        let (cx, cy, cz) = at(&self.v[2]);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let e = |px: f32, py: f32, qx: f32, qy: f32| {
+                (px as f64 * qy as f64 - py as f64 * qx as f64) as f32
+            };
+            u = e(cx, cy, bx, by);
+            v = e(ax, ay, cx, cy);
+            w = e(bx, by, ax, ay);
         }
-        false
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
+        (t >= ray.tmin && t <= ray.tmax).then_some((det, t))
     }
 }
 

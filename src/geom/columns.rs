@@ -25,7 +25,7 @@
 use glam::{DVec3, Vec3A};
 use obvhs::ray::Ray;
 
-use crate::geom::bvh::{Facing, Occluder};
+use crate::geom::bvh::{Facing, Occluder, Sheared};
 
 /// Cells per triangle. On the bunny bake at 1M points, anything from
 /// 0.5 to 16 gave sssingle the same time within the machine's noise (by
@@ -254,11 +254,12 @@ impl Columns {
             return false;
         };
         let zeps = zeps(z0);
+        let sh = Sheared::new(ray);
         for e in cell {
             if e.zmin - z0 > ray.tmax + zeps {
                 break;
             }
-            if e.zmax - z0 >= ray.tmin - zeps && occ.hits_leaf(e.tri, ray) {
+            if e.zmax - z0 >= ray.tmin - zeps && occ.hits_leaf(e.tri, ray, &sh) {
                 return true;
             }
         }
@@ -294,6 +295,7 @@ impl Columns {
         let (cell, z0) = self.cell(ray)?;
         let mut best: Option<u32> = None;
         let zeps = zeps(z0);
+        let sh = Sheared::new(ray);
         for e in cell {
             if e.zmin - z0 > ray.tmax + zeps {
                 break;
@@ -301,7 +303,7 @@ impl Columns {
             if e.zmax - z0 < ray.tmin - zeps {
                 continue;
             }
-            if let Some(t) = occ.hit_leaf(e.tri, ray, facing) {
+            if let Some(t) = occ.hit_leaf(e.tri, ray, &sh, facing) {
                 let better =
                     t < ray.tmax || best.is_none_or(|b| occ.leaf_id(e.tri) < occ.leaf_id(b));
                 if better {

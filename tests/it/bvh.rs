@@ -421,3 +421,202 @@ fn shadow_rays_through_columns_are_blocked_as_through_the_bvh() {
         assert!(blocked * 10 > total, "{blocked} of {total} blocked");
     }
 }
+
+/// The nearest hit in f64 over every triangle of `m` (the BVH's facing
+/// rule: outward normals counter-clockwise) with its distance and the
+/// cosine of its angle with the triangle's normal, and whether it is
+/// clear: no
+/// other hit or near miss within the f32 ray's rounding of its distance
+/// and not within that rounding or `1e-4` (in barycentric units) of an
+/// edge, where f32 may choose either.
+fn nearest64(
+    m: &TriMesh,
+    o: DVec3,
+    d: DVec3,
+    tmin: f64,
+    facing: pcsss::geom::bvh::Facing,
+) -> (Option<(usize, f64, f64)>, bool) {
+    use pcsss::geom::bvh::Facing;
+    let mut hits: Vec<(f64, usize, f64, f64, f64)> = Vec::new();
+    for t in 0..m.tris.len() {
+        let [a, b, c] = m.tri(t);
+        let ccw = (b - a).cross(c - a);
+        let side = ccw.dot(d);
+        let keep = match facing {
+            Facing::Any => true,
+            Facing::Entering => side < 0.0,
+            Facing::Leaving => side > 0.0,
+        };
+        if !keep || ccw.length() == 0.0 {
+            continue;
+        }
+        // Near misses too (a negative margin): f32 may take them.
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        let s = o - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        let dist = e2.dot(q) / det;
+        let margin = u.min(v).min(1.0 - u - v);
+        if det.abs() > 1e-300 && margin > -1e-4 && dist >= tmin {
+            let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+            hits.push((
+                dist,
+                t,
+                margin,
+                side.abs() / ccw.length(),
+                ccw.length() / longest,
+            ));
+        }
+    }
+    hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let Some(&(s, t, margin, cos, height)) = hits.first() else {
+        return (None, true);
+    };
+    // The f32 frame's rounding (1e-7 of the mesh's size) along the ray,
+    // stretched by a grazing angle: hits closer than that to `tmin` or to
+    // each other can go either way.
+    let tol = |s: f64, cos: f64| 1e-6 * (1.0 + s.abs()) / cos;
+    // The f32 ray (its origin and direction rounded, 1e-7 of their size)
+    // passes beside the f64 one: a hit closer than that to an edge, in
+    // the triangle's plane, can go to its neighbour.
+    let beside = 1e-6 * (1.0 + o.length() + s.abs()) / cos;
+    let clear = margin > 1e-4
+        && margin * height > beside
+        && s - tmin > tol(s, cos)
+        && hits
+            .get(1)
+            .is_none_or(|h| h.0 - s > tol(s, cos).max(tol(h.0, h.3)));
+    (Some((t, s, cos)), clear)
+}
+
+#[test]
+fn nearest_hits_agree_with_brute_force_on_both_code_paths_inside_outside_grazing_and_far_away() {
+    use pcsss::geom::bvh::Facing;
+    // A bumpy closed sphere: rays from inside (as a walk's) and from
+    // outside, along its triangles and through their edges.
+    let mut m = TriMesh::from_cloud(&uv_sphere(60, 120, 1.0, [0.0; 3])).unwrap();
+    for p in &mut m.positions {
+        let (th, ph) = (p.z.clamp(-1.0, 1.0).acos(), p.y.atan2(p.x));
+        *p *= 1.0 + 0.15 * (5.0 * th).sin() * (7.0 * ph).cos();
+    }
+    let fast = Occluder::new(&m);
+    let base = Occluder::new(&m).without_avx();
+    // Far from the origin, the same scene: the unit frame keeps its hits.
+    let shift = DVec3::new(1e6, -1e6, 1e6);
+    let mut far_m = TriMesh::from_cloud(&uv_sphere(60, 120, 1.0, [0.0; 3])).unwrap();
+    far_m.positions = m.positions.iter().map(|p| *p + shift).collect();
+    let far = Occluder::new(&far_m);
+    let mut r = Pcg32::new(11, 3);
+    let dir = |r: &mut Pcg32| DVec3::new(unit(r) - 0.5, unit(r) - 0.5, unit(r) - 0.5).normalize();
+    let (mut checked, mut kinds) = (0, [0usize; 5]);
+    for k in 0..20000 {
+        let kind = k % 5;
+        let (o, d, tmin, facing) = match kind {
+            // Inside, anywhere, any direction, for the first wall out.
+            0 => (
+                dir(&mut r) * 0.8 * unit(&mut r),
+                dir(&mut r),
+                0.0,
+                Facing::Leaving,
+            ),
+            // From a point on the surface, inwards (a walk's first step),
+            // the origin's own triangle allowed a little behind.
+            1 => {
+                let t = (r.next_u32() as usize) % m.tris.len();
+                let [a, b, c] = m.tri(t);
+                let (u, v) = (unit(&mut r), unit(&mut r));
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let p = a + (b - a) * u + (c - a) * v;
+                let n = (b - a).cross(c - a).normalize();
+                let mut d = dir(&mut r);
+                if d.dot(n) > 0.0 {
+                    d = -d;
+                }
+                (p, d, -1e-4, Facing::Any)
+            }
+            // From far outside, towards the sphere.
+            2 => {
+                let o = dir(&mut r) * 1e3;
+                let aim = dir(&mut r) * 0.9;
+                (o, (aim - o).normalize(), 0.0, Facing::Entering)
+            }
+            // Grazing: along the plane of a triangle, from just outside
+            // its edge.
+            3 => {
+                let t = (r.next_u32() as usize) % m.tris.len();
+                let [a, b, c] = m.tri(t);
+                let along = (b - a).normalize();
+                let n = (b - a).cross(c - a).normalize();
+                let d = (along + n * (unit(&mut r) - 0.5) * 1e-3).normalize();
+                (a - along * 0.01, d, 0.0, Facing::Any)
+            }
+            // Through a shared edge's middle, from outside, near and 500
+            // sizes away.
+            _ => {
+                let t = (r.next_u32() as usize) % m.tris.len();
+                let [a, b, _] = m.tri(t);
+                let mid = (a + b) * 0.5;
+                let away = if k % 2 == 0 { 1.0 } else { 500.0 };
+                let o = mid + (mid * 2.0 + dir(&mut r) * 0.1) * away;
+                (o, (mid - o).normalize(), 0.0, Facing::Any)
+            }
+        };
+        let got = fast.nearest(o, d, tmin, f64::INFINITY, facing);
+        let got_base = base.nearest(o, d, tmin, f64::INFINITY, facing);
+        assert_eq!(
+            got.map(|h| (h.0, h.1.to_bits())),
+            got_base.map(|h| (h.0, h.1.to_bits())),
+            "ray {k}: the two code paths differ"
+        );
+        if kind == 4 {
+            // The edge is there: the ray meets one of its two triangles
+            // (which one is for f32 to choose).
+            assert!(got.is_some(), "ray {k} through an edge found no hit");
+            let far_hit = far.nearest(o + shift, d, tmin, f64::INFINITY, facing);
+            assert!(
+                far_hit.is_some(),
+                "ray {k} through an edge at 1e6 found no hit"
+            );
+            kinds[4] += 1;
+            continue;
+        }
+        let (want, clear) = nearest64(&m, o, d, tmin, facing);
+        let got_far = far.nearest(o + shift, d, tmin, f64::INFINITY, facing);
+        if !clear {
+            continue;
+        }
+        for (what, g) in [("near", got), ("far", got_far)] {
+            match (g, want) {
+                (None, None) => {}
+                (Some((tg, sg)), Some((tw, sw, cos))) => {
+                    assert_eq!(
+                        tg, tw,
+                        "ray {k} ({what}): triangle {tg} at {sg}, brute force {tw} at {sw}"
+                    );
+                    // The f32 frame's rounding (1e-7 of the mesh's size)
+                    // along the ray, stretched by a grazing angle.
+                    let tol = 1e-6 * (1.0 + sw.abs()) / cos;
+                    assert!(
+                        (sg - sw).abs() < tol,
+                        "ray {k} ({what}): {sg} against {sw} (cos {cos})"
+                    );
+                }
+                _ => panic!("ray {k} ({what}, kind {kind}): {g:?}, brute force {want:?}"),
+            }
+        }
+        checked += 1;
+        kinds[kind] += 1;
+    }
+    assert!(
+        checked > 10000 && kinds.iter().all(|&n| n > 1000),
+        "{checked} checked, by kind {kinds:?}"
+    );
+    assert!(fast.uses_avx() || !std::arch::is_x86_feature_detected!("avx"));
+}
