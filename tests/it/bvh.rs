@@ -38,6 +38,7 @@ fn any_hit_agrees_with_brute_force() {
     let mut r = Pcg32::new(5, 1);
     let m = TriMesh::from_cloud(&mesh).unwrap();
     let occ = Occluder::new(&m);
+    let base = Occluder::new(&m).without_avx();
     assert_eq!(occ.triangle_count(), 400);
     // The BVH works in its own unit frame: compare there, with the
     // triangles it holds.
@@ -65,6 +66,13 @@ fn any_hit_agrees_with_brute_force() {
         let o64 = DVec3::new(o32.x as f64, o32.y as f64, o32.z as f64);
         let d32 = d.as_vec3();
         let d64 = DVec3::new(d32.x as f64, d32.y as f64, d32.z as f64);
+        let ray = Ray::new(o32.into(), d32.into(), 0.0, tmax as f32);
+        // Both code paths alike, also where f32 may go either way.
+        assert_eq!(
+            occ.occluded_ray(&ray),
+            base.occluded_ray(&ray),
+            "ray {k}: the paths differ"
+        );
         let hits64: Vec<(f64, f64)> = tris
             .iter()
             .filter_map(|t| hit64(o64, d64, tmax, *t))
@@ -82,7 +90,6 @@ fn any_hit_agrees_with_brute_force() {
             continue;
         }
         let want = !hits64.is_empty();
-        let ray = Ray::new(o32.into(), d32.into(), 0.0, tmax as f32);
         assert_eq!(occ.occluded_ray(&ray), want, "ray {k}: {o} {d} {tmax}");
         checked += 1;
         hits += want as usize;
