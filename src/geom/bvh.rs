@@ -3,7 +3,7 @@
 //! 4-wide BVH whose nodes keep the four children's boxes as columns, and
 //! traversed here: four box tests at a time, the crossed children as a
 //! bit mask, leaves of up to four triangles under a watertight test
-//! ([`Tri::hit_t`]). The traversals are compiled twice, for processors
+//! ([`Tri::hit_t`]), four side by side ([`Tri4`]). The traversals are compiled twice, for processors
 //! with AVX (chosen at run time) and without; both do the same
 //! arithmetic in the same order (no fused multiply-add), so they find the
 //! same hits to the bit. Chosen by measurement (`benches/illum.rs`,
@@ -69,6 +69,9 @@ pub struct Occluder {
     nodes: Vec<Node>,
     /// Triangles in leaf order.
     tris: Vec<Tri>,
+    /// Each leaf's triangles side by side (a leaf child's `child` is its
+    /// index here).
+    quads: Vec<Tri4>,
     /// The same in obvhs's form (for comparisons with other tracers).
     plain: Vec<Triangle>,
     /// Each one's triangle index in the mesh.
@@ -119,6 +122,7 @@ impl Occluder {
         let mut occ = Occluder {
             nodes: Vec::new(),
             tris: Vec::new(),
+            quads: Vec::new(),
             plain: Vec::new(),
             ids: Vec::new(),
             centre,
@@ -150,7 +154,8 @@ impl Occluder {
         occ
     }
 
-    /// Appends the triangles of BVH2 leaf `id`; returns the first's index.
+    /// Appends the triangles of BVH2 leaf `id`; returns the leaf's index
+    /// in `quads`.
     fn add_leaf(&mut self, bvh: &Bvh2, input: &[Triangle], ids: &[u32], id: usize) -> u32 {
         let n = &bvh.nodes[id];
         let first = self.tris.len() as u32;
@@ -160,7 +165,9 @@ impl Occluder {
             self.plain.push(input[p as usize]);
             self.ids.push(ids[p as usize]);
         }
-        first
+        self.quads
+            .push(Tri4::new(&self.tris[first as usize..], first));
+        self.quads.len() as u32 - 1
     }
 
     /// Fills 4-wide node `at` from the children of BVH2 inner node `id`:
@@ -306,8 +313,7 @@ impl Occluder {
                         spill.push(child);
                     }
                 } else {
-                    let tris = &self.tris[child as usize..(child + count) as usize];
-                    if tris.iter().any(|t| t.hits(ray, &sh)) {
+                    if self.quads[child as usize].hits(&self.tris, ray, &sh, count) != 0 {
                         return true;
                     }
                 }
@@ -422,15 +428,21 @@ impl Occluder {
                     kids[j] = (tnear[k], child);
                     nk += 1;
                 } else {
-                    for j in child..child + count {
-                        if let Some(t) = self.tris[j as usize].hit_t(ray, &sh, facing) {
-                            // Nearest first; equal distances: lowest index.
-                            let better = t < ray.tmax
-                                || best.is_none_or(|b| self.ids[j as usize] < self.ids[b as usize]);
-                            if better {
-                                ray.tmax = t;
-                                best = Some(j);
-                            }
+                    let quad = &self.quads[child as usize];
+                    let (ts, dets, mut lanes) = quad.edges(&self.tris, ray, &sh, count);
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        let (t, j) = (ts[l], quad.first + l as u32);
+                        if !facing.takes(dets[l]) || t > ray.tmax {
+                            continue;
+                        }
+                        // Nearest first; equal distances: lowest index.
+                        let better = t < ray.tmax
+                            || best.is_none_or(|b| self.ids[j as usize] < self.ids[b as usize]);
+                        if better {
+                            ray.tmax = t;
+                            best = Some(j);
                         }
                     }
                 }
@@ -509,7 +521,8 @@ impl Occluder {
                     kids[j] = (d2, child);
                     nk += 1;
                 } else {
-                    for j in child..child + count {
+                    let first = self.quads[child as usize].first;
+                    for j in first..first + count {
                         let t = self.ids[j as usize] as usize;
                         let [a, b, c] = mesh.tri(t);
                         let w = crate::geom::closest_on_triangle(p, a, b, c);
@@ -666,6 +679,22 @@ pub enum Facing {
     Leaving,
 }
 
+impl Facing {
+    /// Whether a hit whose edge functions sum to `det` is taken. Outward
+    /// normals wind counter-clockwise: seen from the origin down the ray,
+    /// a triangle the ray enters through winds counter-clockwise (`det >
+    /// 0` in the sheared frame's handedness), one it leaves through
+    /// clockwise.
+    #[inline(always)]
+    fn takes(self, det: f32) -> bool {
+        match self {
+            Facing::Any => true,
+            Facing::Entering => det > 0.0,
+            Facing::Leaving => det < 0.0,
+        }
+    }
+}
+
 /// A ray made ready for the watertight triangle test (Woop, Benthin and
 /// Wald, "Watertight Ray/Triangle Intersection", JCGT 2013): the axis the
 /// ray runs most along (`kz`; `kx`, `ky` the others, swapped where the
@@ -736,16 +765,7 @@ impl Tri {
     #[inline(always)]
     fn hit_t(&self, ray: &Ray, sh: &Sheared, facing: Facing) -> Option<f32> {
         let (det, t) = self.edges(ray, sh)?;
-        // Outward normals wind counter-clockwise: seen from the origin down
-        // the ray, a triangle the ray enters through winds
-        // counter-clockwise (`det > 0` in the sheared frame's handedness),
-        // one it leaves through clockwise.
-        let faces = match facing {
-            Facing::Any => true,
-            Facing::Entering => det > 0.0,
-            Facing::Leaving => det < 0.0,
-        };
-        faces.then_some(t)
+        facing.takes(det).then_some(t)
     }
 
     /// Is there a hit in `[tmin, tmax]`?
@@ -788,6 +808,101 @@ impl Tri {
         }
         let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
         (t >= ray.tmin && t <= ray.tmax).then_some((det, t))
+    }
+}
+
+/// A leaf's triangles side by side for the same test four at a time
+/// (Embree's `Triangle4`): corner `c`'s coordinate on axis `a` of lane
+/// `l` at `v[a][c][l]`; a leaf of fewer than four repeats its last
+/// triangle in the lanes left, which the mask of its count drops.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Tri4 {
+    v: [[[f32; 4]; 3]; 3],
+    /// The leaf's first triangle in leaf order.
+    first: u32,
+}
+
+impl Tri4 {
+    fn new(tris: &[Tri], first: u32) -> Tri4 {
+        let mut v = [[[0.0; 4]; 3]; 3];
+        for l in 0..4 {
+            let t = &tris[l.min(tris.len() - 1)];
+            for (c, corner) in t.v.iter().enumerate() {
+                for a in 0..3 {
+                    v[a][c][l] = corner[a];
+                }
+            }
+        }
+        Tri4 { v, first }
+    }
+
+    /// [`Tri::edges`] on the four lanes at once, with the same arithmetic
+    /// in the same order (the same bits): the hit distances, the edge
+    /// functions' sums and a mask of the lanes (below `count`) hit in
+    /// `[tmin, tmax]`. A lane with an edge function of exactly zero is
+    /// taken again by the one-triangle test, which redoes it in f64.
+    #[inline(always)]
+    fn edges(
+        &self,
+        tris: &[Tri],
+        ray: &Ray,
+        sh: &Sheared,
+        count: u32,
+    ) -> ([f32; 4], [f32; 4], u32) {
+        let [kx, ky, kz] = sh.k;
+        let [sx, sy, sz] = sh.s;
+        let (vx, vy, vz) = (&self.v[kx], &self.v[ky], &self.v[kz]);
+        let mut px = [[0f32; 4]; 3];
+        let mut py = [[0f32; 4]; 3];
+        let mut pz = [[0f32; 4]; 3];
+        for c in 0..3 {
+            for l in 0..4 {
+                let z = vz[c][l] - sh.o[2];
+                px[c][l] = vx[c][l] - sh.o[0] - sx * z;
+                py[c][l] = vy[c][l] - sh.o[1] - sy * z;
+                pz[c][l] = z;
+            }
+        }
+        let (mut ts, mut dets) = ([0f32; 4], [0f32; 4]);
+        let mut hit = 0u32;
+        let mut redo = 0u32;
+        for l in 0..4 {
+            let (ax, ay, az) = (px[0][l], py[0][l], pz[0][l]);
+            let (bx, by, bz) = (px[1][l], py[1][l], pz[1][l]);
+            let (cx, cy, cz) = (px[2][l], py[2][l], pz[2][l]);
+            let u = cx * by - cy * bx;
+            let v = ax * cy - ay * cx;
+            let w = bx * ay - by * ax;
+            redo |= ((u == 0.0 || v == 0.0 || w == 0.0) as u32) << l;
+            let inside = !((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0));
+            let det = u + v + w;
+            let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
+            let ok = inside && det != 0.0 && det.is_finite() && t >= ray.tmin && t <= ray.tmax;
+            hit |= (ok as u32) << l;
+            ts[l] = t;
+            dets[l] = det;
+        }
+        let live = (1u32 << count) - 1;
+        let (mut hit, mut redo) = (hit & live, redo & live);
+        while redo != 0 {
+            let l = redo.trailing_zeros() as usize;
+            redo &= redo - 1;
+            hit &= !(1 << l);
+            if let Some((det, t)) = tris[self.first as usize + l].edges(ray, sh) {
+                hit |= 1 << l;
+                ts[l] = t;
+                dets[l] = det;
+            }
+        }
+        (ts, dets, hit)
+    }
+
+    /// The lanes hit, for an any-hit query (as fast as one triangle at a
+    /// time with an out at the first hit, measured).
+    #[inline(always)]
+    fn hits(&self, tris: &[Tri], ray: &Ray, sh: &Sheared, count: u32) -> u32 {
+        self.edges(tris, ray, sh, count).2
     }
 }
 
