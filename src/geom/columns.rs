@@ -25,7 +25,8 @@
 use glam::{DVec3, Vec3A};
 use obvhs::ray::Ray;
 
-use crate::geom::bvh::{Facing, Occluder, Sheared};
+use crate::geom::bvh::{Facing, Occluder};
+use crate::geom::ray_tri::Sheared;
 
 /// Cells per triangle. On the bunny bake at 1M points, anything from
 /// 0.5 to 16 gave sssingle the same time within the machine's noise (by

@@ -12,6 +12,7 @@ pub mod columns;
 pub mod grid;
 pub mod kdtree;
 pub mod mesh;
+pub mod ray_tri;
 
 use glam::DVec3;
 
