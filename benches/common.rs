@@ -261,3 +261,31 @@ pub fn points_on(mesh: &pcsss::Cloud, n: usize) -> pcsss::Cloud {
     .unwrap();
     cloud
 }
+
+/// Embree's rates on `n` rays (robust mode off and on, from
+/// embree_rays.py's answer `e`) and ours over them, with our best
+/// seconds `t1` and `t2` on 1 and 2 threads; `what` names Embree's query.
+pub fn embree_rows(tab: &mut Table, e: &serde_json::Value, n: f64, t1: f64, t2: f64, what: &str) {
+    let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
+    tab.row(format!(
+        "| Embree 4 {what}(embreex, robust off; 2 = two processes), M rays/s | {:.3} | {:.2} | {:.2} |",
+        f("build"),
+        n / f("seconds_1") / 1e6,
+        n / f("seconds_2") / 1e6
+    ));
+    tab.row(format!(
+        "| pcsss / Embree | | {:.2} | {:.2} |",
+        f("seconds_1") / t1,
+        f("seconds_2") / t2
+    ));
+    tab.row(format!(
+        "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
+        n / f("seconds_1_robust") / 1e6,
+        n / f("seconds_2_robust") / 1e6
+    ));
+    tab.row(format!(
+        "| pcsss / Embree robust | | {:.2} | {:.2} |",
+        f("seconds_1_robust") / t1,
+        f("seconds_2_robust") / t2
+    ));
+}

@@ -188,28 +188,7 @@ fn main() {
     ));
     match &embree {
         Some(e) => {
-            let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
-            tab.row(format!(
-                "| Embree 4 (embreex, robust off; 2 = two processes), M rays/s | {:.3} | {:.2} | {:.2} |",
-                f("build"),
-                nr / f("seconds_1") / 1e6,
-                nr / f("seconds_2") / 1e6
-            ));
-            tab.row(format!(
-                "| pcsss / Embree | | {:.2} | {:.2} |",
-                f("seconds_1") / t1,
-                f("seconds_2") / t2
-            ));
-            tab.row(format!(
-                "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
-                nr / f("seconds_1_robust") / 1e6,
-                nr / f("seconds_2_robust") / 1e6
-            ));
-            tab.row(format!(
-                "| pcsss / Embree robust | | {:.2} | {:.2} |",
-                f("seconds_1_robust") / t1,
-                f("seconds_2_robust") / t2
-            ));
+            embree_rows(&mut tab, e, nr, t1, t2, "");
             tab.row(format!(
                 "| blocked rays: pcsss {blocked}, Embree {}, robust {} | | | |",
                 e["blocked"], e["blocked_robust"]

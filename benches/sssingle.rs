@@ -222,28 +222,8 @@ fn rays_vs_embree(tab: &mut Table, quick: bool) {
     ));
     match &embree {
         Some(e) => {
+            embree_rows(tab, e, nr, t1, t2, "closest hit ");
             let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
-            tab.row(format!(
-                "| Embree 4 closest hit (embreex, robust off; 2 = two processes), M rays/s | {:.3} | {:.2} | {:.2} |",
-                f("build"),
-                nr / f("seconds_1") / 1e6,
-                nr / f("seconds_2") / 1e6
-            ));
-            tab.row(format!(
-                "| pcsss / Embree (per thread) | | {:.2} | {:.2} |",
-                f("seconds_1") / t1,
-                f("seconds_2") / t2
-            ));
-            tab.row(format!(
-                "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
-                nr / f("seconds_1_robust") / 1e6,
-                nr / f("seconds_2_robust") / 1e6
-            ));
-            tab.row(format!(
-                "| pcsss / Embree robust | | {:.2} | {:.2} |",
-                f("seconds_1_robust") / t1,
-                f("seconds_2_robust") / t2
-            ));
             tab.row(format!(
                 "| hits: pcsss {hits} (leaving {lhits}), Embree {}; mean distance pcsss {:.6}, Embree {:.6} | | | |",
                 e["hits"],

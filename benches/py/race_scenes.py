@@ -21,8 +21,8 @@ delta light only through a null boundary).
   vertex normals NaNs), its fixture's key and rim lights and camera (a
   vertical field of view of 24 degrees, to fill a square frame), and
   the bunny's albedo at a
-  mean free path of 0.004, a fiftieth of its length: the claws, horns
-  and crest are one to three diffusion lengths thick.
+  mean free path of 0.004, a fiftieth of its length (its thin parts:
+  the claws, horns and crest).
 """
 import json
 import pathlib

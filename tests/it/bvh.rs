@@ -13,6 +13,21 @@ fn unit(r: &mut Pcg32) -> f64 {
     r.next_u32() as f64 / 4294967296.0
 }
 
+/// A uniform point on triangle `t` of `m`, and its outward normal.
+fn on_triangle(m: &TriMesh, t: usize, r: &mut Pcg32) -> (DVec3, DVec3) {
+    let [a, b, c] = m.tri(t);
+    let (u, v) = (unit(r), unit(r));
+    let (u, v) = if u + v > 1.0 {
+        (1.0 - u, 1.0 - v)
+    } else {
+        (u, v)
+    };
+    (
+        a + (b - a) * u + (c - a) * v,
+        (b - a).cross(c - a).normalize(),
+    )
+}
+
 /// The ray parameter of a hit of the segment `o + t d`, `t` in
 /// `[0, tmax]`, with `abc` in f64, and how far inside the triangle it is
 /// (the smallest barycentric weight) and from the segment's ends.
@@ -398,15 +413,7 @@ fn shadow_rays_through_columns_are_blocked_as_through_the_bvh() {
             let cols = Columns::new(&occ, dir).unwrap();
             for k in 0..4000 {
                 // A point on a triangle, its normal towards the light.
-                let [a, b, c] = m.tri(k % m.tris.len());
-                let (u, v) = (unit(&mut r), unit(&mut r));
-                let (u, v) = if u + v > 1.0 {
-                    (1.0 - u, 1.0 - v)
-                } else {
-                    (u, v)
-                };
-                let p = a + (b - a) * u + (c - a) * v;
-                let n = (b - a).cross(c - a).normalize();
+                let (p, n) = on_triangle(&m, k % m.tris.len(), &mut r);
                 let n = if n.dot(dir) < 0.0 { -n } else { n };
                 let dist = if k % 2 == 0 {
                     f64::INFINITY
@@ -532,16 +539,7 @@ fn nearest_hits_agree_with_brute_force_on_both_code_paths_inside_outside_grazing
             // From a point on the surface, inwards (a walk's first step),
             // the origin's own triangle allowed a little behind.
             1 => {
-                let t = (r.next_u32() as usize) % m.tris.len();
-                let [a, b, c] = m.tri(t);
-                let (u, v) = (unit(&mut r), unit(&mut r));
-                let (u, v) = if u + v > 1.0 {
-                    (1.0 - u, 1.0 - v)
-                } else {
-                    (u, v)
-                };
-                let p = a + (b - a) * u + (c - a) * v;
-                let n = (b - a).cross(c - a).normalize();
+                let (p, n) = on_triangle(&m, (r.next_u32() as usize) % m.tris.len(), &mut r);
                 let mut d = dir(&mut r);
                 if d.dot(n) > 0.0 {
                     d = -d;

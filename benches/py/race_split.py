@@ -1,0 +1,63 @@
+"""Where a race scene's bake is off (the dragon's figures in
+docs/PERFORMANCE.md): the bake's `ssS` against Mitsuba's single
+scattering (paths cut after one event) and its `ssM` against the rest,
+each as the ratio of its mean over the pixels the bake covers whole and
+the reference lights, minus 1.
+
+    python race_split.py SCENE [SIZE] [SPP] [COUNT] [VAR=VALUE;...] [MESH]
+
+SCENE: race_scenes.py's; the bake is race.py's (INDIRECT=16) with the
+`;`-separated make variables (default `METHOD=walk;WALKS=32;EXIT=eye`);
+MESH (a path) replaces the scene's mesh, e.g. the dragon's decimation
+without open edges, out/models/dragon_vrip_res2.ply.
+"""
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import mitsuba as mi
+import numpy as np
+
+import race
+from mitsuba_bunny import scene
+from mitsuba_images import read_image, render_attr
+
+
+def main():
+    a = sys.argv[1:]
+    race.use(a[0])
+    size = int(a[1]) if len(a) > 1 else 192
+    spp = int(a[2]) if len(a) > 2 else 256
+    count = int(a[3]) if len(a) > 3 else 100000
+    extra = (a[4] if len(a) > 4 else "METHOD=walk;WALKS=32;EXIT=eye").split(";")
+    if len(a) > 5:
+        race.SCENE["mesh"] = pathlib.Path(a[5]).resolve()
+    cam = dict(race.SCENE["camera"], width=size, height=size)
+    ref = np.array(mi.render(mi.load_dict(scene(cam, spp, sc=race.SCENE)), spp=spp, seed=5))[:, :, :3]
+    single = np.array(mi.render(mi.load_dict(scene(cam, spp, max_depth=2, sc=race.SCENE)), spp=spp, seed=6))[:, :, :3]
+    with tempfile.TemporaryDirectory() as dd:
+        d = pathlib.Path(dd)
+        cf = d / "cam.json"
+        cf.write_text(json.dumps(cam))
+        img, cover, _ = race.bake(cf, count, extra, d, cam, keep=True)
+        parts = {}
+        for attr in ("ssS", "ssM"):
+            exr = d / f"{attr}.exr"
+            render_attr(d / "out", pathlib.Path(race.SCENE["mesh"]).stem, cf, attr, exr)
+            parts[attr], _ = read_image(exr, d, size)
+        subprocess.run(["rm", "-rf", str(d / "out")], check=True)
+    m = (cover >= 1) & (ref.min(axis=2) > 1e-3)
+
+    def off(x, y):
+        return float(np.mean(x[m]) / np.mean(y[m]) - 1)
+
+    print(f"{a[0]} {size} x {size}, {count} points, {' '.join(extra)}: picture {off(img, ref):+.3f}, "
+          f"ssS against single {off(parts['ssS'], single):+.3f}, ssM against the rest "
+          f"{off(parts['ssM'], ref - single):+.3f}; single is {float(np.mean(single[m]) / np.mean(ref[m])):.3f} "
+          f"of the picture")
+
+
+if __name__ == "__main__":
+    main()
