@@ -1,6 +1,7 @@
 """What the image comparisons against Mitsuba 3 share (mitsuba_sphere.py,
 mitsuba_bunny.py): a Mitsuba perspective camera from the toolkit's camera
 file, the bake's picture read back from its OpenEXR, and the errors."""
+import os
 import pathlib
 import subprocess
 
@@ -27,7 +28,11 @@ def camera(cam, spp):
     }
 
 
-def read_image(exr, d, size, pcconvert=ROOT / "target/release/pcconvert"):
+# The stages: `BIN`, else this clone's release build.
+BIN = pathlib.Path(os.environ.get("BIN", ROOT / "target" / "release"))
+
+
+def read_image(exr, d, size, pcconvert=BIN / "pcconvert"):
     """(beauty premultiplied, coverage) as size x size arrays (`size` an
     int, or (width, height)), from the render's OpenEXR (through
     `pcconvert` to binary PLY)."""
@@ -66,7 +71,7 @@ def errors(img, ref, mask):
 def render_attr(out, name, cam, attr, exr):
     """The bake's `attr` alone (ssM as its radiance, ssS), 16 rays a
     pixel under Mitsuba's Gaussian pixel filter, from the bake's directory
-    `out` and its mesh `name`."""
-    subprocess.run([ROOT / "target/release/render", "-q", "--mesh", out / f"{name}_mesh.ply",
+    `out` and its mesh `name` (the stages from `BIN`, else target/release)."""
+    subprocess.run([BIN / "render", "-q", "--mesh", out / f"{name}_mesh.ply",
                     "--camera", cam, "--cloud", out / f"{name}_sss.ply", "--attr", attr, "--spp", "16", "--pixel-filter", "gaussian",
                     "-o", exr], check=True)

@@ -28,7 +28,8 @@ difference is printed.
 Swept: each path tracer over samples a pixel (CPU of this process;
 Cycles also with its denoiser, OpenImageDenoise), the bake (`make -C
 pipelines`, its children's CPU) over points, with the kernel and with
-walks, all with light between surfaces (`INDIRECT=16`).
+walks, all with light between surfaces (`INDIRECT=16`; walks that sample
+the lights follow it themselves, and `make` does not use `INDIRECT`).
 
     python race.py [--scene NAME] [SIZE] [REF] [SPPS] [BAKES] [CREF]
     python race.py [--scene NAME] --views N [SIZE] [REF] [SPPS] [BAKE] [CREF]
@@ -40,6 +41,9 @@ both ears lit from behind) or `dragon` (thin claws, horns and crest),
 each with its own lights, camera and medium; SIZE defaults to 1024 for
 the bunny, 512 for the others. `--save` (anywhere): the rows go to
 benches/results/race.json (the bunny) or race_NAME.json, with the plot.
+`--merge` (with `--save`): the run's rows replace the saved rows of the
+same tool and setting, and the others stay (e.g. bakes redone, with
+SPPS `-`: no path tracer runs but the cached references).
 
 `--wide`: one frame at 1920 x 1080 (the bunny camera's vertical field of
 view, wider), against Cycles alone (2 x CREF samples a pixel).
@@ -341,7 +345,8 @@ def main():
     args = sys.argv[1:]
     name = "bunny"
     save = "--save" in args
-    args = [a for a in args if a != "--save"]
+    merge = "--merge" in args
+    args = [a for a in args if a not in ("--save", "--merge")]
     if args[:1] == ["--scene"]:
         name, args = args[1], args[2:]
     results = RESULTS if name == "bunny" else RESULTS.with_name(f"race_{name}.json")
@@ -367,7 +372,7 @@ def main():
         return
     size = int(args[0]) if args else (1024 if name == "bunny" else 512)
     ref_spp = int(args[1]) if len(args) > 1 else 64
-    spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",")]
+    spps = [int(x) for x in (args[2] if len(args) > 2 else "4,16,64").split(",") if x != "-"]
     bakes = (args[3] if len(args) > 3 else
              "50000;200000;50000,METHOD=walk,WALKS=16,SAMPLE_LIGHTS=0,EXIT=sky;"
              "50000,METHOD=walk,WALKS=16,EXIT=sky;200000,METHOD=walk,WALKS=16,EXIT=sky;"
@@ -379,6 +384,11 @@ def main():
     cam = dict(base, width=size, height=size)
     rows = race(cam, ref_spp, spps, bakes, cref, tracers)
     if save:
+        if merge:
+            key = lambda r: (r["tool"], r["setting"], tuple(r.get("extra") or ()))
+            new = {key(r): r for r in rows}
+            old = json.loads(results.read_text())["rows"]
+            rows = [new.pop(key(r), r) for r in old] + list(new.values())
         data = {"scene": name, "reference_spp": {"Mitsuba": 2 * ref_spp, "Cycles": 2 * cref}, "size": size,
                 "rows": rows}
         results.write_text(json.dumps(data, indent=1) + "\n")

@@ -9,9 +9,13 @@ the reference lights, minus 1.
 SCENE: race_scenes.py's; the bake is race.py's (INDIRECT=16) with the
 `;`-separated make variables (default `METHOD=walk;WALKS=32;EXIT=eye`);
 MESH (a path) replaces the scene's mesh, e.g. the dragon's decimation
-without open edges, out/models/dragon_vrip_res2.ply.
+without open edges, out/models/dragon_vrip_res2.ply. Mitsuba's two
+pictures are kept in target/race/; with RACE_SPLIT_MAP=PATH set, a PNG
+of `ssM` over the rest, pixel by pixel (blue dark, red bright), is
+written there.
 """
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -35,8 +39,9 @@ def main():
     if len(a) > 5:
         race.SCENE["mesh"] = pathlib.Path(a[5]).resolve()
     cam = dict(race.SCENE["camera"], width=size, height=size)
-    ref = np.array(mi.render(mi.load_dict(scene(cam, spp, sc=race.SCENE)), spp=spp, seed=5))[:, :, :3]
-    single = np.array(mi.render(mi.load_dict(scene(cam, spp, max_depth=2, sc=race.SCENE)), spp=spp, seed=6))[:, :, :3]
+    tag = f"{a[0]}_{pathlib.Path(race.SCENE['mesh']).stem}_split_{size}_{spp}"
+    ref = cached(f"{tag}_all", lambda: scene(cam, spp, sc=race.SCENE), spp, 5)
+    single = cached(f"{tag}_single", lambda: scene(cam, spp, max_depth=2, sc=race.SCENE), spp, 6)
     with tempfile.TemporaryDirectory() as dd:
         d = pathlib.Path(dd)
         cf = d / "cam.json"
@@ -57,6 +62,25 @@ def main():
           f"ssS against single {off(parts['ssS'], single):+.3f}, ssM against the rest "
           f"{off(parts['ssM'], ref - single):+.3f}; single is {float(np.mean(single[m]) / np.mean(ref[m])):.3f} "
           f"of the picture")
+    if os.environ.get("RACE_SPLIT_MAP"):
+        ratio_map(parts["ssM"], ref - single, m, os.environ["RACE_SPLIT_MAP"])
+
+
+def cached(name, sc, spp, seed):
+    """Mitsuba's picture of scene `sc()`, kept in target/race/ as `name`."""
+    f = race.CACHE / f"{name}.npy"
+    if not f.exists():
+        race.CACHE.mkdir(parents=True, exist_ok=True)
+        np.save(f, np.array(mi.render(mi.load_dict(sc()), spp=spp, seed=seed))[:, :, :3])
+    return np.load(f)
+
+
+def ratio_map(x, y, m, out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    r = np.where(m, x.mean(axis=2) / np.maximum(y.mean(axis=2), 1e-9), np.nan)
+    plt.imsave(out, np.log2(np.clip(r, 0.25, 4.0)), cmap="coolwarm", vmin=-1, vmax=1)
 
 
 if __name__ == "__main__":

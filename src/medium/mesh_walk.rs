@@ -15,6 +15,13 @@
 //! walk whose throughput falls below a half continues by Russian
 //! roulette (unbiased: the survivors carry what the others lose).
 //!
+//! Light between surfaces ([`Walker::reentering`]): a walk that leaves
+//! refracts out and flies on through the air; where that line meets the
+//! mesh again it refracts back in (or reflects off it, by Fresnel's odds)
+//! and walks on, as a path tracer follows it, so the light one part of
+//! the object sends another is in the walk at every order. It ends where
+//! the line meets nothing: the light there is the sky's.
+//!
 //! The mesh must be closed: a walk that leaves through a hole goes on
 //! outside; it is lost when it leaves the mesh's box, and returns
 //! nothing ([`End::Lost`]).
@@ -30,7 +37,7 @@ use crate::geom::bvh::{Facing, Occluder};
 use crate::geom::mesh::TriMesh;
 use crate::geom::tangent_basis;
 use crate::maths::uniform53;
-use crate::optics::fresnel;
+use crate::optics::{fresnel, refract};
 
 /// The most scattering events a walk is followed for; one still inside
 /// then is cut ([`End::Cut`]: a bias of the share cut, which the report
@@ -41,6 +48,11 @@ pub const MAX_EVENTS: u32 = 1_000_000;
 /// Below this throughput a walk goes on by Russian roulette.
 const ROULETTE: f64 = 0.5;
 
+/// The most reflections off the outside a walk's flight through the air
+/// takes between two parts (each has Fresnel's odds, a few percent at
+/// glancing angles and less head on): one still reflecting then is lost.
+const MAX_REFLECTIONS: u32 = 64;
+
 /// How a walk ended.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum End {
@@ -48,12 +60,16 @@ pub enum End {
     /// normal `normal`, after `events` scattering events, carrying
     /// `weight` per channel (the Fresnel transmittance in at its start,
     /// the channels' densities over the mixture's, the roulette's
-    /// odds).
+    /// odds). A walk [`Walker::reentering`] leaves only towards the sky,
+    /// after coming back in `entries` times (0 otherwise), the first of
+    /// its events after `first_entries` of them.
     Exit {
         pos: DVec3,
         normal: DVec3,
         events: u32,
         weight: [f64; 3],
+        entries: u32,
+        first_entries: u32,
     },
     /// Absorbed: the roulette ended it, or no channel carries anything.
     Absorbed,
@@ -74,6 +90,9 @@ pub struct Event {
     pub weight: [f64; 3],
     /// Its count: 1 for the walk's first event.
     pub events: u32,
+    /// The times the walk came back in through the air before it
+    /// ([`Walker::reentering`]): 0 in the part it started in.
+    pub entries: u32,
 }
 
 /// What walks through one mesh share (each walk takes its medium: a
@@ -92,6 +111,9 @@ pub struct Walker<'a> {
     hi: DVec3,
     /// Guided walks where the medium's albedo is high ([`Guide`]).
     guided: bool,
+    /// Walks that leave fly on through the air and come back in where
+    /// the line meets the mesh again.
+    reenter: bool,
 }
 
 impl<'a> Walker<'a> {
@@ -113,7 +135,22 @@ impl<'a> Walker<'a> {
             lo: lo - grow,
             hi: hi + grow,
             guided: true,
+            reenter: false,
         }
+    }
+
+    /// Walks that follow the light between surfaces: one that leaves
+    /// flies on through the air, and comes back in where it meets the
+    /// mesh again (see the module's doc). A walk then ends only towards
+    /// the sky.
+    pub fn reentering(mut self) -> Walker<'a> {
+        self.reenter = true;
+        self
+    }
+
+    /// Whether walks follow the light between surfaces.
+    pub fn reenters(&self) -> bool {
+        self.reenter
     }
 
     /// Walks drawn by the classic scheme alone (free flights at the
@@ -182,10 +219,13 @@ impl<'a> Walker<'a> {
             eta,
             ref guide,
         } = *medium;
+        // The surface the guide heads for: the start's, then where the
+        // walk last came back in.
+        let (mut p, mut n) = (p, n);
         // The outside direction, cosine-weighted about n, and the light
         // refracted in along it (Fresnel's share reflected is not
         // subsurface light).
-        let (t1, t2) = tangent_basis(n);
+        let (mut t1, mut t2) = tangent_basis(n);
         let (out, mu_o) = match towards {
             Some(v) => {
                 let mu = v.dot(n);
@@ -214,6 +254,7 @@ impl<'a> Walker<'a> {
         // not); false at the start and after a reflection.
         let mut scattered = false;
         let mut first = true;
+        let (mut entries, mut first_entries) = (0u32, 0u32);
         loop {
             let total = w[0] + w[1] + w[2];
             if total.is_nan() || total <= 0.0 {
@@ -309,12 +350,39 @@ impl<'a> Walker<'a> {
                     let pos = x + d * s;
                     let mu = d.dot(nb).clamp(0.0, 1.0);
                     if uniform53(r) >= fresnel(mu, 1.0 / eta) {
-                        return End::Exit {
+                        let exit = End::Exit {
                             pos,
                             normal: nb,
                             events,
                             weight: w,
+                            entries,
+                            first_entries,
                         };
+                        if !self.reenter {
+                            return exit;
+                        }
+                        // Out into the air, and on to where the line
+                        // meets the mesh again.
+                        let out = refract(d, -nb, eta).unwrap_or(d);
+                        match self.through_air(pos + nb * self.inset, out, eta, r) {
+                            Air::Sky => return exit,
+                            Air::Lost => return End::Lost,
+                            Air::Back {
+                                pos: q,
+                                normal: nq,
+                                dir,
+                            } => {
+                                entries += 1;
+                                d = dir;
+                                x = q - nq * self.inset;
+                                (p, n) = (q, nq);
+                                (t1, t2) = tangent_basis(nq);
+                                opposite = None;
+                                first = true;
+                                scattered = false;
+                                continue;
+                            }
+                        }
                     }
                     d = (d - nb * (2.0 * d.dot(nb))).normalize();
                     x = pos - nb * self.inset;
@@ -331,12 +399,16 @@ impl<'a> Walker<'a> {
                     if events >= MAX_EVENTS {
                         return End::Cut;
                     }
+                    if events == 1 {
+                        first_entries = entries;
+                    }
                     at_event(
                         &Event {
                             pos: x,
                             dir: d,
                             weight: w,
                             events,
+                            entries,
                         },
                         r,
                     );
@@ -356,6 +428,51 @@ impl<'a> Walker<'a> {
             }
         }
     }
+}
+
+impl Walker<'_> {
+    /// A flight through the air from `from` along `dir` (just left the
+    /// medium of index `eta`): where it meets the mesh from outside, the
+    /// light refracts in (or reflects off, by Fresnel's odds, and flies
+    /// on); where it meets nothing, the sky.
+    fn through_air(&self, from: DVec3, dir: DVec3, eta: f64, r: &mut Pcg32) -> Air {
+        let (mut o, mut d) = (from, dir);
+        for _ in 0..MAX_REFLECTIONS {
+            let Some((tri, s)) = self.occ.nearest(o, d, 0.0, f64::INFINITY, Facing::Entering)
+            else {
+                return Air::Sky;
+            };
+            let nb = self.normals[tri];
+            let q = o + d * s;
+            let mu = (-d.dot(nb)).clamp(0.0, 1.0);
+            if uniform53(r) >= fresnel(mu, eta) {
+                let dir = refract(d, nb, 1.0 / eta).unwrap_or(d);
+                return Air::Back {
+                    pos: q,
+                    normal: nb,
+                    dir,
+                };
+            }
+            d = (d - nb * (2.0 * d.dot(nb))).normalize();
+            o = q + nb * self.inset;
+        }
+        Air::Lost
+    }
+}
+
+/// Where a flight through the air ends ([`Walker::through_air`]).
+enum Air {
+    /// It meets nothing.
+    Sky,
+    /// It came back in at `pos`, through a face of outward unit normal
+    /// `normal`, refracted to `dir`.
+    Back {
+        pos: DVec3,
+        normal: DVec3,
+        dir: DVec3,
+    },
+    /// Still reflecting after [`MAX_REFLECTIONS`].
+    Lost,
 }
 
 /// A medium as a walk takes it ([`Walker::medium`]).

@@ -13,9 +13,11 @@
 //! walk's direction and the line.
 //!
 //! The cloud's `illum` holds the same lights; a walk that samples them
-//! takes at its exit only the light spread over the sky (`illum_diffuse`:
-//! a constant dome's, and light between surfaces), which leaves a flat
-//! slab evenly and so is exact there. Domes are not sampled.
+//! follows the light between surfaces itself (it flies on through the air
+//! where it leaves and walks on where it comes back in:
+//! [`crate::medium::mesh_walk::Walker::reentering`]) and takes, where it
+//! leaves under the sky, the constant domes' radiance. Domes are not
+//! sampled.
 
 use std::f64::consts::PI;
 

@@ -98,6 +98,9 @@ pub struct WalkReport {
     /// The cloud had `illum_cos` / `illum_indirect`.
     pub by_incidence: bool,
     pub indirect: bool,
+    /// The cloud had `illum_indirect`, which walks that sample the lights
+    /// do not take: they follow the light between surfaces themselves.
+    pub indirect_ignored: bool,
 }
 
 impl WalkReport {
@@ -118,6 +121,13 @@ impl WalkReport {
                 self.walks,
                 crate::medium::mesh_walk::MAX_EVENTS
             ));
+        }
+        if self.indirect_ignored {
+            out.push(
+                "the cloud's illum_indirect is not taken: walks that sample the lights follow the light \
+                 between surfaces themselves (illum --indirect is not needed)"
+                    .to_string(),
+            );
         }
         if self.unlit * 100 > self.walks {
             out.push(format!(
@@ -292,7 +302,8 @@ struct Media {
 /// points give light where walks leave. A walk that leaves beyond the
 /// halo takes the light of the nearest point there: the halo should hold
 /// the diffusion method's reach, beyond which a walk leaves in a share
-/// under `e^-4` of cases.
+/// under `e^-4` of cases. (Walks that sample the lights take no light
+/// from the cloud: [`ssmulti_walk_lit`].)
 pub fn ssmulti_walk(
     cloud: &mut Cloud,
     mesh: &TriMesh,
@@ -305,7 +316,11 @@ pub fn ssmulti_walk(
 
 /// [`ssmulti_walk`], sampling `lights` at the walks' events when given
 /// (the lights `illum` lit the cloud with: [`super::nee`]) rather than
-/// taking their light from `illum` where a walk leaves.
+/// taking their light from `illum` where a walk leaves. Such walks follow
+/// the light between surfaces too ([`Walker::reentering`]): one that
+/// leaves flies on through the air and walks on where it comes back in,
+/// and one that leaves under the sky takes the constant domes' light;
+/// the cloud's `illum_indirect` is not taken.
 pub fn ssmulti_walk_lit(
     cloud: &mut Cloud,
     mesh: &TriMesh,
@@ -465,7 +480,27 @@ fn walk_rows(
         .map(|&q| DVec3::from_array(q).normalize())
         .collect();
     let occ = Occluder::new(mesh);
-    let walker = Walker::new(mesh, &occ);
+    // Walks that sample the lights follow the light between surfaces
+    // themselves (they take none from the cloud where they leave), and
+    // end under the sky: a constant dome's radiance, pi L as the spread
+    // light's irradiance is.
+    let walker = match lights {
+        Some(_) => Walker::new(mesh, &occ).reentering(),
+        None => Walker::new(mesh, &occ),
+    };
+    let sky: [f64; 3] = lights.map_or([0.0; 3], |l| {
+        let mut sum = DVec3::ZERO;
+        for light in l {
+            if matches!(&light.shape, crate::lights::Shape::Dome(d) if d.map.is_none()) {
+                sum += light.cl;
+            }
+        }
+        (sum * std::f64::consts::PI).to_array()
+    });
+    if lights.is_some() && rep.indirect {
+        rep.indirect = false;
+        rep.indirect_ignored = true;
+    }
     let walk_media: Vec<_> = media.list.iter().map(|m| walker.medium(m)).collect();
     // The lights sampled at the events, with each medium's shadows.
     let sampled: Option<Vec<Sampled>> = match lights {
@@ -524,7 +559,9 @@ fn walk_rows(
                 let mut got = [0.0f64; 3];
                 let end = match &sampled {
                     Some(s) => walker.walk_with(medium, start, unit[i], towards, &mut r, |e, r| {
-                        if e.events >= 2 {
+                        // (One event in the part the walk started in is
+                        // sssingle's.)
+                        if e.events >= 2 || e.entries > 0 {
                             let x = s[k].at(e, &media.list[k], &walker, r, &mut buf);
                             (0..3).for_each(|c| got[c] += x[c]);
                         }
@@ -534,10 +571,24 @@ fn walk_rows(
                 let mut left = [0.0f64; 3];
                 match end {
                     End::Exit {
+                        events,
+                        weight,
+                        first_entries,
+                        ..
+                    } if walker.reenters() => {
+                        // Out under the sky.
+                        counts[1] += events as u64;
+                        counts[2] += 1;
+                        if events >= 2 || (events == 1 && first_entries > 0) {
+                            left = [0, 1, 2].map(|c| weight[c] * sky[c]);
+                        }
+                    }
+                    End::Exit {
                         pos: x,
                         normal,
                         events,
                         weight,
+                        ..
                     } => {
                         counts[1] += events as u64;
                         // The nearest few, then more where they all
