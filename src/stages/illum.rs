@@ -240,6 +240,7 @@ pub fn illum(
         report.blocked += blocked;
         report.dark += dark;
     }
+    let points = points_digest(cloud)?;
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
     cloud.points_mut().set_scalar("illum_cos", cosines)?;
     // The part of illum that arrived spread over the hemisphere, where a
@@ -269,6 +270,7 @@ pub fn illum(
         ),
         ("illum_shadows", DetailValue::Str(shadow_mesh)),
         ("illum_seed", DetailValue::Str(seed.to_string())),
+        ("illum_points", DetailValue::Str(points)),
     ];
     // A medium's shadows let light through: what it was.
     if let Some(m) = shadows.and_then(|s| s.medium()) {
@@ -277,6 +279,73 @@ pub fn illum(
     }
     cloud.record("illum_", details);
     Ok(report)
+}
+
+/// The fingerprint of what a point's light depends on in the cloud:
+/// XXH3-128 of its `P`, `N` and `sourceprim` (the face a shadow ray looks
+/// in first), in 32 hex digits.
+fn points_digest(cloud: &Cloud) -> Result<String> {
+    let pts = cloud.points();
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for name in ["P", "N"] {
+        for v in pts.vec3_f64(name)? {
+            v.iter().for_each(|x| h.update(&x.to_le_bytes()));
+        }
+    }
+    if pts.has("sourceprim") {
+        for x in pts.scalar_f64("sourceprim")? {
+            h.update(&x.to_le_bytes());
+        }
+    }
+    Ok(format!("{:032x}", h.digest128()))
+}
+
+/// Whether `cloud` already holds the direct light [`illum`] would give it
+/// from `lights` with `shadows` and `seed` (its record says so: the same
+/// lights, shadow mesh, medium, seed and points, and no light between
+/// surfaces added since), so that `illum --indirect` on a cloud `ssmulti`
+/// passed through (the light between surfaces' second run) need not cast
+/// its shadow rays again: the values are the same bits.
+pub fn holds_direct(
+    cloud: &Cloud,
+    lights: &[Light],
+    shadows: Option<&Shadows>,
+    seed: u64,
+) -> Result<bool> {
+    let pts = cloud.points();
+    if !(pts.has("illum") && pts.has("illum_cos")) || pts.has("illum_indirect") {
+        return Ok(false);
+    }
+    let domes = lights
+        .iter()
+        .any(|l| matches!(&l.shape, Shape::Dome(d) if d.map.is_none()));
+    if domes != pts.has("illum_diffuse") {
+        return Ok(false);
+    }
+    let is = |name: &str, want: &str| matches!(cloud.detail(name), Some(DetailValue::Str(s)) if s == want);
+    let shadow_mesh = shadows.map_or("none".to_string(), |s| s.occluder().mesh_digest.clone());
+    if !(is("illum_lights_digest", &crate::lights::digest(lights))
+        && is("illum_shadows", &shadow_mesh)
+        && is("illum_seed", &seed.to_string()))
+    {
+        return Ok(false);
+    }
+    let medium = shadows.and_then(|s| s.medium());
+    let same_medium = match (medium, cloud.detail("illum_mfp"), cloud.detail("illum_eta")) {
+        (None, None, None) => true,
+        (Some(m), Some(DetailValue::V3D(mfp)), Some(DetailValue::F64(eta))) => {
+            *mfp == (1.0 / m.sigma_t).to_array() && *eta == m.eta
+        }
+        _ => false,
+    };
+    Ok(same_medium && is("illum_points", &points_digest(cloud)?))
+}
+
+/// Whether `cloud` holds the [`thickness`] `mesh` gives it (its record
+/// names the mesh, which `illum` clears when it runs again).
+pub fn holds_thickness(cloud: &Cloud, mesh: &TriMesh) -> bool {
+    cloud.points().has("thickness")
+        && matches!(cloud.detail("illum_thickness"), Some(DetailValue::Str(s)) if *s == mesh.digest())
 }
 
 /// Adds `thickness` to `cloud`: how far the mesh goes on behind each point

@@ -857,6 +857,45 @@ fn indirect_light_is_the_exitance_seen_times_its_view_factor() {
     assert_same_values(&c, &run(false, 1));
 }
 
+/// `illum --indirect` on a cloud ssmulti passed through (light between
+/// surfaces' second run) takes the direct light the cloud holds: the
+/// same bits as casting its shadow rays again. A cloud whose points,
+/// lights, seed or shadows differ from its record, or that holds light
+/// between surfaces already, is lit again.
+#[test]
+fn indirect_light_takes_the_direct_light_the_cloud_holds() {
+    let (mut c, mesh) = under_a_glowing_square(2.0, 1.0, [1.0, 0.5, 0.25], false);
+    let occ = Occluder::new(&mesh);
+    let sh = illum::Shadows::new(&mesh, &occ, None);
+    let sun = parse(
+        r#"{"lights": [{"name": "sun", "type": "distant", "intensity": 2, "direction": [0.6, 0.2, -1]}]}"#,
+    );
+    let hidden = Progress::hidden();
+    illum::illum(&mut c, &sun, Some(&sh), 0, &hidden).unwrap();
+    assert!(illum::holds_direct(&c, &sun, Some(&sh), 0).unwrap());
+    let mut full = c.clone();
+    illum::illum(&mut full, &sun, Some(&sh), 0, &hidden).unwrap();
+    illum::indirect(&mut full, &occ, &mesh, &medium(), 16, 0, &hidden).unwrap();
+    let mut taken = c.clone();
+    illum::indirect(&mut taken, &occ, &mesh, &medium(), 16, 0, &hidden).unwrap();
+    assert!(full.points().vec3_f64("illum").unwrap()[0][0] > 0.0);
+    assert_same_values(&full, &taken);
+    // Not the cloud's light: another seed, other lights, no shadows,
+    // a point moved, light between surfaces in it already.
+    assert!(!illum::holds_direct(&c, &sun, Some(&sh), 1).unwrap());
+    let other =
+        parse(r#"{"lights": [{"name": "sun", "type": "distant", "direction": [0, 0, -1]}]}"#);
+    assert!(!illum::holds_direct(&c, &other, Some(&sh), 0).unwrap());
+    assert!(!illum::holds_direct(&c, &sun, None, 0).unwrap());
+    let mut moved = c.clone();
+    let mut p = moved.points().vec3_f64("P").unwrap();
+    p[0][2] += 1e-6;
+    let p32: Vec<[f32; 3]> = p.iter().map(|v| v.map(|x| x as f32)).collect();
+    moved.points_mut().set_vec3("P", Role::Point, &p32).unwrap();
+    assert!(!illum::holds_direct(&moved, &sun, Some(&sh), 0).unwrap());
+    assert!(!illum::holds_direct(&taken, &sun, Some(&sh), 0).unwrap());
+}
+
 /// What a point sends to others is its multiple scattering and the
 /// single scattering of its direct light: under a square lit from
 /// below (irradiance 1 along its normal) whose points have `ssM` `M`, a

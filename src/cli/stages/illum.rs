@@ -38,10 +38,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => (None, None),
     };
     let mut cloud = match args.indirect {
-        // The indirect light needs the last run's ssM.
-        Some(_) => args
-            .io
-            .read(&Select::only(&["P", "N", "sourceprim", "ssM"]))?,
+        // The indirect light needs the last run's ssM; the direct light
+        // the cloud may hold already.
+        Some(_) => args.io.read(&Select::only(&[
+            "P",
+            "N",
+            "sourceprim",
+            "ssM",
+            "illum",
+            "illum_cos",
+            "illum_diffuse",
+            "illum_indirect",
+            "thickness",
+        ]))?,
         None => args.io.read(&Select::only(&["P", "N", "sourceprim"]))?,
     };
     // The lights are moved into the cloud's frame, and a preset's lengths
@@ -63,14 +72,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (Some(occ), Some(mesh)) => Some(illum::Shadows::new(mesh, occ, passage)),
         _ => None,
     };
-    let rep = illum::illum(&mut cloud, &used, shadows.as_ref(), args.seed, &progress)
-        .map_err(cli::at(&name))?;
+    // With --indirect, the direct light of the same lights, shadows and
+    // points is the cloud's already when ssmulti passed it through.
+    let again = args.indirect.is_some()
+        && illum::holds_direct(&cloud, &used, shadows.as_ref(), args.seed)
+            .map_err(cli::at(&name))?;
+    let rep = if again {
+        None
+    } else {
+        Some(
+            illum::illum(&mut cloud, &used, shadows.as_ref(), args.seed, &progress)
+                .map_err(cli::at(&name))?,
+        )
+    };
     if let (true, Some(mesh)) = (args.thickness, &mesh) {
-        let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
-        if open > 0 {
-            msg.warn(format!(
+        if !(again && illum::holds_thickness(&cloud, mesh)) {
+            let open = illum::thickness(&mut cloud, mesh, &progress).map_err(cli::at(&name))?;
+            if open > 0 {
+                msg.warn(format!(
                 "{open} points see no back to the mesh along -N (an open mesh?): their thickness is taken as infinite"
             ));
+            }
         }
     }
     if let (Some(rays), Some(occ), Some(mesh), Some(m)) = (args.indirect, &occluder, &mesh, &medium)
@@ -83,13 +105,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     }
     let names: Vec<&str> = used.iter().map(|l| l.name.as_str()).collect();
-    msg.info(format!(
-        "{} points, lights {}: {} shadow rays, {} blocked; {} points unlit",
-        rep.points,
-        names.join(", "),
-        rep.rays,
-        rep.blocked,
-        rep.dark
-    ));
+    match rep {
+        Some(rep) => msg.info(format!(
+            "{} points, lights {}: {} shadow rays, {} blocked; {} points unlit",
+            rep.points,
+            names.join(", "),
+            rep.rays,
+            rep.blocked,
+            rep.dark
+        )),
+        None => msg.info(format!(
+            "{} points, lights {}: the direct light is the cloud's (the same lights, shadows, seed and points)",
+            cloud.len(),
+            names.join(", ")
+        )),
+    }
     args.io.write_owned(cloud)
 }
