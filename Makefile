@@ -113,19 +113,21 @@ demo:
 	$(MAKE) -C pipelines info
 
 ## Your own asset: make bake MESH=... LIGHTS=... CAMERA=... [MATERIAL=...]
-## [UP_AXIS=y|z] [OUT=dir] and any variable of pipelines/Makefile; paths
-## are taken from where make runs (the sub-make runs in pipelines/).
+## [UP_AXIS=y|z] [OUT=dir] [BIN=dir] and any variable of pipelines/Makefile;
+## paths are taken from where make runs (the sub-make runs in pipelines/).
+## The stages: BIN's, else those installed on PATH, else this clone's
+## build (made when missing or older than the sources).
 ## (OUT need not exist yet: it is always a path.)
 absolute = $(if $(or $(wildcard $(1)),$(filter OUT,$(2))),$(abspath $(1)),$(1))
 bake:
 	$(MAKE) -C pipelines bake \
-	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT TEXTURE,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v))))
+	  $(foreach v,MESH LIGHTS CAMERA MATERIAL DIRECT OUT TEXTURE BIN,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v))))
 
 ## An animation: make frames FRAMES=anim/frame.####.obj LIGHTS=... CAMERA=...
 ## (one cloud scattered on the first frame, or REST=, followed through all).
 frames:
 	$(MAKE) -C pipelines frames \
-	  $(foreach v,LIGHTS CAMERA MATERIAL DIRECT OUT REST,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v)))) \
+	  $(foreach v,LIGHTS CAMERA MATERIAL DIRECT OUT REST BIN,$(if $($(v)),$(v)=$(call absolute,$($(v)),$(v)))) \
 	  $(if $(FRAMES),FRAMES=$(abspath $(FRAMES)))
 
 lint:

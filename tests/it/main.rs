@@ -32,6 +32,7 @@ mod measure;
 mod mesh_input;
 mod pcdiff;
 mod per_point;
+mod pipelines_make;
 mod ply_bad_input;
 mod ply_roundtrip;
 mod promote;

@@ -1,0 +1,122 @@
+//! Which stages `make -C pipelines` runs (issue 60): `BIN=` when given,
+//! else the ones installed on PATH, else this clone's build (under
+//! `CARGO_TARGET_DIR` when set); and which passes a bake takes.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use crate::util::*;
+
+/// `make -n -C pipelines ARGS` with `PATH` = `path` (and make's own) and
+/// `CARGO_TARGET_DIR` as given: its commands, each on one line.
+fn dry_run(args: &[String], path: Option<&Path>, target_dir: Option<&Path>) -> (Output, String) {
+    let mut cmd = Command::new("make");
+    cmd.arg("-n")
+        .arg("-C")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines"))
+        .args(args)
+        .env_remove("CARGO_TARGET_DIR")
+        .env_remove("MAKEFLAGS")
+        .env_remove("MFLAGS");
+    if let Some(p) = path {
+        let system = "/usr/local/bin:/usr/bin:/bin";
+        cmd.env("PATH", format!("{}:{system}", p.display()));
+    } else {
+        cmd.env("PATH", "/usr/local/bin:/usr/bin:/bin");
+    }
+    if let Some(t) = target_dir {
+        cmd.env("CARGO_TARGET_DIR", t);
+    }
+    let o = cmd.output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).replace("\\\n", " ");
+    (o, text)
+}
+
+/// The stages installed on PATH are the bake's, and make does not build
+/// them, however new the sources are; `BIN=` wins over PATH; with
+/// neither, this clone's build, under `CARGO_TARGET_DIR` when it is set;
+/// a `BIN` without the stages is one line and exit 2.
+#[test]
+fn the_bake_runs_the_installed_stages_or_bin_and_builds_only_its_own() {
+    let d = tempdir();
+    let installed = d.path().join("installed");
+    std::fs::create_dir(&installed).unwrap();
+    for stage in [
+        "measure", "promote", "scatter", "facet", "illum", "ssmulti", "sssingle", "render",
+        "filter", "follow", "texture", "pcinfo", "pcdiff", "pctile",
+    ] {
+        let f = installed.join(stage);
+        std::fs::write(&f, "#!/bin/sh\nexit 0\n").unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let out = format!("OUT={}", d.path().join("out").display());
+    let (o, text) = dry_run(&["bake".into(), out.clone()], Some(&installed), None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = format!("{}/ssmulti ", installed.display());
+    assert!(text.contains(&run), "{text}");
+    assert!(!text.contains("cargo build"), "{text}");
+    // BIN= over PATH.
+    let own = bin("ssmulti").parent().unwrap().to_path_buf();
+    let (o, text) = dry_run(
+        &["bake".into(), out.clone(), format!("BIN={}", own.display())],
+        Some(&installed),
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        text.contains(&format!("{}/ssmulti ", own.display())),
+        "{text}"
+    );
+    assert!(
+        !text.contains(&run) && !text.contains("cargo build"),
+        "{text}"
+    );
+    // Neither: the clone's build, where CARGO_TARGET_DIR says.
+    let elsewhere = d.path().join("elsewhere");
+    let (o, text) = dry_run(&["bake".into(), out.clone()], None, Some(&elsewhere));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(text.contains("cargo build --release"), "{text}");
+    assert!(
+        text.contains(&format!("{}/release/ssmulti ", elsewhere.display())),
+        "{text}"
+    );
+    // A BIN without the stages.
+    let empty = d.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let (o, _) = dry_run(
+        &["bake".into(), out, format!("BIN={}", empty.display())],
+        None,
+        None,
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("BIN=") && err.contains("measure"), "{err}");
+}
+
+/// Walks that sample the lights follow the light between surfaces
+/// themselves: `INDIRECT` adds no `illum --indirect` pass to them, and
+/// does to the diffusion method and to walks that take the cloud's light.
+#[test]
+fn walks_that_sample_the_lights_take_no_indirect_pass() {
+    let d = tempdir();
+    let out = format!("OUT={}", d.path().join("out").display());
+    let own = format!("BIN={}", bin("ssmulti").parent().unwrap().display());
+    for (extra, passes) in [
+        (&["METHOD=walk"][..], false),
+        (&["METHOD=walk", "SAMPLE_LIGHTS=0"][..], true),
+        (&[][..], true),
+    ] {
+        let mut args: Vec<String> = vec![
+            "bake".into(),
+            out.clone(),
+            own.clone(),
+            "MODEL=physical".into(),
+            "INDIRECT=16".into(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let (o, text) = dry_run(&args, None, None);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(text.contains("--indirect 16"), passes, "{extra:?}: {text}");
+    }
+}
