@@ -12,7 +12,7 @@ MESH (a path) replaces the scene's mesh, e.g. the dragon's decimation
 without open edges, out/models/dragon_vrip_res2.ply. Mitsuba's two
 pictures are kept in target/race/; with RACE_SPLIT_MAP=PATH set, a PNG
 of `ssM` over the rest, pixel by pixel (blue dark, red bright), is
-written there.
+written there (RACE_SPLIT_MAP_SINGLE: `ssS` over the single scattering).
 """
 import json
 import os
@@ -64,6 +64,8 @@ def main():
           f"of the picture")
     if os.environ.get("RACE_SPLIT_MAP"):
         ratio_map(parts["ssM"], ref - single, m, os.environ["RACE_SPLIT_MAP"])
+    if os.environ.get("RACE_SPLIT_MAP_SINGLE"):
+        ratio_map(parts["ssS"], single, m, os.environ["RACE_SPLIT_MAP_SINGLE"])
 
 
 def cached(name, sc, spp, seed):

@@ -60,16 +60,14 @@ pub enum End {
     /// normal `normal`, after `events` scattering events, carrying
     /// `weight` per channel (the Fresnel transmittance in at its start,
     /// the channels' densities over the mixture's, the roulette's
-    /// odds). A walk [`Walker::reentering`] leaves only towards the sky,
-    /// after coming back in `entries` times (0 otherwise), the first of
-    /// its events after `first_entries` of them.
+    /// odds). A walk [`Walker::reentering`] leaves only towards the sky.
+    /// `first_straight`: its first event was [`Event::straight`].
     Exit {
         pos: DVec3,
         normal: DVec3,
         events: u32,
         weight: [f64; 3],
-        entries: u32,
-        first_entries: u32,
+        first_straight: bool,
     },
     /// Absorbed: the roulette ended it, or no channel carries anything.
     Absorbed,
@@ -90,9 +88,11 @@ pub struct Event {
     pub weight: [f64; 3],
     /// Its count: 1 for the walk's first event.
     pub events: u32,
-    /// The times the walk came back in through the air before it
-    /// ([`Walker::reentering`]): 0 in the part it started in.
-    pub entries: u32,
+    /// The walk's first event, reached along the start's refracted line
+    /// with no reflection on the way (through every part that line
+    /// crosses, [`Walker::reentering`]): single scattering along the
+    /// view's path, which sssingle gives.
+    pub straight: bool,
 }
 
 /// What walks through one mesh share (each walk takes its medium: a
@@ -254,7 +254,9 @@ impl<'a> Walker<'a> {
         // not); false at the start and after a reflection.
         let mut scattered = false;
         let mut first = true;
-        let (mut entries, mut first_entries) = (0u32, 0u32);
+        // A reflection (inside, or off the outside) came before: the
+        // walk has left the start's refracted line.
+        let (mut reflected, mut first_straight) = (false, false);
         loop {
             let total = w[0] + w[1] + w[2];
             if total.is_nan() || total <= 0.0 {
@@ -355,8 +357,7 @@ impl<'a> Walker<'a> {
                             normal: nb,
                             events,
                             weight: w,
-                            entries,
-                            first_entries,
+                            first_straight,
                         };
                         if !self.reenter {
                             return exit;
@@ -371,8 +372,9 @@ impl<'a> Walker<'a> {
                                 pos: q,
                                 normal: nq,
                                 dir,
+                                reflected: off,
                             } => {
-                                entries += 1;
+                                reflected |= off;
                                 d = dir;
                                 x = q - nq * self.inset;
                                 (p, n) = (q, nq);
@@ -387,6 +389,7 @@ impl<'a> Walker<'a> {
                     d = (d - nb * (2.0 * d.dot(nb))).normalize();
                     x = pos - nb * self.inset;
                     scattered = false;
+                    reflected = true;
                 }
                 None => {
                     w = [0, 1, 2]
@@ -400,7 +403,7 @@ impl<'a> Walker<'a> {
                         return End::Cut;
                     }
                     if events == 1 {
-                        first_entries = entries;
+                        first_straight = !reflected;
                     }
                     at_event(
                         &Event {
@@ -408,7 +411,7 @@ impl<'a> Walker<'a> {
                             dir: d,
                             weight: w,
                             events,
-                            entries,
+                            straight: events == 1 && !reflected,
                         },
                         r,
                     );
@@ -437,7 +440,7 @@ impl Walker<'_> {
     /// on); where it meets nothing, the sky.
     fn through_air(&self, from: DVec3, dir: DVec3, eta: f64, r: &mut Pcg32) -> Air {
         let (mut o, mut d) = (from, dir);
-        for _ in 0..MAX_REFLECTIONS {
+        for k in 0..MAX_REFLECTIONS {
             let Some((tri, s)) = self.occ.nearest(o, d, 0.0, f64::INFINITY, Facing::Entering)
             else {
                 return Air::Sky;
@@ -451,6 +454,7 @@ impl Walker<'_> {
                     pos: q,
                     normal: nb,
                     dir,
+                    reflected: k > 0,
                 };
             }
             d = (d - nb * (2.0 * d.dot(nb))).normalize();
@@ -465,11 +469,13 @@ enum Air {
     /// It meets nothing.
     Sky,
     /// It came back in at `pos`, through a face of outward unit normal
-    /// `normal`, refracted to `dir`.
+    /// `normal`, refracted to `dir`; `reflected` off the outside on the
+    /// way.
     Back {
         pos: DVec3,
         normal: DVec3,
         dir: DVec3,
+        reflected: bool,
     },
     /// Still reflecting after [`MAX_REFLECTIONS`].
     Lost,

@@ -559,9 +559,9 @@ fn walk_rows(
                 let mut got = [0.0f64; 3];
                 let end = match &sampled {
                     Some(s) => walker.walk_with(medium, start, unit[i], towards, &mut r, |e, r| {
-                        // (One event in the part the walk started in is
-                        // sssingle's.)
-                        if e.events >= 2 || e.entries > 0 {
+                        // (A first event along the view's refracted line,
+                        // through every part it crosses, is sssingle's.)
+                        if e.events >= 2 || !e.straight {
                             let x = s[k].at(e, &media.list[k], &walker, r, &mut buf);
                             (0..3).for_each(|c| got[c] += x[c]);
                         }
@@ -573,13 +573,13 @@ fn walk_rows(
                     End::Exit {
                         events,
                         weight,
-                        first_entries,
+                        first_straight,
                         ..
                     } if walker.reenters() => {
                         // Out under the sky.
                         counts[1] += events as u64;
                         counts[2] += 1;
-                        if events >= 2 || (events == 1 && first_entries > 0) {
+                        if events >= 2 || (events == 1 && !first_straight) {
                             left = [0, 1, 2].map(|c| weight[c] * sky[c]);
                         }
                     }
