@@ -120,3 +120,56 @@ fn walks_that_sample_the_lights_take_no_indirect_pass() {
         assert_eq!(text.contains("--indirect 16"), passes, "{extra:?}: {text}");
     }
 }
+
+/// `make bake` says one line a stage on stderr as it ends (the stage,
+/// the file, its points, the seconds), leaves no stamp behind, and says
+/// nothing with `PROGRESS=0`.
+#[test]
+fn the_bake_says_one_line_a_stage() {
+    let d = tempdir();
+    let own = format!("BIN={}", bin("ssmulti").parent().unwrap().display());
+    for (k, progress) in ["1", "0"].iter().enumerate() {
+        let out = d.path().join(format!("out{k}"));
+        let o = Command::new("make")
+            .args(["-s", "-C"])
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines"))
+            .args(["bake", "COUNT=3000", "SINGLE=0", &own])
+            .arg(format!("OUT={}", out.display()))
+            .arg(format!("PROGRESS={progress}"))
+            .env_remove("MAKEFLAGS")
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        let lines: Vec<&str> = err.lines().collect();
+        if *progress == "0" {
+            assert!(lines.is_empty(), "{err}");
+            continue;
+        }
+        let cloud = format!("scatter: {}/bunny_cloud.ply, 3000 points, ", out.display());
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.starts_with(&cloud) && l.ends_with(" s")),
+            "{err}"
+        );
+        for stage in ["measure", "illum", "ssmulti", "render", "filter"] {
+            assert!(
+                lines.iter().any(|l| l.starts_with(&format!("{stage}: "))),
+                "{stage}: {err}"
+            );
+        }
+        assert_eq!(lines.len(), 6, "{err}");
+        let stamps = std::fs::read_dir(&out)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(".start")
+            })
+            .count();
+        assert_eq!(stamps, 0);
+    }
+}
