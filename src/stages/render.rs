@@ -102,6 +102,44 @@ impl Camera {
         Ok(cam)
     }
 
+    /// The camera with an image `width` and `height` in place of its own
+    /// (`render --width/--height`): one given alone keeps the camera's
+    /// aspect, the other side rounded (at least 1 pixel); the vertical
+    /// field of view stays. A side out of `1..=MAX_SIDE` is an error
+    /// naming it.
+    pub fn sized(mut self, width: Option<u32>, height: Option<u32>) -> Result<Camera> {
+        let aspect = self.width as f64 / self.height as f64;
+        for (key, v) in [("width", width), ("height", height)] {
+            if let Some(v) = v.filter(|&v| v == 0 || v > MAX_SIDE) {
+                return Err(Error::param(
+                    key,
+                    format!("{v} pixels is not in 1..={MAX_SIDE}"),
+                ));
+            }
+        }
+        // The side that follows the camera's aspect (out of range: the
+        // given side's fault).
+        let side = |v: f64, key: &str, other: &str| {
+            let s = (v.round().min(u32::MAX as f64) as u32).max(1);
+            if s > MAX_SIDE {
+                Err(Error::param(
+                    key,
+                    format!("gives the camera's aspect a {other} of {s} pixels, past {MAX_SIDE}: give --{other} too"),
+                ))
+            } else {
+                Ok(s)
+            }
+        };
+        let (w, h) = match (width, height) {
+            (None, None) => return Ok(self),
+            (Some(w), Some(h)) => (w, h),
+            (Some(w), None) => (w, side(w as f64 / aspect, "width", "height")?),
+            (None, Some(h)) => (side(h as f64 * aspect, "height", "width")?, h),
+        };
+        (self.width, self.height) = (w, h);
+        Ok(self)
+    }
+
     /// The up direction: `up`, else the up axis, else +y.
     pub fn up(&self) -> DVec3 {
         match (self.up, self.up_axis) {

@@ -431,3 +431,76 @@ fn vertex_colours_are_the_beauty_tone_mapped_as_the_png() {
         }
     }
 }
+
+/// `render --width/--height` set the picture's size in place of the
+/// camera's: one alone keeps the camera's aspect, both are taken as
+/// given, the vertical field of view stays (the square fills the same
+/// share of the height); a side of 0 or past the largest is refused
+/// naming it.
+#[test]
+fn render_takes_the_pictures_size_from_width_and_height() {
+    let cam = Camera::parse(
+        r#"{"position": [0, 0, 4], "look_at": [0, 0, 0], "width": 512, "height": 256}"#,
+        "cam",
+    )
+    .unwrap();
+    let size = |w, h| {
+        let c = cam.clone().sized(w, h).unwrap();
+        (c.width, c.height, c.fov)
+    };
+    assert_eq!(size(None, None), (512, 256, cam.fov));
+    assert_eq!(size(Some(640), None), (640, 320, cam.fov));
+    assert_eq!(size(None, Some(101)), (202, 101, cam.fov));
+    assert_eq!(size(Some(7), Some(9)), (7, 9, cam.fov));
+    assert_eq!(size(Some(1), None), (1, 1, cam.fov));
+    // The aspect would take the width past the largest side: the height
+    // given is named.
+    let err = cam.clone().sized(None, Some(16384)).unwrap_err().to_string();
+    assert!(err.contains("height") && err.contains("32768"), "{err}");
+    let d = tempdir();
+    let (m, c, k) = (
+        d.path().join("sq.ply"),
+        d.path().join("c.ply"),
+        d.path().join("cam.json"),
+    );
+    std::fs::write(
+        &m,
+        to_bytes(&unit_square(), pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    let cloud = constant_cloud([0.5, 0.25, 0.125]);
+    std::fs::write(&c, to_bytes(&cloud, pcsss::formats::Format::DEFAULT)).unwrap();
+    std::fs::write(&k, camera_text()).unwrap();
+    let png = d.path().join("o.png");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let (m, k, c, png_s) = (s(&m), s(&k), s(&c), s(&png));
+    let render_with = |more: &[&str]| {
+        let mut a = vec![
+            "--mesh", &m, "--camera", &k, "--cloud", &c, "--png", &png_s, "--nfp", "4",
+        ];
+        a.extend_from_slice(more);
+        run("render", &a, b"")
+    };
+    let dims = || {
+        let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+        let info = dec.read_info().unwrap();
+        (info.info().width, info.info().height)
+    };
+    for (more, want) in [
+        (&["--width", "64"][..], (64, 64)),
+        (&["--width", "48", "--height", "24"][..], (48, 24)),
+        (&["--height", "20"][..], (20, 20)),
+    ] {
+        let o = render_with(more);
+        assert!(o.status.success(), "{more:?}: {}", stderr(&o));
+        assert_eq!(dims(), want, "{more:?}");
+    }
+    for (more, name) in [
+        (&["--width", "0"][..], "--width"),
+        (&["--height", "16385"][..], "--height"),
+    ] {
+        let o = render_with(more);
+        assert_eq!(o.status.code(), Some(2), "{more:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(name), "{more:?}: {}", stderr(&o));
+    }
+}

@@ -41,6 +41,14 @@ pub struct Args {
     /// Preview exposure: 1 - exp(-exposure * beauty) (the bake's EXPOSURE).
     #[arg(long, default_value_t = 1.2)]
     pub exposure: f64,
+    /// Image width in pixels, in place of the camera's (given alone, the
+    /// height follows the camera's aspect).
+    #[arg(long, value_name = "PIXELS")]
+    pub width: Option<u32>,
+    /// Image height in pixels, in place of the camera's (given alone, the
+    /// width follows the camera's aspect).
+    #[arg(long, value_name = "PIXELS")]
+    pub height: Option<u32>,
     #[command(flatten)]
     pub gather: GatherArgs,
     /// Add a direct diffuse term from these lights (JSON, as illum's):
@@ -99,7 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: 0,
     }
     .validate()?;
-    let cam_file = cli::read_camera(&args.camera)?;
+    let cam_file = cli::read_camera(&args.camera)?.sized(args.width, args.height)?;
     // The material file is read once, here; the options decided before
     // the cloud is read (a bad one fails fast) and again in its unit.
     let mut medium = args.material.given()?;
