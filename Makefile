@@ -108,9 +108,11 @@ bench: pyenv $(PY).bench.stamp llvm
 	cargo bench
 
 ## The bake: the whole chain (pipelines/Makefile) on the embedded
-## Stanford bunny, ending in out/bunny.png.
+## Stanford bunny, 15 cm tall (METERS_PER_UNIT), in Jensen et al.'s
+## measured skin (skin1: the physical model), ending in out/bunny.png.
+DEMO = MATERIAL=skin1 METERS_PER_UNIT=0.016 EXPOSURE=3
 demo:
-	$(MAKE) -C pipelines info
+	$(MAKE) -C pipelines info $(DEMO)
 
 ## Your own asset: make bake MESH=... LIGHTS=... CAMERA=... [MATERIAL=...]
 ## [UP_AXIS=y|z] [OUT=dir] [BIN=dir] and any variable of pipelines/Makefile;
