@@ -13,7 +13,11 @@ Python, with their attributes as NumPy arrays.
 Every stage takes the keywords its command line takes (`--sd` is `sd=`,
 `--per-point rd=Cd` is `per_point="rd=Cd"`, a flag is `=True`), runs the
 library's code for it with the GIL released, and returns a new cloud; the
-input is left as it was. A failure raises `pcsss.ParameterError` (a
+input is left as it was. Numbers may be NumPy numbers or arrays, and an
+option that takes a file (`mesh=`, `rest=`, ...) also takes a Cloud in
+memory. `render(cloud, mesh=..., camera=...)` returns the picture as a
+cloud (a point a pixel), and writes `output=`/`png=` where given. A
+failure raises `pcsss.ParameterError` (a
 `ValueError`) or `pcsss.Error` with the binary's one-line message.
 """
 
@@ -29,6 +33,7 @@ from ._pcsss import (  # noqa: F401
     measure,
     promote,
     read,
+    render,
     scatter,
     ssmulti,
     sssingle,

@@ -9,7 +9,7 @@ import numpy.typing as npt
 __version__: str
 
 _Path = Union[str, PathLike[str]]
-_Value = Union[bool, int, float, str, PathLike[str], Tuple[float, ...], List[float], None]
+_Value = Union[bool, int, float, str, PathLike[str], Tuple[float, ...], List[float], npt.ArrayLike, "Cloud", None]
 
 class Error(Exception):
     """A stage or file failed (the binary's exit status 1)."""
@@ -72,3 +72,7 @@ def illum(input: Cloud, /, **options: _Value) -> Cloud: ...
 def ssmulti(input: Cloud, /, **options: _Value) -> Cloud: ...
 def sssingle(input: Cloud, /, **options: _Value) -> Cloud: ...
 def filter(input: Cloud, /, **options: _Value) -> Cloud: ...
+def render(cloud: Cloud, /, **options: _Value) -> Cloud:
+    """The picture of `cloud` on `mesh=` through `camera=` (options as
+    `render --help`), as a cloud of a point a pixel; `output=` and `png=`
+    write it too."""

@@ -551,19 +551,75 @@ fn write(py: Python<'_>, cloud: &PyCloud, path: PathBuf, format: Option<&str>) -
         .map_err(|e| lib_err(format!("{name}: {e}")))
 }
 
-/// The stage's command line from Python keywords.
-fn argv(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
-    let mut out = Vec::new();
-    let Some(kw) = kwargs else { return Ok(out) };
+/// A call's command line from its Python keywords, and the files the
+/// clouds it was given in memory were written to (removed with it).
+struct Argv {
+    args: Vec<String>,
+    /// Each temporary file's path, and the argument errors name for it.
+    names: Vec<(String, String)>,
+    _dir: Option<tempfile::TempDir>,
+}
+
+impl Argv {
+    /// `f`'s line with each temporary file named by its argument.
+    fn failure(&self, mut f: Failure) -> PyErr {
+        for (path, name) in &self.names {
+            f.line = f.line.replace(path.as_str(), name);
+        }
+        failure(f)
+    }
+}
+
+/// The stage's command line from Python keywords: `None` left out, a
+/// bool a flag, a list, tuple or NumPy array joined with commas, a NumPy
+/// number as the number, and a `Cloud` (a mesh or cloud in memory) as a
+/// temporary binary PLY file, named in errors by its keyword.
+fn argv(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Argv> {
+    let mut out = Argv {
+        args: Vec::new(),
+        names: Vec::new(),
+        _dir: None,
+    };
+    let Some(kw) = kwargs else {
+        out.args.push("-q".into());
+        return Ok(out);
+    };
     for (k, v) in kw.iter() {
         let key: String = k.extract()?;
         let flag = format!("--{}", key.replace('_', "-"));
         if v.is_none() {
             continue;
         }
+        if let Ok(c) = v.cast::<PyCloud>() {
+            if out._dir.is_none() {
+                out._dir = Some(tempfile::tempdir().map_err(lib_err)?);
+            }
+            let dir = out
+                ._dir
+                .as_ref()
+                .map(|d| d.path().to_path_buf())
+                .unwrap_or_default();
+            let path = dir.join(format!("{key}.ply"));
+            let cloud = c.get().get();
+            pcsss::files::write_output(Some(&path), |w| {
+                formats::write_cloud(w, &cloud, Format::DEFAULT)
+            })
+            .map_err(|e| lib_err(format!("{key}: {e}")))?;
+            let p = path.display().to_string();
+            out.names.push((p.clone(), format!("{key}=<Cloud>")));
+            out.args.push(flag);
+            out.args.push(p);
+            continue;
+        }
+        // NumPy arrays and numbers as Python's own.
+        let v = if v.hasattr("tolist")? && v.hasattr("dtype")? {
+            v.call_method0("tolist")?
+        } else {
+            v
+        };
         if let Ok(b) = v.cast::<pyo3::types::PyBool>() {
             if b.is_true() {
-                out.push(flag);
+                out.args.push(flag);
             }
             continue;
         }
@@ -576,11 +632,11 @@ fn argv(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
         } else {
             v.str()?.to_string()
         };
-        out.push(flag);
-        out.push(text);
+        out.args.push(flag);
+        out.args.push(text);
     }
     // Messages off: Python reports by exceptions.
-    out.push("-q".into());
+    out.args.push("-q".into());
     Ok(out)
 }
 
@@ -597,19 +653,57 @@ fn stage<T: clap::Parser + Send>(
     let input = cloud.map(|c| Cloud::clone(&c.get())).unwrap_or_default();
     let memory = Memory::with_input(input);
     let m = memory.clone();
+    let args = argv.args.clone();
     py.detach(move || {
         pcsss::alloc::keeping_freed_memory(|| {
-            cli::call::<T>(name, &argv, move |mut args: T| {
+            cli::call::<T>(name, &args, move |mut args: T| {
                 io(&mut args).memory = Some(m);
                 run(args)
             })
         })
     })
-    .map_err(failure)?;
+    .map_err(|f| argv.failure(f))?;
     memory
         .take_output()
         .map(PyCloud::new)
         .ok_or_else(|| Error::new_err(format!("{name}: wrote no cloud")))
+}
+
+/// render(cloud, mesh=PATH or Cloud, camera=PATH, output=None, png=None,
+/// **options): the picture of `cloud` on the mesh through the camera, as
+/// `render --help` says. Writes `output` (OpenEXR) and `png` where given,
+/// and returns the image as a Cloud (a point a pixel: beauty, ssM, ssS,
+/// P, N, A and the pixel's x, y, as the OpenEXR holds them).
+#[pyfunction]
+#[pyo3(signature = (cloud, /, **kwargs))]
+fn render(
+    py: Python<'_>,
+    cloud: Bound<'_, PyCloud>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyCloud> {
+    let kw = match kwargs {
+        Some(k) => k.copy()?,
+        None => PyDict::new(py),
+    };
+    kw.set_item("cloud", cloud)?;
+    let dir = tempfile::tempdir().map_err(lib_err)?;
+    let image = match kw.get_item("output")?.filter(|v| !v.is_none()) {
+        Some(v) => PathBuf::from(v.str()?.to_string()),
+        None => {
+            let p = dir.path().join("image.exr");
+            kw.set_item("output", p.display().to_string())?;
+            p
+        }
+    };
+    let argv = argv(Some(&kw))?;
+    let args = argv.args.clone();
+    pcsss::files::begin_run();
+    py.detach(move || cli::call::<stages::render::Args>("render", &args, stages::render::run))
+        .map_err(|f| argv.failure(f))?;
+    let name = image.display().to_string();
+    py.detach(|| formats::read_cloud_file(&image, &Select::All))
+        .map(PyCloud::new)
+        .map_err(|e| Error::new_err(format!("{name}: {e}")))
 }
 
 macro_rules! stages {
@@ -648,6 +742,7 @@ fn _pcsss(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCloud>()?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
     m.add_function(wrap_pyfunction!(write, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
     add_stages(m)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("ParameterError", m.py().get_type::<ParameterError>())?;

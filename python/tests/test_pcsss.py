@@ -95,6 +95,34 @@ def test_errors_are_the_binary_s_line(lit):
         pcsss.read(lit / "none.ply")
 
 
+def test_numpy_values_clouds_for_files_and_render(lit, tmp_path):
+    cloud = pcsss.read(lit / "i.ply")
+    want = pcsss.ssmulti(cloud, rd=(0.9, 0.5, 0.3), sd=0.6, rgb=True)
+    # NumPy arrays and numbers wherever numbers go.
+    same(pcsss.ssmulti(cloud, rd=np.array([0.9, 0.5, 0.3]), sd=np.float64(0.6), rgb=np.bool_(True)), want)
+    # A mesh in memory for an option that takes a file.
+    mesh = pcsss.read(MESH)
+    f = pcsss.read(lit / "f.ply")
+    s = pcsss.read(lit / "s.ply")
+    same(pcsss.facet(s, mesh=mesh), f)
+    # Errors name the keyword, and the input cloud, not a file of ours.
+    with pytest.raises(pcsss.Error, match=r"mesh=<Cloud>") as e:
+        pcsss.facet(s, mesh=s)
+    assert "tmp" not in str(e.value)
+    with pytest.raises(pcsss.Error, match="the input cloud"):
+        pcsss.illum(pcsss.Cloud.from_arrays({"P": np.zeros((3, 3), np.float32)}), lights=LIGHTS, no_shadows=True)
+    # render: the picture, as the binary makes it, returned as a cloud.
+    cam = str(ROOT / "fixtures" / "cameras" / "bunny.json")
+    code, err = binary("render", "--mesh", MESH, "--camera", cam, "--cloud", lit / "i.ply", "--rd", "0.9,0.5,0.3",
+                       "--sd", "0.6", "--rgb", "--width", "64", "--height", "48", "-o", tmp_path / "bin.exr")
+    assert code == 0, err
+    img = pcsss.render(cloud, mesh=mesh, camera=cam, rd=(0.9, 0.5, 0.3), sd=0.6, rgb=True, width=64, height=48,
+                       png=tmp_path / "py.png")
+    same(img, pcsss.read(tmp_path / "bin.exr"))
+    assert (tmp_path / "py.png").exists()
+    assert len(img) > 0
+
+
 def test_arrays_in_and_out():
     rng = np.random.default_rng(1)
     p = rng.random((1000, 3), dtype=np.float32)

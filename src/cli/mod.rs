@@ -128,6 +128,10 @@ pub fn display_name(p: Option<&Path>) -> String {
 impl IoArgs {
     /// The input's name in messages.
     pub fn input_name(&self) -> String {
+        // (From Python, the cloud a stage was given.)
+        if self.memory.is_some() {
+            return "the input cloud".into();
+        }
         display_name(self.input.as_deref())
     }
 

@@ -455,7 +455,11 @@ fn render_takes_the_pictures_size_from_width_and_height() {
     assert_eq!(size(Some(1), None), (1, 1, cam.fov));
     // The aspect would take the width past the largest side: the height
     // given is named.
-    let err = cam.clone().sized(None, Some(16384)).unwrap_err().to_string();
+    let err = cam
+        .clone()
+        .sized(None, Some(16384))
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("height") && err.contains("32768"), "{err}");
     let d = tempdir();
     let (m, c, k) = (
