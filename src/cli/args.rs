@@ -546,6 +546,12 @@ pub struct IllumArgs {
     /// ssmulti again on the output. Needs --mesh.
     #[arg(long, value_name = "RAYS", value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub indirect: Option<u32>,
+    /// With --indirect: the exitance from this cloud's points (ssM, illum,
+    /// illum_cos: a coarser cloud on the same mesh, lit by the same
+    /// lights, that ssmulti ran on) rather than from the input's, which
+    /// then needs no ssM.
+    #[arg(long, value_name = "CLOUD", requires = "indirect")]
+    pub exitance: Option<std::path::PathBuf>,
     /// Lights to use: names and glob patterns, separated by commas or
     /// spaces; ^PATTERN excludes ('*': all).
     #[arg(long, value_name = "PATTERNS", default_value = "*")]

@@ -453,13 +453,35 @@ pub fn indirect(
     seed: u64,
     progress: &Progress,
 ) -> Result<IndirectReport> {
-    let pts = cloud.points();
+    indirect_from(cloud, None, occluder, mesh, medium, rays, seed, progress)
+}
+
+/// [`indirect`], the exitance taken from `from`'s points when given (a
+/// coarser cloud on the same mesh, lit by the same lights: its `ssM`,
+/// `illum` and `illum_cos`), rather than from `cloud`'s own, which then
+/// needs no `ssM`. The light between surfaces is smooth and each point
+/// averages it over its rays, so a cloud of a quarter of the points
+/// gives it at a quarter of the first ssmulti pass's cost
+/// (`docs/DESIGN.md#light-between-surfaces`).
+#[allow(clippy::too_many_arguments)]
+pub fn indirect_from(
+    cloud: &mut Cloud,
+    from: Option<&Cloud>,
+    occluder: &Occluder,
+    mesh: &TriMesh,
+    medium: &Medium,
+    rays: u32,
+    seed: u64,
+    progress: &Progress,
+) -> Result<IndirectReport> {
+    let source = from.unwrap_or(cloud);
+    let spts = source.points();
     let physical = matches!(
-        cloud.detail("ssmulti_radiance"),
+        source.detail("ssmulti_radiance"),
         Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
     );
-    if !pts.has("ssM") {
-        return Err(pts.missing("ssM"));
+    if !spts.has("ssM") {
+        return Err(spts.missing("ssM"));
     }
     if !physical {
         return Err(Error::param(
@@ -470,12 +492,39 @@ pub fn indirect(
     if rays == 0 {
         return Err(Error::param("indirect", "0 rays a point gather nothing"));
     }
-    same_medium(cloud, medium)?;
+    same_medium(source, medium)?;
+    if let Some(f) = from {
+        let lit = |c: &Cloud| match c.detail("illum_lights_digest") {
+            Some(DetailValue::Str(s)) => Some(s.clone()),
+            _ => None,
+        };
+        if lit(f) != lit(cloud) {
+            return Err(Error::param(
+                "indirect",
+                "the exitance cloud was lit by other lights than this cloud (illum_lights_digest differs)",
+            ));
+        }
+    }
+    // What the record says the light came from.
+    let from_what = match from {
+        None => format!("{rays} rays, from ssM"),
+        Some(f) => format!(
+            "{rays} rays, from the ssM of another cloud of {} points (illum_points {})",
+            f.len(),
+            match f.detail("illum_points") {
+                Some(DetailValue::Str(s)) => s.as_str(),
+                _ => "not recorded",
+            }
+        ),
+    };
+    let spos = spts.vec3_f64("P")?;
+    let ssm = spts.vec3_f64("ssM")?;
+    let sdirect = spts.vec3_f64("illum")?;
+    let direct_cos = spts.scalar_f64("illum_cos")?;
+    let pts = cloud.points();
     let pos = pts.vec3_f64("P")?;
     let nrm = pts.vec3_f64("N")?;
-    let ssm = pts.vec3_f64("ssM")?;
     let direct = pts.vec3_f64("illum")?;
-    let direct_cos = pts.scalar_f64("illum_cos")?;
     if let Some(i) = ssm
         .iter()
         .position(|c| !c.iter().all(|v| v.is_finite() && *v >= 0.0))
@@ -489,16 +538,16 @@ pub fn indirect(
     // scattering of its direct light, taken as leaving evenly (sssingle's
     // ssS is for the camera's eye alone).
     let single = medium.single_by_cosine();
-    let exitance: Vec<DVec3> = (0..pos.len())
+    let exitance: Vec<DVec3> = (0..spos.len())
         .into_par_iter()
         .map(|i| {
             let rs = DVec3::from_array(single.factor(direct_cos[i]));
-            DVec3::from_array(ssm[i]) + rs * DVec3::from_array(direct[i])
+            DVec3::from_array(ssm[i]) + rs * DVec3::from_array(sdirect[i])
         })
         .collect();
-    let origin = pos.first().map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
+    let origin = spos.first().map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
     let tree =
-        crate::geom::kdtree::PointTree::new(pos.iter().map(|p| DVec3::from_array(*p)), origin);
+        crate::geom::kdtree::PointTree::new(spos.iter().map(|p| DVec3::from_array(*p)), origin);
     progress.start("indirect", pos.len() as u64);
     let chunks: Vec<(Vec<DVec3>, u64)> = pos
         .par_chunks(CHUNK)
@@ -595,10 +644,7 @@ pub fn indirect(
     cloud.record(
         "illum_indirect",
         vec![
-            (
-                "illum_indirect_rays",
-                DetailValue::Str(format!("{rays} rays, from ssM")),
-            ),
+            ("illum_indirect_rays", DetailValue::Str(from_what)),
             ("illum_indirect_seed", DetailValue::Str(seed.to_string())),
         ],
     );

@@ -896,6 +896,56 @@ fn indirect_light_takes_the_direct_light_the_cloud_holds() {
     assert!(!illum::holds_direct(&taken, &sun, Some(&sh), 0).unwrap());
 }
 
+/// `illum --indirect --exitance CLOUD`: the exitance from another
+/// cloud's points. The cloud itself as that other gives the same bits as
+/// its own; one without `ssM`, or lit by other lights, is refused; the
+/// cloud that takes the light then needs no `ssM` of its own.
+#[test]
+fn indirect_light_from_another_clouds_exitance() {
+    let (mut c, mesh) = under_a_glowing_square(2.0, 1.0, [1.0, 0.5, 0.25], false);
+    let occ = Occluder::new(&mesh);
+    let sh = illum::Shadows::new(&mesh, &occ, None);
+    let hidden = Progress::hidden();
+    illum::illum(&mut c, &[], Some(&sh), 0, &hidden).unwrap();
+    let mut own = c.clone();
+    illum::indirect(&mut own, &occ, &mesh, &medium(), 64, 0, &hidden).unwrap();
+    let mut bare = c.clone();
+    bare.points_mut().remove("ssM");
+    illum::indirect_from(&mut bare, Some(&c), &occ, &mesh, &medium(), 64, 0, &hidden).unwrap();
+    assert_eq!(
+        own.points().vec3_f64("illum_indirect").unwrap(),
+        bare.points().vec3_f64("illum_indirect").unwrap()
+    );
+    assert!(own.points().vec3_f64("illum_indirect").unwrap()[0][0] > 0.0);
+    let err = illum::indirect_from(
+        &mut c.clone(),
+        Some(&bare),
+        &occ,
+        &mesh,
+        &medium(),
+        8,
+        0,
+        &hidden,
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("ssM"), "{err}");
+    let mut other = c.clone();
+    let sun = parse(r#"{"lights": [{"name": "sun", "type": "distant", "direction": [0, 0, -1]}]}"#);
+    illum::illum(&mut other, &sun, Some(&sh), 0, &hidden).unwrap();
+    let err = illum::indirect_from(
+        &mut bare.clone(),
+        Some(&other),
+        &occ,
+        &mesh,
+        &medium(),
+        8,
+        0,
+        &hidden,
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("illum_lights_digest"), "{err}");
+}
+
 /// What a point sends to others is its multiple scattering and the
 /// single scattering of its direct light: under a square lit from
 /// below (irradiance 1 along its normal) whose points have `ssM` `M`, a

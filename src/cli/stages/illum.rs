@@ -97,8 +97,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if let (Some(rays), Some(occ), Some(mesh), Some(m)) = (args.indirect, &occluder, &mesh, &medium)
     {
-        let rep = illum::indirect(&mut cloud, occ, mesh, m, rays, args.seed, &progress)
-            .map_err(cli::at(&name))?;
+        let from = match &args.exitance {
+            Some(path) => Some(cli::read_input(
+                Some(path),
+                &Select::only(&["P", "ssM", "illum", "illum_cos"]),
+            )?),
+            None => None,
+        };
+        // (The exitance cloud's own fault names it.)
+        if let (Some(f), Some(path)) = (&from, &args.exitance) {
+            if !f.points().has("ssM") {
+                return Err(cli::at(&path.display().to_string())(f.points().missing("ssM")));
+            }
+        }
+        let rep = illum::indirect_from(
+            &mut cloud,
+            from.as_ref(),
+            occ,
+            mesh,
+            m,
+            rays,
+            args.seed,
+            &progress,
+        )
+        .map_err(cli::at(&name))?;
         msg.info(format!(
             "indirect light: {} rays, {} met the surface",
             rep.rays, rep.hits
