@@ -41,11 +41,15 @@ build-and-tools:
 
 ## The Python module (python/): an abi3 wheel built by maturin beside the
 ## library (the workspace shares its compiled crates with the tests'
-## build), installed into the project's Python environment.
+## build), installed into the project's Python environment. (A folder of
+## its own, emptied first: another build's wheel, `pip install ./python`'s
+## for one, would match the same name.)
+WHEEL_DIR = target/wheels/pcsss
 pywheel: build-and-tools
-	$(PYENV)/bin/maturin build --release --quiet -i $(SYSPY) -m python/Cargo.toml -o target/wheels
+	rm -rf $(WHEEL_DIR)
+	$(PYENV)/bin/maturin build --release --quiet -i $(SYSPY) -m python/Cargo.toml -o $(WHEEL_DIR)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
-	  target/wheels/pcsss-*-cp39-abi3-*.whl
+	  $(WHEEL_DIR)/pcsss-*-cp39-abi3-*.whl
 
 ## The bunny baked from a USD stage (Y up, centimetres, transforms,
 ## UsdLux lights, a UsdGeomCamera) against the same bake from OBJ and JSON,
@@ -168,7 +172,7 @@ blender-check: $(BPYENV)/bin/python.stamp
 blender-bake: $(BPYENV)/bin/python.stamp pywheel
 	cargo build --release
 	$(BPYENV)/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
-	  target/wheels/pcsss-*-cp39-abi3-*.whl
+	  $(WHEEL_DIR)/pcsss-*-cp39-abi3-*.whl
 	$(BPYENV)/bin/python pipelines/blender/bake_selected_check.py target/release target/blender-bake
 
 ## Blender's Suzanne, made and exported (Y-up OBJ, Z-up PLY) by Blender,
