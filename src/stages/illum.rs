@@ -456,6 +456,22 @@ pub fn indirect(
     indirect_from(cloud, None, occluder, mesh, medium, rays, seed, progress)
 }
 
+/// Checks that `cloud` holds an exitance `--indirect` can gather: the
+/// `ssM` of ssmulti's physical model. An error says what it lacks (the
+/// caller names the file).
+pub fn check_exitance(cloud: &Cloud) -> Result<()> {
+    let pts = cloud.points();
+    if !pts.has("ssM") {
+        return Err(pts.missing("ssM"));
+    }
+    match cloud.detail("ssmulti_radiance") {
+        Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE => Ok(()),
+        _ => Err(Error::invalid(
+            "its ssM is not the physical model's exitance (no ssmulti_radiance record): run ssmulti --model physical on it",
+        )),
+    }
+}
+
 /// [`indirect`], the exitance taken from `from`'s points when given (a
 /// coarser cloud on the same mesh, lit by the same lights: its `ssM`,
 /// `illum` and `illum_cos`), rather than from `cloud`'s own, which then

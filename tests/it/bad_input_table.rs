@@ -239,6 +239,9 @@ const TABLE: &[Row] = &[
     row("illum", &["nanssm.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "0.1", "--indirect", "8", "-o", "@OUT"], 1, "nanssm.ply"),
     row("illum", &["nanssm.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--indirect", "8", "-o", "@OUT"], 2, "--indirect"),
     row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "-1", "-o", "@OUT"], 2, "--mfp"),
+    row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--exitance", "nanssm.ply", "-o", "@OUT"], 2, "--indirect"),
+    row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "0.1", "--indirect", "8", "--exitance", "nosuch.ply", "-o", "@OUT"], 1, "nosuch.ply"),
+    row("illum", &["cloud.ply", "--lights", "lights.json", "--mesh", "cube.obj", "--model", "physical", "--mfp", "0.1", "--indirect", "8", "--exitance", "cloud.ply", "-o", "@OUT"], 1, "cloud.ply"),
     // ssmulti
     row("ssmulti", &["cloud.ply", "--sd", "0", "-o", "@OUT"], 2, "--sd"),
     row("ssmulti", &["cloud.ply", "--sd", "1", "--per-point", "gloss=Cd", "-o", "@OUT"], 2, "--per-point"),
@@ -280,6 +283,8 @@ const TABLE: &[Row] = &[
     // render
     row("render", &["--mesh", "cube.obj", "--camera", "hugecam.json", "--cloud", "cloud.ply", "-o", "@OUT.exr"], 1, "hugecam.json"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.ply"], 2, "--output"),
+    row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "--width", "0", "-o", "@OUT.exr"], 2, "--width"),
+    row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "--height", "-3", "-o", "@OUT.exr"], 2, "--height"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--png", "@OUT.exr"], 2, "--png"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--direct", "lights.json", "--kd", "3e38"], 1, "beyond the range"),
     row("render", &["--mesh", "cube.obj", "--camera", "camera.json", "--cloud", "cloud.ply", "-o", "@OUT.exr", "--png", "nodir/r.png"], 1, "nodir"),

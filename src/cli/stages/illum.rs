@@ -106,9 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         // (The exitance cloud's own fault names it.)
         if let (Some(f), Some(path)) = (&from, &args.exitance) {
-            if !f.points().has("ssM") {
-                return Err(cli::at(&path.display().to_string())(f.points().missing("ssM")));
-            }
+            illum::check_exitance(f).map_err(cli::at(&path.display().to_string()))?;
         }
         let rep = illum::indirect_from(
             &mut cloud,
