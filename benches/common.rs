@@ -267,25 +267,34 @@ pub fn points_on(mesh: &pcsss::Cloud, n: usize) -> pcsss::Cloud {
 /// seconds `t1` and `t2` on 1 and 2 threads; `what` names Embree's query.
 pub fn embree_rows(tab: &mut Table, e: &serde_json::Value, n: f64, t1: f64, t2: f64, what: &str) {
     let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
-    tab.row(format!(
-        "| Embree 4 {what}(embreex, robust off; 2 = two processes), M rays/s | {:.3} | {:.2} | {:.2} |",
-        f("build"),
-        n / f("seconds_1") / 1e6,
-        n / f("seconds_2") / 1e6
-    ));
-    tab.row(format!(
-        "| pcsss / Embree | | {:.2} | {:.2} |",
-        f("seconds_1") / t1,
-        f("seconds_2") / t2
-    ));
-    tab.row(format!(
-        "| Embree 4 robust mode (watertight, as pcsss), M rays/s | | {:.2} | {:.2} |",
-        n / f("seconds_1_robust") / 1e6,
-        n / f("seconds_2_robust") / 1e6
-    ));
-    tab.row(format!(
-        "| pcsss / Embree robust | | {:.2} | {:.2} |",
-        f("seconds_1_robust") / t1,
-        f("seconds_2_robust") / t2
-    ));
+    let build = format!("{:.3}", f("build"));
+    for (mode, label, build, ratio) in [
+        (
+            "",
+            format!("Embree 4 {what}(embreex, robust off; 2 = two processes)"),
+            build.as_str(),
+            "Embree",
+        ),
+        (
+            "_robust",
+            "Embree 4 robust mode (watertight, as pcsss)".to_string(),
+            "",
+            "Embree robust",
+        ),
+    ] {
+        let (s1, s2) = (
+            f(&format!("seconds_1{mode}")),
+            f(&format!("seconds_2{mode}")),
+        );
+        tab.row(format!(
+            "| {label}, M rays/s | {build} | {:.2} | {:.2} |",
+            n / s1 / 1e6,
+            n / s2 / 1e6
+        ));
+        tab.row(format!(
+            "| pcsss / {ratio} | | {:.2} | {:.2} |",
+            s1 / t1,
+            s2 / t2
+        ));
+    }
 }

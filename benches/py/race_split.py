@@ -62,6 +62,15 @@ def main():
           f"ssS against single {off(parts['ssS'], single):+.3f}, ssM against the rest "
           f"{off(parts['ssM'], ref - single):+.3f}; single is {float(np.mean(single[m]) / np.mean(ref[m])):.3f} "
           f"of the picture")
+    # Where ssS is off: per channel, and by quarters of the single
+    # scattering's brightness, darkest first.
+    chans = [float(np.mean(parts["ssS"][m][:, c]) / np.mean(single[m][:, c]) - 1) for c in range(3)]
+    lum, got = single.mean(axis=2)[m], parts["ssS"].mean(axis=2)[m]
+    edges = np.quantile(lum, [0.0, 0.25, 0.5, 0.75, 1.0])
+    quarters = [float(got[(lum >= lo) & (lum <= hi)].mean() / lum[(lum >= lo) & (lum <= hi)].mean() - 1)
+                for lo, hi in zip(edges[:-1], edges[1:])]
+    print("ssS against single per channel " + ", ".join(f"{x:+.3f}" for x in chans)
+          + "; by quarters of brightness, darkest first " + ", ".join(f"{x:+.3f}" for x in quarters))
     if os.environ.get("RACE_SPLIT_MAP"):
         ratio_map(parts["ssM"], ref - single, m, os.environ["RACE_SPLIT_MAP"])
     if os.environ.get("RACE_SPLIT_MAP_SINGLE"):

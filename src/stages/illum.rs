@@ -464,12 +464,22 @@ pub fn check_exitance(cloud: &Cloud) -> Result<()> {
     if !pts.has("ssM") {
         return Err(pts.missing("ssM"));
     }
-    match cloud.detail("ssmulti_radiance") {
-        Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE => Ok(()),
-        _ => Err(Error::invalid(
+    if physical_ssm(cloud) {
+        Ok(())
+    } else {
+        Err(Error::invalid(
             "its ssM is not the physical model's exitance (no ssmulti_radiance record): run ssmulti --model physical on it",
-        )),
+        ))
     }
+}
+
+/// Whether `cloud`'s record says its `ssM` is the physical model's
+/// exitance.
+fn physical_ssm(cloud: &Cloud) -> bool {
+    matches!(
+        cloud.detail("ssmulti_radiance"),
+        Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
+    )
 }
 
 /// [`indirect`], the exitance taken from `from`'s points when given (a
@@ -492,14 +502,10 @@ pub fn indirect_from(
 ) -> Result<IndirectReport> {
     let source = from.unwrap_or(cloud);
     let spts = source.points();
-    let physical = matches!(
-        source.detail("ssmulti_radiance"),
-        Some(DetailValue::Str(s)) if s == crate::stages::ssmulti::RADIANCE
-    );
     if !spts.has("ssM") {
         return Err(spts.missing("ssM"));
     }
-    if !physical {
+    if !physical_ssm(source) {
         return Err(Error::param(
             "indirect",
             "needs the ssM of ssmulti's physical model (an exitance; the cloud does not record ssmulti_radiance)",

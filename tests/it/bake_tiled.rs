@@ -105,16 +105,8 @@ fn tiled_bake_of_a_million_points_under_slurm_equals_the_untiled_bake() {
     let out = &copy_for("slurm");
     make(out, "tiled", &["ENGINE=slurm".into()]);
     check(out, "slurm");
-    let logs = std::fs::read_dir(out.join("bunny_tiles/ss/out"))
-        .unwrap()
-        .filter(|e| {
-            e.as_ref()
-                .unwrap()
-                .file_name()
-                .to_string_lossy()
-                .starts_with("slurm-")
-        })
-        .count();
+    let logs =
+        crate::util::count_names(&out.join("bunny_tiles/ss/out"), |n| n.starts_with("slurm-"));
     assert_eq!(logs, 17, "16 array tasks and the merge ran under Slurm");
     // A tile that fails cancels the merge: submit.sh says so.
     let small = out.join("small");

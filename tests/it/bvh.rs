@@ -31,7 +31,15 @@ fn on_triangle(m: &TriMesh, t: usize, r: &mut Pcg32) -> (DVec3, DVec3) {
 /// The ray parameter of a hit of the segment `o + t d`, `t` in
 /// `[0, tmax]`, with `abc` in f64, and how far inside the triangle it is
 /// (the smallest barycentric weight) and from the segment's ends.
-fn hit64(o: DVec3, d: DVec3, tmax: f64, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64)> {
+fn hit64(o: DVec3, d: DVec3, tmax: f64, abc: [DVec3; 3]) -> Option<(f64, f64)> {
+    let (t, margin) = plane64(o, d, abc)?;
+    (margin >= 0.0 && t >= 0.0 && t <= tmax).then_some((t, margin.min(t).min(tmax - t)))
+}
+
+/// Where the line `o + t d` meets the plane of `abc` in f64: `t`, and the
+/// smallest barycentric weight there (negative outside the triangle);
+/// `None` along the plane.
+fn plane64(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64)> {
     let (e1, e2) = (b - a, c - a);
     let p = d.cross(e2);
     let det = e1.dot(p);
@@ -42,9 +50,7 @@ fn hit64(o: DVec3, d: DVec3, tmax: f64, [a, b, c]: [DVec3; 3]) -> Option<(f64, f
     let u = s.dot(p) / det;
     let q = s.cross(e1);
     let v = d.dot(q) / det;
-    let t = e2.dot(q) / det;
-    let margin = u.min(v).min(1.0 - u - v);
-    (margin >= 0.0 && t >= 0.0 && t <= tmax).then_some((t, margin.min(t).min(tmax - t)))
+    Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
 }
 
 #[test]
@@ -465,16 +471,10 @@ fn nearest64(
             continue;
         }
         // Near misses too (a negative margin): f32 may take them.
-        let (e1, e2) = (b - a, c - a);
-        let p = d.cross(e2);
-        let det = e1.dot(p);
-        let s = o - a;
-        let u = s.dot(p) / det;
-        let q = s.cross(e1);
-        let v = d.dot(q) / det;
-        let dist = e2.dot(q) / det;
-        let margin = u.min(v).min(1.0 - u - v);
-        if det.abs() > 1e-300 && margin > -1e-4 && dist >= tmin {
+        let Some((dist, margin)) = plane64(o, d, [a, b, c]) else {
+            continue;
+        };
+        if margin > -1e-4 && dist >= tmin {
             let longest = (b - a).length().max((c - b).length()).max((a - c).length());
             hits.push((
                 dist,

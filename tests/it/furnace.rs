@@ -44,6 +44,39 @@ fn furnace(mesh: &TriMesh, eta: f64, bounds: Option<([f64; 3], [f64; 3])>) -> Ve
     furnace_by(mesh, eta, bounds, None)
 }
 
+/// A constant dome of radiance 1.
+fn sky() -> Vec<pcsss::lights::Light> {
+    pcsss::lights::parse(
+        r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 1, 1], "samples": 256}]}"#,
+        "sky.json",
+    )
+    .unwrap()
+}
+
+/// sssingle's `ssS` of the furnace's medium at `eta` at the points of `c`,
+/// under `dome`, for an eye far along the unit `dir`; and that eye.
+fn single_towards(
+    c: &pcsss::Cloud,
+    mesh: &TriMesh,
+    dome: &[pcsss::lights::Light],
+    eta: f64,
+    dir: DVec3,
+) -> (Vec<[f64; 3]>, DVec3) {
+    let p = sssingle::Params {
+        model: Model::Physical,
+        albedo: [1.0; 3],
+        mfp: [MFP; 3],
+        g: 0.0,
+        eta,
+        samples: 64,
+        eye: dir * 1e7,
+        ..sssingle::Params::default()
+    };
+    let mut lit = c.clone();
+    sssingle::sssingle(&mut lit, mesh, dome, &p, &Progress::hidden()).unwrap();
+    (lit.points().vec3_f64("ssS").unwrap(), p.eye)
+}
+
 /// [`furnace`], with `eye` the walks from each view's direction
 /// (`WalkParams::eye`: `ssM` the light towards it, taken as it is) at
 /// `eye.0` points and `eye.1` walks, rather than the exitance through the
@@ -54,11 +87,7 @@ fn furnace_by(
     bounds: Option<([f64; 3], [f64; 3])>,
     eye: Option<(usize, u32)>,
 ) -> Vec<Found> {
-    let dome = pcsss::lights::parse(
-        r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 1, 1], "samples": 256}]}"#,
-        "sky.json",
-    )
-    .unwrap();
+    let dome = sky();
     let m = Medium::new([1.0; 3], [MFP; 3], eta, 0.0).unwrap();
     let mut c = points_on_triangles(mesh, &all_triangles(mesh), eye.map_or(400, |e| e.0), 5);
     pcsss::stages::illum::illum(&mut c, &dome, None, 1, &Progress::hidden()).unwrap();
@@ -87,26 +116,14 @@ fn furnace_by(
         DVec3::new(0.5, -1.0, -0.6),
     ] {
         let dir = dir.normalize();
-        let p = sssingle::Params {
-            model: Model::Physical,
-            albedo: [1.0; 3],
-            mfp: [MFP; 3],
-            g: 0.0,
-            eta,
-            samples: 64,
-            eye: dir * 1e7,
-            ..sssingle::Params::default()
-        };
-        let mut lit = c.clone();
-        sssingle::sssingle(&mut lit, mesh, &dome, &p, &Progress::hidden()).unwrap();
-        let sss = lit.points().vec3_f64("ssS").unwrap();
-        let exit = Exit::new(&m, p.eye);
+        let (sss, eye_at) = single_towards(&c, mesh, &dome, eta, dir);
+        let exit = Exit::new(&m, eye_at);
         let ssm = match eye {
             None => sky.clone(),
             Some(_) => {
                 let mut v = c.clone();
                 let w = WalkParams {
-                    eye: Some(p.eye),
+                    eye: Some(eye_at),
                     ..w
                 };
                 ssmulti_walk(&mut v, mesh, &sp, &w, &Progress::hidden()).unwrap();
@@ -282,11 +299,7 @@ fn two_cubes() -> TriMesh {
 /// (illum with the mesh's shadows: the other cube hides most of the
 /// sky), for two views.
 fn across_the_gap(eta: f64, sample: bool) -> Vec<f64> {
-    let dome = pcsss::lights::parse(
-        r#"{"lights": [{"type": "dome", "name": "sky", "color": [1, 1, 1], "samples": 256}]}"#,
-        "sky.json",
-    )
-    .unwrap();
+    let dome = sky();
     let mesh = two_cubes();
     let occ = Occluder::new(&mesh);
     // The faces at x = 1 and x = 1.1.
@@ -311,23 +324,11 @@ fn across_the_gap(eta: f64, sample: bool) -> Vec<f64> {
     let mut out = Vec::new();
     for dir in [DVec3::new(1.0, 0.2, 0.3), DVec3::new(-1.0, -0.3, 0.2)] {
         let dir = dir.normalize();
-        let p = sssingle::Params {
-            model: Model::Physical,
-            albedo: [1.0; 3],
-            mfp: [MFP; 3],
-            g: 0.0,
-            eta,
-            samples: 64,
-            eye: dir * 1e7,
-            ..sssingle::Params::default()
-        };
-        let mut lit = c.clone();
-        sssingle::sssingle(&mut lit, &mesh, &dome, &p, &Progress::hidden()).unwrap();
-        let sss = lit.points().vec3_f64("ssS").unwrap();
+        let (sss, eye_at) = single_towards(&c, &mesh, &dome, eta, dir);
         let w = WalkParams {
             walks: 200,
             seed: 6,
-            eye: Some(p.eye),
+            eye: Some(eye_at),
             ..WalkParams::default()
         };
         let mut v = c.clone();

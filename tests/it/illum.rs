@@ -917,32 +917,25 @@ fn indirect_light_from_another_clouds_exitance() {
         bare.points().vec3_f64("illum_indirect").unwrap()
     );
     assert!(own.points().vec3_f64("illum_indirect").unwrap()[0][0] > 0.0);
-    let err = illum::indirect_from(
-        &mut c.clone(),
-        Some(&bare),
-        &occ,
-        &mesh,
-        &medium(),
-        8,
-        0,
-        &hidden,
-    )
-    .unwrap_err();
+    let refused = |into: &Cloud, from: &Cloud| {
+        illum::indirect_from(
+            &mut into.clone(),
+            Some(from),
+            &occ,
+            &mesh,
+            &medium(),
+            8,
+            0,
+            &hidden,
+        )
+        .unwrap_err()
+    };
+    let err = refused(&c, &bare);
     assert!(err.to_string().contains("ssM"), "{err}");
     let mut other = c.clone();
     let sun = parse(r#"{"lights": [{"name": "sun", "type": "distant", "direction": [0, 0, -1]}]}"#);
     illum::illum(&mut other, &sun, Some(&sh), 0, &hidden).unwrap();
-    let err = illum::indirect_from(
-        &mut bare.clone(),
-        Some(&other),
-        &occ,
-        &mesh,
-        &medium(),
-        8,
-        0,
-        &hidden,
-    )
-    .unwrap_err();
+    let err = refused(&bare, &other);
     assert!(err.to_string().contains("illum_lights_digest"), "{err}");
 }
 

@@ -374,16 +374,7 @@ fn an_input_cut_short_while_it_is_read_gives_one_line_or_a_whole_result() {
             }
             other => panic!("run {k}: {other:?} {:?}: {err}", o.status),
         }
-        let temps = std::fs::read_dir(dir)
-            .unwrap()
-            .filter(|e| {
-                e.as_ref()
-                    .unwrap()
-                    .file_name()
-                    .to_string_lossy()
-                    .ends_with(".tmp")
-            })
-            .count();
+        let temps = crate::util::count_names(dir, |n| n.ends_with(".tmp"));
         assert_eq!(temps, 0, "run {k} left a temp file");
         if o.status.success() {
             // Read before the cut: the whole file, exactly.

@@ -160,16 +160,6 @@ fn the_bake_says_one_line_a_stage() {
             );
         }
         assert_eq!(lines.len(), 6, "{err}");
-        let stamps = std::fs::read_dir(&out)
-            .unwrap()
-            .filter(|e| {
-                e.as_ref()
-                    .unwrap()
-                    .file_name()
-                    .to_string_lossy()
-                    .ends_with(".start")
-            })
-            .count();
-        assert_eq!(stamps, 0);
+        assert_eq!(count_names(&out, |n| n.ends_with(".start")), 0);
     }
 }

@@ -503,3 +503,11 @@ pub fn points_on_triangles(
     c.points_mut().set_vec3("N", Role::Normal, &nrm).unwrap();
     c
 }
+
+/// How many entries of folder `dir` have a name `keep` takes.
+pub fn count_names(dir: &Path, keep: impl Fn(&str) -> bool) -> usize {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter(|e| keep(&e.as_ref().unwrap().file_name().to_string_lossy()))
+        .count()
+}
