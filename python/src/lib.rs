@@ -557,7 +557,8 @@ struct Argv {
     args: Vec<String>,
     /// Each temporary file's path, and the argument errors name for it.
     names: Vec<(String, String)>,
-    _dir: Option<tempfile::TempDir>,
+    /// The temporary folder, made for the first cloud given.
+    dir: Option<tempfile::TempDir>,
 }
 
 impl Argv {
@@ -578,7 +579,7 @@ fn argv(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Argv> {
     let mut out = Argv {
         args: Vec::new(),
         names: Vec::new(),
-        _dir: None,
+        dir: None,
     };
     let Some(kw) = kwargs else {
         out.args.push("-q".into());
@@ -591,15 +592,12 @@ fn argv(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Argv> {
             continue;
         }
         if let Ok(c) = v.cast::<PyCloud>() {
-            if out._dir.is_none() {
-                out._dir = Some(tempfile::tempdir().map_err(lib_err)?);
-            }
-            let dir = out
-                ._dir
-                .as_ref()
-                .map(|d| d.path().to_path_buf())
-                .unwrap_or_default();
-            let path = dir.join(format!("{key}.ply"));
+            let dir = match &out.dir {
+                Some(d) => d,
+                None => out.dir.insert(tempfile::tempdir().map_err(lib_err)?),
+            };
+            let path = dir.path().join(format!("{key}.ply"));
+            // (The Python object, then its cloud.)
             let cloud = c.get().get();
             pcsss::files::write_output(Some(&path), |w| {
                 formats::write_cloud(w, &cloud, Format::DEFAULT)
