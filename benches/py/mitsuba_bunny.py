@@ -61,10 +61,13 @@ CAMERA = dict(json.loads((ROOT / "fixtures/cameras/bunny.json").read_text()), wi
 MESH = ROOT / "fixtures/mesh/bunny.obj"
 
 
-def scene(cam, spp, max_depth=-1, sc=None):
+def scene(cam, spp, max_depth=-1, sc=None, shift=0.0):
     """The bunny scene for Mitsuba, seen by the toolkit's camera `cam`
     (also race.py's); or race_scenes.py's scene `sc` (its mesh given as
-    a path)."""
+    a path). `shift` moves the whole scene by (shift, shift, shift):
+    the same picture, but Mitsuba's rays leave a surface
+    `(1 + max|p|) * RayEpsilon` off it, which skips that much of the
+    medium under it (race_split.py takes that out)."""
     if sc is None:
         sc = dict(mesh=MESH, flat=True, lights=LIGHTS, albedo=ALBEDO, mfp=[MFP] * 3)
     mesh = pathlib.Path(sc["mesh"])
@@ -76,11 +79,12 @@ def scene(cam, spp, max_depth=-1, sc=None):
         "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": RR_DEPTH},
         "bunny": {
             "type": mesh.suffix[1:], "filename": str(mesh), "face_normals": sc["flat"], "bsdf": {"type": "null"},
+            "to_world": mi.ScalarTransform4f().translate([shift] * 3),
             "interior": {"type": "homogeneous", "albedo": {"type": "rgb", "value": sc["albedo"]},
                          "sigma_t": {"type": "rgb", "value": [1.0 / m / top for m in sc["mfp"]]}, "scale": top,
                          "phase": {"type": "hg", "g": 0.0}},
         },
-        "camera": camera(cam, spp),
+        "camera": camera(moved(cam, shift), spp),
     }
     # A distant light of colour * intensity gives an irradiance of that
     # across its direction (illum's Cl); a point light, a radiant
@@ -90,10 +94,17 @@ def scene(cam, spp, max_depth=-1, sc=None):
         if l["type"] == "distant":
             s[l["name"]] = {"type": "directional", "direction": l["direction"], "irradiance": e}
         elif l["type"] == "point":
-            s[l["name"]] = {"type": "point", "position": l["position"], "intensity": e}
+            s[l["name"]] = {"type": "point", "position": [x + shift for x in l["position"]], "intensity": e}
         else:
             raise SystemExit(f"light {l['name']}: only distant and point lights go to Mitsuba here")
     return s
+
+
+def moved(cam, shift):
+    """Camera `cam` moved by (shift, shift, shift)."""
+    if shift == 0.0:
+        return cam
+    return dict(cam, position=[x + shift for x in cam["position"]], look_at=[x + shift for x in cam["look_at"]])
 
 
 def mitsuba(spp, max_depth=-1):

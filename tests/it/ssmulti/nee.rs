@@ -310,3 +310,44 @@ fn points_facing_away_from_the_eye_do_not_walk() {
     // Those facing the eye and the sun are lit.
     assert!((0..pos.len()).any(|i| facing[i] && ssm[i][0] > 0.0));
 }
+
+/// One walk serves three channels of different mean free paths (the
+/// spectral MIS): on the half-space each channel still returns its own
+/// albedo's reflectance, whatever its mean free path (a half-space's
+/// reflectance does not depend on it).
+#[test]
+fn channels_of_different_mean_free_paths_each_return_their_own_reflectance() {
+    let mesh = TriMesh::from_cloud(&from_bytes(
+        box_obj([-5.0, -5.0, -3.0], [5.0, 5.0, 0.0]).as_bytes(),
+    ))
+    .unwrap();
+    let mut r = Pcg32::new(9, 1);
+    let (p, n): (Vec<[f64; 3]>, Vec<[f32; 3]>) = (0..300)
+        .map(|_| {
+            let x = 2.0 * uniform53(&mut r) - 1.0;
+            let y = 2.0 * uniform53(&mut r) - 1.0;
+            ([x, y, 0.0], [0.0, 0.0, 1.0])
+        })
+        .unzip();
+    // skin1's albedos, its mean free paths' spread (red twice blue's) and
+    // four times that.
+    for mfp in [[0.05, 0.035, 0.025], [0.05, 0.025, 0.0125]] {
+        let mu: f64 = 0.85;
+        let m = Medium::new([0.9585, 0.838, 0.678], mfp, 1.0, 0.0).unwrap();
+        let mut c = Cloud::with_points(p.len());
+        c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+        c.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+        let l = sun([(1.0 - mu * mu).sqrt(), 0.0, mu]);
+        let got = walked(&mesh, c, m, &l, true);
+        let want = m.rm_at(mu).map(|r| r * mu);
+        for ch in 0..3 {
+            let e = got[ch] / want[ch] - 1.0;
+            assert!(
+                e.abs() < 0.02,
+                "mfp {mfp:?}, channel {ch}: {} against rm(mu) E {} ({e:+.4})",
+                got[ch],
+                want[ch]
+            );
+        }
+    }
+}
