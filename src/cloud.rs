@@ -767,6 +767,11 @@ impl Cloud {
         }
     }
 
+    /// Removes a detail attribute, if there is one.
+    pub fn remove_detail(&mut self, name: &str) {
+        self.detail.retain(|d| d.name != name);
+    }
+
     /// Sets a detail attribute, replacing one of the same name in place.
     pub fn set_detail(&mut self, name: &str, value: DetailValue) {
         match self.detail.iter_mut().find(|d| d.name == name) {

@@ -32,6 +32,9 @@ pub const USD_POINT: &str = "usd_point";
 /// Detail of a mesh read from a USD stage (str): its mesh prims, a line
 /// each, `path count` (the prim's points).
 pub const D_USD_PRIMS: &str = "usd_prims";
+/// Detail of a mesh read from a USD stage at a time code (`--frame`,
+/// double): that time code.
+pub const D_USD_TIME: &str = "usd_time";
 
 /// Which stage makes each well-known attribute (`docs/DESIGN.md#stages`):
 /// an error about a missing attribute names it.

@@ -20,6 +20,14 @@ struct Args {
     /// Input files (PLY, OBJ or OpenEXR); standard input when none or '-'.
     #[arg(value_name = "IN")]
     inputs: Vec<PathBuf>,
+    /// USD stages read at this time code (the frame of an animation).
+    #[arg(long, value_name = "TIME")]
+    frame: Option<f64>,
+    /// Print a USD stage's frames instead: the whole time codes from its
+    /// startTimeCode to its endTimeCode, one a line (`make frames`
+    /// bakes each).
+    #[arg(long)]
+    time_codes: bool,
     #[command(flatten)]
     msg: MsgArgs,
 }
@@ -27,6 +35,20 @@ struct Args {
 fn run(args: Args) -> anyhow::Result<()> {
     // The report is the product: nowhere to write it is an error.
     pcsss::files::check_stdout_open()?;
+    if args.time_codes {
+        let mut out = std::io::stdout().lock();
+        for p in &args.inputs {
+            let name = p.display().to_string();
+            let file = pcsss::formats::usd::stage_file(p)
+                .ok_or_else(|| anyhow::anyhow!("{name}: not a USD stage (--time-codes)"))?;
+            let codes = pcsss::tools::info::frames(file).context(name)?;
+            for t in codes {
+                writeln!(out, "{t}").context("<stdout>")?;
+            }
+        }
+        out.flush().context("<stdout>")?;
+        return Ok(());
+    }
     let inputs: Vec<Option<PathBuf>> = if args.inputs.is_empty() {
         vec![None]
     } else {

@@ -16,6 +16,7 @@
 //! arguments in [`stage_args`].
 
 pub mod args;
+mod memory;
 pub mod stage_args;
 pub mod stages;
 
@@ -35,6 +36,7 @@ use crate::cloud::Cloud;
 use crate::files::{self, grow_pipe};
 use crate::formats::exr::{Compression, ExrOptions};
 use crate::formats::{self, Format, Select};
+pub use memory::{Memory, MemoryIo};
 
 /// Verbosity flags.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -57,6 +59,12 @@ pub struct IoArgs {
     /// (the same as IN:/prim).
     #[arg(long, value_name = "/PRIM/PATH")]
     pub prim: Option<String>,
+    /// USD stages (the input, and any a file option names) read at this
+    /// time code: the frame of an animation, its time samples
+    /// interpolated as Pixar's library does [default: the stage's
+    /// default values; an attribute with many samples is refused].
+    #[arg(long, value_name = "TIME")]
+    pub frame: Option<f64>,
     /// Output file; standard output when absent or '-'.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -78,38 +86,6 @@ pub struct IoArgs {
     /// way to run a stage on a cloud it holds); not an option.
     #[arg(skip)]
     pub memory: Option<Memory>,
-}
-
-/// A stage's input and output in memory: [`IoArgs::read`] takes `input`
-/// (as the stage selects nothing, every attribute is there already) and
-/// [`IoArgs::write`] leaves the result in `output`.
-#[derive(Clone, Debug, Default)]
-pub struct Memory(pub std::sync::Arc<std::sync::Mutex<MemoryIo>>);
-
-/// What [`Memory`] holds.
-#[derive(Debug, Default)]
-pub struct MemoryIo {
-    pub input: Option<Cloud>,
-    pub output: Option<Cloud>,
-}
-
-impl Memory {
-    /// A stage's input, for [`IoArgs::memory`].
-    pub fn with_input(cloud: Cloud) -> Memory {
-        Memory(std::sync::Arc::new(std::sync::Mutex::new(MemoryIo {
-            input: Some(cloud),
-            output: None,
-        })))
-    }
-
-    /// The output the stage wrote, if it did.
-    pub fn take_output(&self) -> Option<Cloud> {
-        self.0.lock().ok()?.output.take()
-    }
-
-    fn take_input(&self) -> Option<Cloud> {
-        self.0.lock().ok()?.input.take()
-    }
 }
 
 /// A path that stands for stdin/stdout.
@@ -333,11 +309,20 @@ pub fn read_camera(path: &Path) -> anyhow::Result<crate::stages::render::Camera>
 /// A mesh whose every face has zero area is refused: light cannot enter
 /// it nor be blocked by it, and that is a wrong file, not a scene.
 pub fn read_mesh(path: &Path) -> anyhow::Result<crate::geom::mesh::TriMesh> {
+    Ok(read_mesh_timed(path)?.0)
+}
+
+/// [`read_mesh`], and the USD time code the mesh was read at (its
+/// `usd_time`, when it has one: a frame of an animated stage).
+pub fn read_mesh_timed(path: &Path) -> anyhow::Result<(crate::geom::mesh::TriMesh, Option<f64>)> {
     let name = path.display().to_string();
     let cloud = read_input(Some(path), &Select::only(&["P"]))?;
     let mesh = crate::geom::mesh::TriMesh::from_cloud(&cloud).map_err(at(&name))?;
     mesh.require_area().map_err(at(&name))?;
-    Ok(mesh)
+    let time = cloud
+        .detail(crate::names::D_USD_TIME)
+        .and_then(|d| d.as_f64());
+    Ok((mesh, time))
 }
 
 /// One line on stderr. A stderr that cannot be written (closed, a
@@ -465,9 +450,22 @@ pub fn main<T: clap::Parser>(
     let (args, matches) = parse_matches::<T>(stage);
     let cmd = T::command();
     main_of(stage, &|name| flag_of(&cmd, name), || {
+        let time = frame_of(&matches)?;
         check_named_paths(&cmd, &matches, &[])?;
-        run(args)
+        formats::usd::at_time(time, || run(args))
     })
+}
+
+/// The time code `--frame` gives (a stage without the option: none),
+/// finite.
+fn frame_of(m: &clap::ArgMatches) -> anyhow::Result<Option<f64>> {
+    let Ok(Some(t)) = m.try_get_one::<f64>("frame") else {
+        return Ok(None);
+    };
+    if !t.is_finite() {
+        return Err(crate::Error::param("frame", format!("{t}: not a time code (finite)")).into());
+    }
+    Ok(Some(*t))
 }
 
 /// A stage's parser as its binary runs it.
@@ -537,8 +535,11 @@ pub fn call<T: clap::Parser>(
     let args = T::from_arg_matches(&matches).map_err(usage)?;
     let result = check_environment()
         .map_err(anyhow::Error::from)
-        .and_then(|()| check_paths(&cmd, &matches, &[], false))
-        .and_then(|()| run(args));
+        .and_then(|()| frame_of(&matches))
+        .and_then(|time| {
+            check_paths(&cmd, &matches, &[], false)?;
+            formats::usd::at_time(time, || run(args))
+        });
     result.map_err(|mut e| {
         if let Some(lib) = e.downcast_mut::<crate::Error>() {
             lib.rename_params(&|name| flag_of(&cmd, name));

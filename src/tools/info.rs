@@ -143,3 +143,26 @@ pub fn summary(cloud: &Cloud) -> String {
     }
     s
 }
+
+/// The most frames [`frames`] lists: a range past it is a stage's
+/// mistake (or a time code per tick), not frames to bake one by one.
+pub const MAX_FRAMES: f64 = 100_000.0;
+
+/// A USD stage's frames: the whole time codes from its `startTimeCode`
+/// to its `endTimeCode` (both included; a stage that states neither is
+/// an error naming them, one too long a range is refused).
+pub fn frames(stage_file: &std::path::Path) -> crate::error::Result<Vec<i64>> {
+    use crate::error::Error;
+    let Some((a, b)) = crate::formats::usd::stage_time_codes(stage_file)? else {
+        return Err(Error::invalid(
+            "the stage states no startTimeCode or endTimeCode: no frames to list",
+        ));
+    };
+    let (first, last) = (a.ceil(), b.floor());
+    if last - first + 1.0 > MAX_FRAMES {
+        return Err(Error::invalid(format!(
+            "startTimeCode {a} to endTimeCode {b}: more than {MAX_FRAMES} frames"
+        )));
+    }
+    Ok((first as i64..=last as i64).collect())
+}

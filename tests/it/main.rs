@@ -2,6 +2,7 @@
 //! against fixtures and independent truth. One module per area.
 
 mod usd;
+mod usd_frames;
 mod usd_in;
 mod util;
 

@@ -4,7 +4,9 @@
 use std::path::PathBuf;
 
 use crate::cli::{self, IoArgs};
+use crate::cloud::DetailValue;
 use crate::formats::Select;
+use crate::names;
 use crate::stages::follow;
 use clap::Parser;
 
@@ -31,11 +33,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let msg = args.io.messages("follow");
     let name = args.io.input_name();
     let rest = cli::read_mesh(&args.rest)?;
-    let frame = cli::read_mesh(&args.mesh)?;
+    let (frame, time) = cli::read_mesh_timed(&args.mesh)?;
     // The frame's topology is checked before the cloud is read.
     follow::on_frame(&rest, &frame).map_err(cli::at(&args.mesh.display().to_string()))?;
     let mut cloud = args.io.read(&Select::All)?;
     let rep = follow::follow(&mut cloud, &rest, &frame).map_err(cli::at(&name))?;
+    // The cloud is now at the frame's time code, not the rest's.
+    match time {
+        Some(t) => cloud.set_detail(names::D_USD_TIME, DetailValue::F64(t)),
+        None => cloud.remove_detail(names::D_USD_TIME),
+    }
     msg.info(format!(
         "{} points moved; the surface's area is {:.4} of the rest mesh's{}",
         rep.points,

@@ -92,6 +92,10 @@ pub struct Args {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub walk: cli::LazyWalkArgs,
+    /// USD stages (--mesh, --camera, the lights) read at this time code
+    /// (the frame of an animation), as the other stages' --frame.
+    #[arg(long, value_name = "TIME")]
+    pub frame: Option<f64>,
     #[command(flatten)]
     pub msg: MsgArgs,
 }

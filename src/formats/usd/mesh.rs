@@ -442,6 +442,9 @@ fn merge(prims: &[Prim], mesh: bool) -> Result<Cloud> {
         for (name, d) in &prims[0].details {
             cloud.set_detail(name, d.clone());
         }
+        if let Some(t) = stage::time() {
+            cloud.set_detail(names::D_USD_TIME, DetailValue::F64(t));
+        }
         return Ok(cloud);
     }
     pts.set_scalar(names::USD_PRIM, from_prim)?;
@@ -454,6 +457,9 @@ fn merge(prims: &[Prim], mesh: bool) -> Result<Cloud> {
         cloud.set_detail(name, d.clone());
     }
     cloud.set_detail(names::D_USD_PRIMS, DetailValue::Str(list.join("\n")));
+    if let Some(t) = stage::time() {
+        cloud.set_detail(names::D_USD_TIME, DetailValue::F64(t));
+    }
     Ok(cloud)
 }
 

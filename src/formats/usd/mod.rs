@@ -10,5 +10,5 @@ mod write;
 
 pub use mesh::{read_mesh, StageMesh};
 pub use scene::{camera_json, lights_json};
-pub use stage::{is_usd, split_prim, stage_file};
+pub use stage::{at_time, is_usd, split_prim, stage_file, stage_time_codes};
 pub use write::write_usda;

@@ -87,11 +87,12 @@ pub fn guarded<T: Send>(f: impl FnOnce() -> Result<T> + Send) -> Result<T> {
     // On a thread of its own, with a stack of known size: the reader
     // recurses once a level of nesting (bounded by the patched openusd),
     // whatever thread asks (a test's, Python's, a worker's).
+    let t = time();
     std::thread::scope(|s| {
         let reader = std::thread::Builder::new()
             .name("usd".into())
             .stack_size(READ_STACK)
-            .spawn_scoped(s, || caught(f));
+            .spawn_scoped(s, || at_time(t, || caught(f)));
         match reader {
             Ok(h) => h
                 .join()
@@ -116,6 +117,70 @@ fn caught<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
         Err(Error::invalid(
             "USD: the reader (openusd) failed on this file: not a stage it can read",
         ))
+    })
+}
+
+thread_local! {
+    /// The time code this thread's USD reads take values at
+    /// ([`at_time`]).
+    static TIME: std::cell::Cell<Option<f64>> = const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with every USD read it makes on this thread (and the reader
+/// threads [`guarded`] starts for it) taking attribute values at time
+/// code `time`: a time-sampled attribute is resolved there as Pixar's
+/// library resolves it (interpolated between samples, held past the
+/// first and last), an attribute without samples gives its default.
+/// `None`: the one time the toolkit reads without being told, see
+/// [`value`]. The time read before is restored after, whatever `f` does.
+pub fn at_time<T>(time: Option<f64>, f: impl FnOnce() -> T) -> T {
+    struct Restore(Option<f64>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            TIME.with(|t| t.set(self.0));
+        }
+    }
+    let _restore = Restore(TIME.with(|t| t.replace(time)));
+    f()
+}
+
+/// The time code USD reads take values at on this thread ([`at_time`]).
+pub fn time() -> Option<f64> {
+    TIME.with(|t| t.get())
+}
+
+/// The stage's own range of time codes, `startTimeCode` to `endTimeCode`
+/// as authored (either alone gives both; `None`: neither is).
+pub fn time_codes(stage: &usd::Stage) -> Result<Option<(f64, f64)>> {
+    let read = |k: &str| -> Result<Option<f64>> {
+        match stage.stage_metadata(k).map_err(usd_err)? {
+            None => Ok(None),
+            Some(v) => scalar(&v)
+                .filter(|x| x.is_finite())
+                .map(Some)
+                .ok_or_else(|| Error::invalid(format!("{k} is not a finite number"))),
+        }
+    };
+    Ok(match (read("startTimeCode")?, read("endTimeCode")?) {
+        (None, None) => None,
+        (Some(a), None) => Some((a, a)),
+        (None, Some(b)) => Some((b, b)),
+        (Some(a), Some(b)) if a <= b => Some((a, b)),
+        (Some(a), Some(b)) => {
+            return Err(Error::invalid(format!(
+                "startTimeCode {a} is after endTimeCode {b}"
+            )))
+        }
+    })
+}
+
+/// The stage file's range of time codes ([`time_codes`]).
+pub fn stage_time_codes(file: &Path) -> Result<Option<(f64, f64)>> {
+    guarded(|| {
+        let stage = open(file)?;
+        let r = time_codes(&stage)?;
+        finish(&stage)?;
+        Ok(r)
     })
 }
 
@@ -259,25 +324,31 @@ pub fn type_name(stage: &usd::Stage, p: &sdf::Path) -> Result<String> {
         .unwrap_or_default())
 }
 
-/// An attribute's value at the one time the toolkit reads: its default,
-/// or its time sample when it has exactly one. More than one sample is
-/// an animation, which this reader does not choose a frame of.
+/// An attribute's value at the time this thread reads ([`at_time`]):
+/// at a time code, its time samples resolved there (its default when it
+/// has none). Without one, its default, or its time sample when it has
+/// exactly one; more than one sample is an animation, whose frame is
+/// the caller's to choose (`--frame`), not guessed.
 pub fn value(stage: &usd::Stage, p: &sdf::Path, name: &str) -> Result<Option<sdf::Value>> {
     let ap = p
         .append_property(name)
         .map_err(|e| at(p.as_str(), format!("{name}: {e}")))?;
     let attr = stage.attribute(ap);
     let times = attr.time_sample_times().map_err(usd_err)?;
-    match times.len() {
-        0 => attr.get::<sdf::Value>().map_err(usd_err),
-        1 => attr
-            .get_at::<sdf::Value>(usd::TimeCode::new(times[0]))
+    match (time(), times.as_slice()) {
+        (_, []) => attr.get::<sdf::Value>().map_err(usd_err),
+        (Some(t), _) => attr
+            .get_at::<sdf::Value>(usd::TimeCode::new(t))
             .map_err(usd_err),
-        n => Err(at(
+        (None, [t]) => attr
+            .get_at::<sdf::Value>(usd::TimeCode::new(*t))
+            .map_err(usd_err),
+        (None, [first, .., last]) => Err(at(
             p.as_str(),
             format!(
-                "{name} has {n} time samples: the toolkit reads one frame (export that frame, or bake \
-                 frames with `follow`)"
+                "{name} has {} time samples ({first} to {last}): an animation; give the time code \
+                 of the frame to read (--frame)",
+                times.len()
             ),
         )),
     }

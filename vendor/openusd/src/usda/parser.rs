@@ -1340,7 +1340,14 @@ impl<'a> Parser<'a> {
         match self.peek_next() {
             Some(Ok(Token::Punctuation('('))) => is_tuple_type,
             Some(Ok(Token::Punctuation('['))) => is_tuple_type || info.is_array,
-            Some(Ok(Token::Number(_))) => info.ty == Type::TimeCode && !info.is_array,
+            // pcsss: a bare number under a real scalar type is that type
+            // (`float x.timeSamples = { 1: 1, 3: 3 }` holds floats, as
+            // Pixar reads it, which interpolate; type-blind, they were
+            // integers, which are held).
+            Some(Ok(Token::Number(_))) => {
+                matches!(info.ty, Type::TimeCode | Type::Half | Type::Float | Type::Double)
+                    && !info.is_array
+            }
             _ => false,
         }
     }
