@@ -9,7 +9,7 @@ export PCSSS_PYTHON := $(abspath $(PY))
 # Paths with spaces or shell characters: refused on one line.
 include pipelines/paths.mk
 
-.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-bake llvm pyenv build build-and-tools pywheel exrtools slurm lint
+.PHONY: test bench demo bake frames frames-bench blender-check suzanne usd-bunny blender-addon blender-addon-check llvm pyenv build build-and-tools pywheel exrtools slurm lint
 
 ## The Python packages the tests use as independent readers (plyfile, trimesh).
 pyenv: $(PY).stamp
@@ -167,13 +167,21 @@ blender-check: $(BPYENV)/bin/python.stamp
 	cargo build --release
 	$(BPYENV)/bin/python pipelines/blender/light_units.py target/release target/blender-check
 
-## The Blender recipe (pipelines/blender/bake_selected.py) run in Blender
-## on a sphere, its colour attribute held against the binaries' bake.
-blender-bake: $(BPYENV)/bin/python.stamp pywheel
+## The Blender add-on (pipelines/blender/pcsss_addon/), packaged as
+## Blender 4.2+ installs extensions, with the pcsss wheel in it.
+ADDON := target/blender/pcsss-addon.zip
+blender-addon: pywheel
+	$(PY) pipelines/blender/addon_package.py $(wildcard $(WHEEL_DIR)/pcsss-*-cp39-abi3-*.whl) $(ADDON)
+
+## The add-on installed into Blender (bpy from PyPI, without pcsss of its
+## own) as an extension, baking Suzanne from its panel: its colour
+## attributes against `make bake` of the same scene by the binaries (the
+## same bits), and its Cycles material against the bake's medium.
+blender-addon-check: $(BPYENV)/bin/python.stamp blender-addon
 	cargo build --release
-	$(BPYENV)/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --force-reinstall \
-	  $(WHEEL_DIR)/pcsss-*-cp39-abi3-*.whl
-	$(BPYENV)/bin/python pipelines/blender/bake_selected_check.py target/release target/blender-bake
+	rm -rf target/blender-addon-check
+	BLENDER_USER_RESOURCES=$(CURDIR)/target/blender-addon-check/res $(BPYENV)/bin/python \
+	  pipelines/blender/addon_check.py $(ADDON) $(CURDIR)/target/release $(CURDIR)/target/blender-addon-check/work
 
 ## Blender's Suzanne, made and exported (Y-up OBJ, Z-up PLY) by Blender,
 ## baked from each with `make bake`: the same picture (out/suzanne/).

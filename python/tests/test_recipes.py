@@ -98,3 +98,42 @@ def test_the_houdini_sop_body_bakes_the_binaries_bits(tmp_path):
         subprocess.run([str(BIN / s[0])] + [str(a) for a in s[1:]], check=True, capture_output=True)
     want = pcsss.read(tmp_path / "v.ply")["ssM"]
     assert np.array_equal(geo.attribs["ssM"], want)
+
+
+def test_the_houdini_sop_body_bakes_the_physical_model_with_a_material(tmp_path):
+    p, faces = icosphere()
+    lights = tmp_path / "lights.json"
+    lights.write_text(json.dumps({"lights": [
+        {"name": "key", "type": "distant", "direction": [0.3, -1.0, -0.4], "intensity": 2.0}]}))
+    geo = Geometry(p, faces)
+    # A ball of radius 5 units at 10 mm a unit: skin1 (a 1.3 mm mean free
+    # path in red) on a 10 cm ball.
+    parms = {"lights": str(lights), "count": 5000, "material": "skin1", "meters_per_unit": 0.01}
+    node = types.SimpleNamespace(
+        geometry=lambda: geo,
+        parm=lambda n: types.SimpleNamespace(eval=lambda: parms[n]) if n in parms else None)
+    hou = types.SimpleNamespace(pwd=lambda: node, attribType=types.SimpleNamespace(Point="point"))
+    body = (ROOT / "pipelines" / "houdini" / "python_sop.py").read_text()
+    exec(compile(body, "python_sop.py", "exec"), {"hou": hou, "__name__": "__sop__"})
+
+    mesh = tmp_path / "mesh.ply"
+    pcsss.write(pcsss.Cloud.from_arrays({"P": p}, faces=faces), mesh)
+    medium = ["--model", "physical", "--material", "skin1"]
+    steps = [
+        ["scatter", mesh, "--count", "5000", "--blue", "--up-axis", "y", "--meters-per-unit", "0.01",
+         "-o", tmp_path / "s.ply"],
+        ["facet", tmp_path / "s.ply", "--mesh", mesh, "-o", tmp_path / "f.ply"],
+        ["illum", tmp_path / "f.ply", "--lights", lights, "--mesh", mesh, "--thickness", *medium,
+         "-o", tmp_path / "i.ply"],
+        ["ssmulti", tmp_path / "i.ply", *medium, "-o", tmp_path / "m.ply"],
+        ["filter", mesh, "--cloud", tmp_path / "m.ply", "-o", tmp_path / "v.ply"],
+    ]
+    for s in steps:
+        subprocess.run([str(BIN / s[0])] + [str(a) for a in s[1:]], check=True, capture_output=True)
+    v = pcsss.read(tmp_path / "v.ply")
+    assert np.array_equal(geo.attribs["ssM"], v["ssM"])
+    assert np.array_equal(geo.attribs["Cd"], v["ssM"] / np.float32(np.pi))
+    # The medium is skin1's at that scale (a millimetre is 0.1 unit).
+    c = pcsss.read(tmp_path / "m.ply")
+    assert abs(c.detail["ssmulti_mfp"][0] / (1 / 0.772 / 10) - 1) < 1e-9
+    assert (geo.attribs["ssM"][:, 0] > geo.attribs["ssM"][:, 2]).mean() > 0.5

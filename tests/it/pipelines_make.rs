@@ -163,3 +163,53 @@ fn the_bake_says_one_line_a_stage() {
         assert_eq!(count_names(&out, |n| n.ends_with(".start")), 0);
     }
 }
+
+/// The Blender add-on's package (`make blender-addon`): a zip with its
+/// manifest (the `wheels` key naming the wheel it holds, before the
+/// first table, as Blender's TOML reader wants it), its modules and the
+/// wheel; a missing wheel is one line.
+#[test]
+fn the_blender_add_on_packages_as_an_extension() {
+    let d = tempdir();
+    let wheel = d
+        .path()
+        .join("pcsss-0.1.0-cp39-abi3-manylinux_2_35_x86_64.whl");
+    std::fs::write(&wheel, b"not a real wheel").unwrap();
+    let zip = d.path().join("addon.zip");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/blender/addon_package.py");
+    let o = Command::new("python3")
+        .arg(&script)
+        .arg(&wheel)
+        .arg(&zip)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let check = r#"
+import sys, tomllib, zipfile
+z = zipfile.ZipFile(sys.argv[1])
+names = set(z.namelist())
+m = tomllib.loads(z.read("blender_manifest.toml").decode())
+assert m["id"] == "pcsss" and m["type"] == "add-on", m
+assert m["wheels"] == ["./wheels/" + sys.argv[2]], m
+assert m["blender_version_min"] >= "4.2.0", m
+assert "permissions" in m and "files" in m["permissions"], m
+for f in ("__init__.py", "bake.py", "cycles_fit.py", "wheels/" + sys.argv[2]):
+    assert f in names, (f, names)
+"#;
+    let o = Command::new("python3")
+        .args(["-c", check])
+        .arg(&zip)
+        .arg(wheel.file_name().unwrap())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = Command::new("python3")
+        .arg(&script)
+        .arg(d.path().join("none.whl"))
+        .arg(d.path().join("x.zip"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("none.whl"), "{}", stderr(&o));
+    assert!(!d.path().join("x.zip").exists());
+}
