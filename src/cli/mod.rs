@@ -68,8 +68,9 @@ pub struct IoArgs {
     /// Output file; standard output when absent or '-'.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Output format: ply, ply-ascii, ply-be, exr [default: from the
-    /// output file's extension, else ply (binary little-endian)].
+    /// Output format: ply, ply-ascii, ply-be, exr, usda, usdc, usdz
+    /// [default: from the output file's extension, else ply (binary
+    /// little-endian)].
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<Format>,
     /// OpenEXR output: compression (none, rle, zips, zip, piz, pxr24,

@@ -27,6 +27,10 @@ pub enum Format {
     Exr,
     /// A USD text layer with one `UsdGeomPoints` (written only).
     Usda,
+    /// The same layer in Pixar's binary crate format (written only).
+    Usdc,
+    /// The crate layer in a `.usdz` package (written only).
+    Usdz,
 }
 
 impl Format {
@@ -40,6 +44,9 @@ impl Format {
             "ply" => Some(Format::DEFAULT),
             "exr" => Some(Format::Exr),
             "usda" => Some(Format::Usda),
+            // (`.usd` is either; Pixar's library writes crate under it.)
+            "usdc" | "usd" => Some(Format::Usdc),
+            "usdz" => Some(Format::Usdz),
             _ => None,
         }
     }
@@ -52,7 +59,7 @@ impl Format {
             (_, Some(f)) => Ok(f),
             (None, None) => Ok(Format::DEFAULT),
             (Some(ext), None) => Err(format!(
-                "{}: the writers do not know '.{}' (they write .ply, .exr and .usda): \
+                "{}: the writers do not know '.{}' (they write .ply, .exr, .usda, .usdc, .usd and .usdz): \
                  name one of them, or give the format to write one under this name",
                 p.display(),
                 ext.to_string_lossy()
@@ -61,7 +68,7 @@ impl Format {
     }
 
     /// The names accepted by `--format`.
-    pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr, usda";
+    pub const NAMES: &'static str = "ply, ply-ascii, ply-be, exr, usda, usdc, usdz";
 }
 
 impl FromStr for Format {
@@ -73,6 +80,8 @@ impl FromStr for Format {
             "ply-ascii" | "ascii" => Format::Ply(Encoding::Ascii),
             "exr" => Format::Exr,
             "usda" => Format::Usda,
+            "usdc" => Format::Usdc,
+            "usdz" => Format::Usdz,
             _ => return Err(format!("unknown format '{s}' (one of: {})", Format::NAMES)),
         })
     }
@@ -229,5 +238,7 @@ pub fn write_cloud_with<W: Write + ?Sized>(
         Format::Ply(enc) => ply::write_ply(w, cloud, enc),
         Format::Exr => exr::write_exr(w, cloud, exr_opt),
         Format::Usda => usd::write_usda(w, cloud),
+        Format::Usdc => usd::write_usdc(w, cloud),
+        Format::Usdz => usd::write_usdz(w, cloud),
     }
 }

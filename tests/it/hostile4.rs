@@ -530,7 +530,7 @@ fn class_7_a_preset_s_lengths_follow_the_scene_s_unit() {
 fn class_7_outputs_whose_extension_no_writer_knows_are_refused() {
     let d = tempdir();
     let input = cloud_file(d.path(), "in.ply");
-    for out in ["x.usdc", "x.bgeo", "x.vdb", "x.PLY.gz"] {
+    for out in ["x.usdx", "x.bgeo", "x.vdb", "x.PLY.gz"] {
         let o = bash(d.path(), &format!("pcconvert {input} -o {out}"));
         refused(&o, 2, "the writers do not know");
         assert!(!d.path().join(out).exists(), "{out}");
@@ -544,6 +544,9 @@ fn class_7_outputs_whose_extension_no_writer_knows_are_refused() {
         ("a.PLY", "", &b"ply\n"[..]),
         ("a.exr", "", &[0x76, 0x2f, 0x31, 0x01][..]),
         ("a.usda", "", &b"#usda"[..]),
+        ("a.usdc", "", &b"PXR-USDC"[..]),
+        ("a.usd", "", &b"PXR-USDC"[..]),
+        ("a.usdz", "", &b"PK\x03\x04"[..]),
         ("noext", "", &b"ply\n"[..]),
         ("a.usdc", "--format exr", &[0x76, 0x2f, 0x31, 0x01][..]),
     ] {

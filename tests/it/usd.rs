@@ -350,3 +350,98 @@ print(json.dumps(out))
         }
     }
 }
+
+/// `.usdc` and `.usdz` out: Pixar's library opens them and finds what it
+/// finds in the `.usda`, every attribute's type and value to the bit, and
+/// the stage's metadata; the toolkit reads them back to the same cloud.
+#[test]
+#[ignore = "interop: needs Pixar's usd-core; `make test` runs it"]
+fn pixar_s_library_reads_usdc_and_usdz_as_the_usda() {
+    let py = python_with(&["pxr", "numpy"]);
+    let d = tempdir();
+    let c = every_usd_type_cloud();
+    std::fs::write(
+        d.path().join("c.ply"),
+        to_bytes(&c, pcsss::formats::Format::DEFAULT),
+    )
+    .unwrap();
+    for ext in ["usda", "usdc", "usdz"] {
+        let out = format!("c.{ext}");
+        let o = run_in(Some(d.path()), "pcconvert", &["c.ply", "-o", &out], b"");
+        assert!(o.status.success(), "{ext}: {}", stderr(&o));
+    }
+    let script = r#"
+import json, sys
+import numpy as np
+from pxr import Usd, Sdf
+def dump(f):
+    st = Usd.Stage.Open(f)
+    out = {"meta": {k: str(st.GetMetadata(k)) for k in ("upAxis", "metersPerUnit", "defaultPrim", "documentation")}}
+    for prim in st.Traverse():
+        out[str(prim.GetPath())] = prim.GetTypeName()
+        for a in prim.GetAttributes():
+            v = a.Get()
+            try:
+                arr = np.asarray(v)
+                val = arr.dtype.str + ":" + arr.tobytes().hex() if arr.dtype.kind in "fiub" else repr(v)
+            except Exception:
+                val = repr(v)
+            out[str(a.GetPath())] = [str(a.GetTypeName()), val, a.GetMetadata("interpolation") or ""]
+    return out
+t, c, z = (dump(f) for f in sys.argv[1:])
+def diff(a, b):
+    return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+print(json.dumps({"keys": len(t), "usdc": diff(t, c), "usdz": diff(t, z),
+                  "first": [[k, t.get(k), c.get(k)] for k in diff(t, c)[:3]]}))
+"#;
+    let files: Vec<String> = ["usda", "usdc", "usdz"]
+        .iter()
+        .map(|e| d.path().join(format!("c.{e}")).display().to_string())
+        .collect();
+    let o = std::process::Command::new(&py)
+        .args(["-c", script])
+        .args(&files)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(got["keys"].as_u64().unwrap() > 10, "{got}");
+    assert_eq!(got["usdc"], serde_json::json!([]), "{}", got["first"]);
+    assert_eq!(got["usdz"], serde_json::json!([]), "{}", got["usdz"]);
+    // A bake's crate layer is at most a quarter of its text.
+    let bunny = fixtures().join("mesh/bunny.obj");
+    let o = run_in(
+        Some(d.path()),
+        "scatter",
+        &[bunny.to_str().unwrap(), "-n", "50000", "-o", "b.ply"],
+        b"",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for ext in ["usda", "usdc"] {
+        let o = run_in(
+            Some(d.path()),
+            "pcconvert",
+            &["b.ply", "-o", &format!("b.{ext}")],
+            b"",
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let size = |f: &str| std::fs::metadata(d.path().join(f)).unwrap().len();
+    assert!(
+        size("b.usdc") * 4 <= size("b.usda"),
+        "{} {}",
+        size("b.usdc"),
+        size("b.usda")
+    );
+    // The toolkit reads them back as it reads the text.
+    let read = |e: &str| {
+        pcsss::formats::read_cloud_file(
+            &d.path().join(format!("c.{e}")),
+            &pcsss::formats::Select::All,
+        )
+        .unwrap()
+    };
+    let t = read("usda");
+    assert_same_values(&read("usdc"), &t);
+    assert_same_values(&read("usdz"), &t);
+}

@@ -227,3 +227,92 @@ fn make_frames_bakes_an_animated_stage_frame_by_frame() {
         assert!(out.join(format!("ball.{:04}.png", k + 1)).exists());
     }
 }
+
+/// A USD camera's picture: without render settings, 512 pixels high at
+/// the apertures' aspect; with a `RenderSettings` prim naming the camera,
+/// its `resolution`, the aperture conformed to it as USD does (expanded by
+/// default, cropped on request); settings that cannot be read are named.
+#[test]
+fn a_usd_camera_takes_the_render_settings_that_name_it() {
+    let d = tempdir();
+    let cam = |settings: &str| -> Result<serde_json::Value, String> {
+        let p = d.path().join("cam.usda");
+        std::fs::write(
+            &p,
+            format!(
+                r#"#usda 1.0
+def Camera "Cam" {{
+    float focalLength = 50
+    float horizontalAperture = 36
+    float verticalAperture = 24
+}}
+{settings}
+"#
+            ),
+        )
+        .unwrap();
+        usd::camera_json(&p, 512)
+            .map(|t| serde_json::from_str(&t).unwrap())
+            .map_err(|e| e.to_string())
+    };
+    let fov = |v_ap: f64| 2.0 * (v_ap / 100.0f64).atan().to_degrees();
+    let close = |a: &serde_json::Value, b: f64| (a.as_f64().unwrap() - b).abs() < 1e-9;
+    // None: 768 x 512, the apertures' 3:2.
+    let c = cam("").unwrap();
+    assert_eq!(
+        (c["width"].as_u64(), c["height"].as_u64()),
+        (Some(768), Some(512))
+    );
+    assert!(close(&c["fov"], fov(24.0)), "{c}");
+    // A square picture: expanded, the vertical aperture grows to 36.
+    let square = r#"def RenderSettings "Render" {
+    rel camera = </Cam>
+    uniform int2 resolution = (300, 300)
+}"#;
+    let c = cam(square).unwrap();
+    assert_eq!(
+        (c["width"].as_u64(), c["height"].as_u64()),
+        (Some(300), Some(300))
+    );
+    assert!(close(&c["fov"], fov(36.0)), "{c}");
+    // Cropped: it keeps 24.
+    let crop = square.replace(
+        "(300, 300)",
+        "(300, 300)\n    uniform token aspectRatioConformPolicy = \"cropAperture\"",
+    );
+    assert!(close(&cam(&crop).unwrap()["fov"], fov(24.0)));
+    // A wider picture, expanded: the vertical aperture stays.
+    let wide = square.replace("(300, 300)", "(1920, 800)");
+    let c = cam(&wide).unwrap();
+    assert_eq!(
+        (c["width"].as_u64(), c["height"].as_u64()),
+        (Some(1920), Some(800))
+    );
+    assert!(close(&c["fov"], fov(24.0)), "{c}");
+    // Settings for another camera are not this one's.
+    assert_eq!(
+        cam(&square.replace("</Cam>", "</Other>")).unwrap()["height"].as_u64(),
+        Some(512)
+    );
+    // Unread or bad settings are named.
+    let e = cam(&square.replace(
+        "(300, 300)",
+        "(300, 300)\n    uniform float pixelAspectRatio = 2",
+    ))
+    .unwrap_err();
+    assert!(
+        e.contains("/Render") && e.contains("pixelAspectRatio"),
+        "{e}"
+    );
+    let e = cam(&square.replace("(300, 300)", "(0, 300)")).unwrap_err();
+    assert!(e.contains("resolution"), "{e}");
+    let e = cam(&square.replace(
+        "(300, 300)",
+        "(300, 300)\n    uniform token aspectRatioConformPolicy = \"adjustPixelAspectRatio\"",
+    ))
+    .unwrap_err();
+    assert!(e.contains("adjustPixelAspectRatio"), "{e}");
+    let two = format!("{square}\n{}", square.replace("\"Render\"", "\"Render2\""));
+    let e = cam(&two).unwrap_err();
+    assert!(e.contains("renderSettingsPrimPath"), "{e}");
+}

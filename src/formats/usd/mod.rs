@@ -11,4 +11,4 @@ mod write;
 pub use mesh::{read_mesh, StageMesh};
 pub use scene::{camera_json, lights_json};
 pub use stage::{at_time, is_usd, split_prim, stage_file, stage_time_codes};
-pub use write::write_usda;
+pub use write::{write_usda, write_usdc, write_usdz};

@@ -208,7 +208,7 @@ pub(super) fn vertex_primvars(
 /// A text layer's string literal's escapes, undone. openusd 0.6 hands a
 /// `.usda` string over with its escapes as written (`\"`, `\n`), where
 /// Pixar's library undoes them; the toolkit reads what Pixar's does.
-fn unescape(s: &str) -> String {
+pub(super) fn unescape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     let mut it = s.chars();
     while let Some(c) = it.next() {

@@ -306,8 +306,15 @@ fn camera_unguarded(path: &Path, height: u32) -> Result<String> {
     let eye = m.transform_point3(DVec3::ZERO);
     let ahead = m.transform_vector3(-DVec3::Z).normalize();
     let up = m.transform_vector3(DVec3::Y);
+    let (width, height, v_ap) = match render_settings(&stage, p)? {
+        Some(s) => (s.width, s.height, s.conform(h_ap, v_ap)),
+        None => (
+            ((height as f64) * h_ap / v_ap).round().clamp(1.0, 16384.0) as u32,
+            height,
+            v_ap,
+        ),
+    };
     let fov = 2.0 * (v_ap / (2.0 * focal)).atan().to_degrees();
-    let width = ((height as f64) * h_ap / v_ap).round().clamp(1.0, 16384.0) as u32;
     let mut o = Map::new();
     o.insert("position".into(), arr(eye));
     o.insert("look_at".into(), arr(eye + ahead));
@@ -318,4 +325,112 @@ fn camera_unguarded(path: &Path, height: u32) -> Result<String> {
     frame_keys(&frame, &mut o);
     stage::finish(&stage)?;
     Ok(Value::Object(o).to_string())
+}
+
+/// A `UsdRenderSettings` prim's picture for a camera: its `resolution`
+/// and how the camera's aperture is made to fit it.
+struct Settings {
+    width: u32,
+    height: u32,
+    /// `expandAperture` (USD's fallback): the aperture grows on one side
+    /// to the picture's aspect; `cropAperture`: it shrinks.
+    expand: bool,
+}
+
+impl Settings {
+    /// The vertical aperture the picture sees, from the camera's apertures
+    /// `h_ap` by `v_ap`.
+    fn conform(&self, h_ap: f64, v_ap: f64) -> f64 {
+        let image = self.width as f64 / self.height as f64;
+        let taller = image < h_ap / v_ap;
+        // Expanded, a taller picture gets more vertical aperture; cropped,
+        // a wider one gets less.
+        if taller == self.expand {
+            h_ap / image
+        } else {
+            v_ap
+        }
+    }
+}
+
+/// The render settings that name camera `cam`: the stage's own
+/// (`renderSettingsPrimPath`) when it names the camera, else the one
+/// `RenderSettings` prim that does (two or more: an error naming them);
+/// `None` when none does (the picture then follows the apertures).
+fn render_settings(stage: &usd::Stage, cam: &sdf::Path) -> Result<Option<Settings>> {
+    let mut naming = Vec::new();
+    for p in stage::prims(stage)? {
+        if stage::type_name(stage, &p)? != "RenderSettings" {
+            continue;
+        }
+        let targets = stage
+            .prim(p.clone())
+            .relationship("camera")
+            .targets()
+            .map_err(stage::usd_err)?;
+        if targets.iter().any(|t| t == cam) {
+            naming.push(p);
+        }
+    }
+    let chosen = match stage
+        .stage_metadata("renderSettingsPrimPath")
+        .map_err(stage::usd_err)?
+    {
+        Some(v) => stage::token(&v).and_then(|s| naming.iter().find(|p| p.as_str() == s).cloned()),
+        None => None,
+    };
+    let p = match (chosen, naming.as_slice()) {
+        (Some(p), _) => p,
+        (None, []) => return Ok(None),
+        (None, [p]) => p.clone(),
+        (None, many) => {
+            let names: Vec<_> = many.iter().map(|p| p.as_str()).collect();
+            return Err(Error::invalid(format!(
+                "{} render settings name camera {} ({}): say which with the stage's renderSettingsPrimPath",
+                many.len(),
+                cam.as_str(),
+                names.join(", ")
+            )));
+        }
+    };
+    let prim = p.as_str();
+    // USD's fallback resolution.
+    let (w, h) = match value(stage, &p, "resolution")? {
+        None => (2048, 1080),
+        Some(sdf::Value::Vec2i(r)) => (r.x, r.y),
+        Some(_) => return Err(at(prim, "resolution is not an int2")),
+    };
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(at(
+            prim,
+            format!("resolution ({w}, {h}): each side 1 to 16384"),
+        ));
+    }
+    let aspect = num(stage, &p, &["pixelAspectRatio"], 1.0)?;
+    if aspect != 1.0 {
+        return Err(at(
+            prim,
+            format!("pixelAspectRatio {aspect}: the toolkit's pixels are square"),
+        ));
+    }
+    let policy = value(stage, &p, "aspectRatioConformPolicy")?
+        .as_ref()
+        .and_then(stage::token)
+        .unwrap_or_else(|| "expandAperture".into());
+    let expand =
+        match policy.as_str() {
+            "expandAperture" => true,
+            "cropAperture" => false,
+            other => return Err(at(
+                prim,
+                format!(
+                    "aspectRatioConformPolicy {other}: expandAperture and cropAperture are read"
+                ),
+            )),
+        };
+    Ok(Some(Settings {
+        width: w as u32,
+        height: h as u32,
+        expand,
+    }))
 }

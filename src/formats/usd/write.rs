@@ -191,6 +191,59 @@ fn primvar<W: Write + ?Sized>(
     }
 }
 
+/// Writes `cloud` as a `.usdc` layer, Pixar's binary crate format: the
+/// layer [`write_usda`] writes, parsed and written again by the `openusd`
+/// crate's own reader and crate writer, so both files hold the same specs
+/// and the same values (the text's shortest digits read back to the same
+/// floats).
+pub fn write_usdc<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
+    w.write_all(&crate_bytes(cloud)?)?;
+    Ok(())
+}
+
+/// Writes `cloud` as a `.usdz` package: the [`write_usdc`] layer, stored
+/// (uncompressed, 64-byte aligned) as the package's one layer,
+/// `cloud.usdc`.
+pub fn write_usdz<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
+    let layer = crate_bytes(cloud)?;
+    let mut zip = openusd::usdz::ArchiveWriter::new(std::io::Cursor::new(Vec::new()));
+    zip.add_layer("cloud.usdc", &layer)
+        .map_err(super::stage::usd_err)?;
+    let bytes = zip.finish().map_err(super::stage::usd_err)?.into_inner();
+    w.write_all(&bytes)?;
+    Ok(())
+}
+
+/// The crate-format bytes of the layer [`write_usda`] writes.
+fn crate_bytes(cloud: &Cloud) -> Result<Vec<u8>> {
+    let mut text = Vec::new();
+    write_usda(&mut text, cloud)?;
+    let text =
+        String::from_utf8(text).map_err(|_| Error::invalid("USD: the layer is not UTF-8"))?;
+    let mut data = openusd::usda::parse(&text).map_err(super::stage::usd_err)?;
+    // The text parser hands strings over with their escapes (`\"`, `\n`)
+    // as written; a crate layer holds the strings themselves, as Pixar's
+    // library reads the text.
+    use openusd::sdf::{AbstractData, Value};
+    for path in data.spec_paths() {
+        for field in data.list_fields(&path).unwrap_or_default() {
+            let fixed = match data.get_field(&path, &field).map(|v| v.into_owned()) {
+                Ok(Value::String(s)) if s.contains('\\') => {
+                    Value::String(super::primvars::unescape(&s))
+                }
+                Ok(Value::StringVec(v)) if v.iter().any(|s| s.contains('\\')) => {
+                    Value::StringVec(v.iter().map(|s| super::primvars::unescape(s)).collect())
+                }
+                _ => continue,
+            };
+            data.set_field(&path, &field, fixed);
+        }
+    }
+    let mut out = std::io::Cursor::new(Vec::new());
+    openusd::usdc::CrateWriter::write(&data, &mut out).map_err(super::stage::usd_err)?;
+    Ok(out.into_inner())
+}
+
 /// Writes `cloud` as a `.usda` layer with one `Points` prim, `/cloud`.
 pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     use crate::cloud::{FACES, POINTS};

@@ -121,7 +121,16 @@ impl<'w, W: Write + Seek> Packer<'w, W> {
                         name
                     };
                     let token_idx = self.tokens.intern(token);
-                    let rep = self.write_value(&value)?;
+                    // pcsss: the children and order fields are TfTokenVector
+                    // in Pixar's schema (crate type TokenVector), not a
+                    // token[] array; written as an array, Pixar's reader
+                    // found no children and a stage opened empty.
+                    let rep = match &value {
+                        Value::TokenVec(v) if is_token_vector_field(self.tokens.items[token_idx as usize].as_str()) => {
+                            self.write_token_vector(v)?
+                        }
+                        _ => self.write_value(&value)?,
+                    };
                     let field_idx = self.fields.intern((token_idx, rep.0));
                     self.fieldsets.push(Some(field_idx));
                 }
@@ -801,6 +810,18 @@ impl<'w, W: Write + Seek> Packer<'w, W> {
         Ok(rep_heap(ty, off, true))
     }
 
+    /// pcsss: a TfTokenVector field (count, then token indices, as the
+    /// reader's `read_token_vec` takes it), typed TokenVector, not an array.
+    fn write_token_vector(&mut self, v: &[tf::Token]) -> Result<ValueRep> {
+        let off = self.pos()?;
+        self.write_count(v.len() as u64)?;
+        for t in v {
+            let idx = self.tokens.intern(t.to_string());
+            self.write_pod(&idx)?;
+        }
+        Ok(rep_heap(Type::TokenVector, off, false))
+    }
+
     fn write_string_vec<S: AsRef<str>>(&mut self, ty: Type, v: &[S]) -> Result<ValueRep> {
         let off = self.pos()?;
         self.write_count(v.len() as u64)?;
@@ -1076,6 +1097,15 @@ fn rep_inline(ty: Type, payload: u64) -> ValueRep {
     let ty_bits = ((ty as u64) & 0xFF) << 48;
     let inlined = 1_u64 << 62;
     ValueRep(ty_bits | inlined | (payload & ((1 << 48) - 1)))
+}
+
+/// pcsss: the fields Pixar's schema types TfTokenVector (children lists and
+/// reorder statements), by their names in the layer's data.
+fn is_token_vector_field(name: &str) -> bool {
+    matches!(
+        name,
+        "primChildren" | "properties" | "variantChildren" | "variantSetChildren" | "primOrder" | "propertyOrder"
+    )
 }
 
 fn rep_heap(ty: Type, offset: u64, is_array: bool) -> ValueRep {
