@@ -6,7 +6,7 @@
 
 use crate::bad_input_table::lit_cloud;
 use crate::util::*;
-use pcsss::cloud::{Attribute, DetailValue, Role};
+use pcsss::cloud::{Attribute, Cloud, DetailValue, Role};
 use pcsss::column::Column;
 
 /// A lit cloud with every scalar type USD output holds, an f64 vector,
@@ -227,7 +227,9 @@ print(json.dumps({"type": st.GetDefaultPrim().GetTypeName(),
   "counts": list(mesh.GetFaceVertexCountsAttr().Get()),
   "indices": list(mesh.GetFaceVertexIndicesAttr().Get()),
   "points": len(mesh.GetPointsAttr().Get()),
-  "dc": [list(c) for c in dc.Get()], "dc_interp": dc.GetInterpolation()}))
+  "dc": [list(c) for c in dc.Get()], "dc_interp": dc.GetInterpolation(),
+  "uchar": [pv.GetPrimvarName() for pv in UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetAuthoredPrimvars()
+            if str(pv.GetTypeName()).startswith("uchar")]}))
 "#;
     let o = std::process::Command::new(&py)
         .args(["-c", script, d.path().join("m.usda").to_str().unwrap()])
@@ -261,6 +263,67 @@ print(json.dumps({"type": st.GetDefaultPrim().GetTypeName(),
             assert!((v - lin(byte)).abs() < 1e-6, "{i} {k}: {v}");
         }
     }
+    // The bytes go out as the float colour alone (Blender reads a uchar
+    // primvar as a signed byte), and come back as the same bytes.
+    assert_eq!(got["uchar"], serde_json::json!([]), "{got}");
+    let back =
+        pcsss::formats::read_cloud_file(&d.path().join("m.usda"), &pcsss::formats::Select::All)
+            .unwrap();
+    for c in ["red", "green", "blue"] {
+        assert_eq!(
+            back.points().scalar_f64(c).unwrap(),
+            m.points().scalar_f64(c).unwrap(),
+            "{c}"
+        );
+    }
+    assert!(!back.points().has("displayColor"));
+}
+
+/// Every colour byte goes out as `displayColor` and comes back as itself,
+/// through text, crate and package; a cloud whose colours are not bytes
+/// keeps them as its own primvars.
+#[test]
+fn colour_bytes_go_out_as_a_float_colour_and_come_back_as_bytes() {
+    let d = tempdir();
+    let mut c = Cloud::with_points(256);
+    let p: Vec<[f64; 3]> = (0..256).map(|i| [i as f64, 0.0, 0.0]).collect();
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    for (k, name) in ["red", "green", "blue"].iter().enumerate() {
+        let v: Vec<u8> = (0..256).map(|i| ((i + 85 * k) % 256) as u8).collect();
+        c.points_mut()
+            .set(Attribute::scalar(name, Column::U8(v)))
+            .unwrap();
+    }
+    for ext in ["usda", "usdc", "usdz"] {
+        let f = d.path().join(format!("c.{ext}"));
+        let mut bytes = Vec::new();
+        let format: pcsss::formats::Format = ext.parse().unwrap();
+        pcsss::formats::write_cloud(&mut bytes, &c, format).unwrap();
+        std::fs::write(&f, &bytes).unwrap();
+        if ext == "usda" {
+            let text = String::from_utf8(bytes).unwrap();
+            assert!(!text.contains("uchar"), "{}", &text[..text.len().min(2000)]);
+            assert!(text.contains("primvars:displayColor"));
+        }
+        let back = pcsss::formats::read_cloud_file(&f, &pcsss::formats::Select::All).unwrap();
+        for name in ["red", "green", "blue"] {
+            assert_eq!(
+                back.points().scalar_f64(name).unwrap(),
+                c.points().scalar_f64(name).unwrap(),
+                "{ext} {name}"
+            );
+        }
+    }
+    // Colours that are not bytes stay primvars of their own type.
+    let mut f = c.clone();
+    f.points_mut()
+        .set(Attribute::scalar("red", Column::F32(vec![0.5; 256])))
+        .unwrap();
+    let mut bytes = Vec::new();
+    pcsss::formats::write_cloud(&mut bytes, &f, pcsss::formats::Format::Usda).unwrap();
+    let text = String::from_utf8(bytes).unwrap();
+    assert!(text.contains("float[] primvars:red") && text.contains("uchar[] primvars:green"));
+    assert!(!text.contains("colourBytes"));
 }
 
 /// filter onto a mesh read from a USD stage writes a layer of `over`s

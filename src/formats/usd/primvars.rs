@@ -155,6 +155,7 @@ pub(super) fn vertex_primvars(
         if name == "displayColor" && has("red") && has("green") && has("blue") {
             continue;
         }
+        let bytes = name == "displayColor" && names.iter().any(|n| n == super::write::COLOUR_BYTES);
         let ap = p
             .append_property(full.as_str())
             .map_err(|e| at(p.as_str(), format!("{full}: {e}")))?;
@@ -200,9 +201,39 @@ pub(super) fn vertex_primvars(
         if len != points {
             continue;
         }
+        if bytes {
+            if let Values::Vec3(_, c) = &vals {
+                for (k, channel) in ["red", "green", "blue"].iter().enumerate() {
+                    out.push((channel.to_string(), Values::Scalar(to_bytes(&c[k]))));
+                }
+                continue;
+            }
+        }
         out.push((name.to_string(), transformed(vals, m)));
     }
     Ok(out)
+}
+
+/// Linear colours back to the sRGB bytes the writer made them from: each
+/// the byte whose linear value (as the writer rounds it, to f32) is the
+/// nearest.
+fn to_bytes(c: &Column) -> Column {
+    let table: Vec<f32> = (0..=255u32)
+        .map(|k| crate::formats::texture::srgb_to_linear((k as f64 / 255.0) as f32))
+        .collect();
+    Column::U8(
+        (0..c.len())
+            .map(|i| {
+                let v = c.get_f64(i) as f32;
+                let k = table.partition_point(|&t| t < v).min(255);
+                if k > 0 && (v - table[k - 1]).abs() <= (table[k] - v).abs() {
+                    (k - 1) as u8
+                } else {
+                    k as u8
+                }
+            })
+            .collect(),
+    )
 }
 
 /// A text layer's string literal's escapes, undone. openusd 0.6 hands a

@@ -417,17 +417,18 @@ fn render_settings(stage: &usd::Stage, cam: &sdf::Path) -> Result<Option<Setting
         .as_ref()
         .and_then(stage::token)
         .unwrap_or_else(|| "expandAperture".into());
-    let expand =
-        match policy.as_str() {
-            "expandAperture" => true,
-            "cropAperture" => false,
-            other => return Err(at(
+    let expand = match policy.as_str() {
+        "expandAperture" => true,
+        "cropAperture" => false,
+        other => {
+            return Err(at(
                 prim,
                 format!(
                     "aspectRatioConformPolicy {other}: expandAperture and cropAperture are read"
                 ),
-            )),
-        };
+            ))
+        }
+    };
     Ok(Some(Settings {
         width: w as u32,
         height: h as u32,

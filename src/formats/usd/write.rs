@@ -388,21 +388,51 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
         )?;
     }
     for attr in pts.attrs() {
-        primvar(w, attr, n, vertex)?;
+        if own_primvar(pts, &attr.name) {
+            primvar(w, attr, n, vertex)?;
+        }
     }
     details(w, cloud)?;
     writeln!(w, "}}")?;
     Ok(())
 }
 
+/// The custom attribute that says a prim's `displayColor` holds the
+/// cloud's colour bytes `red`, `green`, `blue` (which then go out as it
+/// alone: a float colour, where three `uchar` primvars would be read by
+/// Blender as signed bytes, 128-255 wrapped negative).
+pub(super) const COLOUR_BYTES: &str = "pcsss:colourBytes";
+
+/// True when the points' colours are filter's bytes: `red`, `green` and
+/// `blue`, each an 8-bit scalar.
+fn colour_bytes(pts: &crate::cloud::Element) -> bool {
+    ["red", "green", "blue"].iter().all(|c| {
+        pts.scalar_column(c)
+            .is_ok_and(|col| col.column().ty() == ScalarType::U8)
+    })
+}
+
+/// Whether attribute `name` of the points goes out as a primvar of its
+/// own (the colour bytes go out in `displayColor`).
+fn own_primvar(pts: &crate::cloud::Element, name: &str) -> bool {
+    !(["red", "green", "blue"].contains(&name) && colour_bytes(pts))
+}
+
 /// The vertex colours (filter's sRGB bytes) as USD's displayColor,
-/// linear.
+/// linear; bytes that are the cloud's own `red`, `green`, `blue` are
+/// marked ([`COLOUR_BYTES`]) so that they read back as the same bytes.
 fn display_color<W: Write + ?Sized>(
     w: &mut W,
     pts: &crate::cloud::Element,
     vertex: &str,
 ) -> Result<()> {
     let n = pts.len();
+    if colour_bytes(pts) {
+        writeln!(
+            w,
+            "        custom string {COLOUR_BYTES} = \"red green blue\""
+        )?;
+    }
     if ["red", "green", "blue"].iter().all(|c| pts.has(c)) {
         let c = ["red", "green", "blue"].map(|c| pts.scalar_f64(c));
         if let [Ok(r), Ok(g), Ok(b)] = c {
@@ -593,7 +623,7 @@ fn over_body(w: &mut Vec<u8>, el: &crate::cloud::Element, cloud: &Cloud) -> Resu
     let vertex = " (\n            interpolation = \"vertex\"\n        )";
     display_color(w, el, vertex)?;
     for attr in el.attrs() {
-        if !FROM_STAGE.contains(&attr.name.as_str()) {
+        if !FROM_STAGE.contains(&attr.name.as_str()) && own_primvar(el, &attr.name) {
             primvar(w, attr, n, vertex)?;
         }
     }
