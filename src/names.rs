@@ -35,6 +35,12 @@ pub const D_USD_PRIMS: &str = "usd_prims";
 /// Detail of a mesh read from a USD stage at a time code (`--frame`,
 /// double): that time code.
 pub const D_USD_TIME: &str = "usd_time";
+/// Custom attribute of a prim the USD writer makes: its `displayColor`
+/// holds the cloud's colour bytes `red`, `green`, `blue`, which go out as
+/// it alone (a float colour, where three `uchar` primvars are read by
+/// Blender as signed bytes, 128-255 wrapped negative), and the reader
+/// takes back as the same bytes.
+pub const USD_COLOUR_BYTES: &str = "pcsss:colourBytes";
 
 /// Which stage makes each well-known attribute (`docs/DESIGN.md#stages`):
 /// an error about a missing attribute names it.

@@ -155,7 +155,8 @@ pub(super) fn vertex_primvars(
         if name == "displayColor" && has("red") && has("green") && has("blue") {
             continue;
         }
-        let bytes = name == "displayColor" && names.iter().any(|n| n == super::write::COLOUR_BYTES);
+        let bytes =
+            name == "displayColor" && names.iter().any(|n| n == crate::names::USD_COLOUR_BYTES);
         let ap = p
             .append_property(full.as_str())
             .map_err(|e| at(p.as_str(), format!("{full}: {e}")))?;

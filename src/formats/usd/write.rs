@@ -397,12 +397,6 @@ pub fn write_usda<W: Write + ?Sized>(w: &mut W, cloud: &Cloud) -> Result<()> {
     Ok(())
 }
 
-/// The custom attribute that says a prim's `displayColor` holds the
-/// cloud's colour bytes `red`, `green`, `blue` (which then go out as it
-/// alone: a float colour, where three `uchar` primvars would be read by
-/// Blender as signed bytes, 128-255 wrapped negative).
-pub(super) const COLOUR_BYTES: &str = "pcsss:colourBytes";
-
 /// True when the points' colours are filter's bytes: `red`, `green` and
 /// `blue`, each an 8-bit scalar.
 fn colour_bytes(pts: &crate::cloud::Element) -> bool {
@@ -420,7 +414,7 @@ fn own_primvar(pts: &crate::cloud::Element, name: &str) -> bool {
 
 /// The vertex colours (filter's sRGB bytes) as USD's displayColor,
 /// linear; bytes that are the cloud's own `red`, `green`, `blue` are
-/// marked ([`COLOUR_BYTES`]) so that they read back as the same bytes.
+/// marked ([`names::USD_COLOUR_BYTES`]) so that they read back as the same bytes.
 fn display_color<W: Write + ?Sized>(
     w: &mut W,
     pts: &crate::cloud::Element,
@@ -430,7 +424,8 @@ fn display_color<W: Write + ?Sized>(
     if colour_bytes(pts) {
         writeln!(
             w,
-            "        custom string {COLOUR_BYTES} = \"red green blue\""
+            "        custom string {} = \"red green blue\"",
+            names::USD_COLOUR_BYTES
         )?;
     }
     if ["red", "green", "blue"].iter().all(|c| pts.has(c)) {
