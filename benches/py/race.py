@@ -359,14 +359,14 @@ def main():
         n = int(args[1])
         rest = args[2:]
         views(n, int(rest[0]) if rest else 256, int(rest[1]) if len(rest) > 1 else 64,
-              [int(x) for x in (rest[2] if len(rest) > 2 else "16,64").split(",")],
+              [int(x) for x in (rest[2] if len(rest) > 2 else "16,64").split(",") if x != "-"],
               rest[3] if len(rest) > 3 else "50000", int(rest[4]) if len(rest) > 4 else 128, tracers)
         return
     base = SCENE["camera"]
     if args[:1] == ["--wide"]:
         rest = args[1:]
         cam = dict(base, width=1920, height=1080)
-        race(cam, 0, [int(x) for x in (rest[1] if len(rest) > 1 else "4,16,64").split(",")],
+        race(cam, 0, [int(x) for x in (rest[1] if len(rest) > 1 else "4,16,64").split(",") if x != "-"],
              (rest[2] if len(rest) > 2 else "50000;50000,METHOD=walk,WALKS=64").split(";"),
              int(rest[0]) if rest else 64, ("Cycles",))
         return
