@@ -135,7 +135,11 @@ def bake(cam_file, count, extra, d, cam, keep=False, target=None):
     changes)."""
     out = d / "out"
     lights = d / "lights.json"
-    lights.write_text(json.dumps({"lights": SCENE["lights"]}))
+    # (Rewritten only when it changes: a newer lights file would redo the
+    # lighting for another view of the same bake.)
+    text = json.dumps({"lights": SCENE["lights"]})
+    if not lights.exists() or lights.read_text() != text:
+        lights.write_text(text)
     c0 = cpu(resource.RUSAGE_CHILDREN)
     subprocess.run(["make", "-s", "-C", ROOT / "pipelines", f"BIN={BIN}", f"MESH={SCENE['mesh']}",
                     f"LIGHTS={lights}", f"CAMERA={cam_file}", f"OUT={out}", f"COUNT={count}", "MODEL=physical",
