@@ -212,4 +212,28 @@ for f in ("__init__.py", "bake.py", "cycles_fit.py", "wheels/" + sys.argv[2]):
     assert!(!o.status.success());
     assert!(stderr(&o).contains("none.whl"), "{}", stderr(&o));
     assert!(!d.path().join("x.zip").exists());
+    // The panel's presets are the library's.
+    let bake = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/blender/pcsss_addon/bake.py");
+    let presets = r#"
+import ast, sys
+tree = ast.parse(open(sys.argv[1]).read())
+names = next(ast.literal_eval(n.value) for n in tree.body
+             if isinstance(n, ast.Assign) and getattr(n.targets[0], "id", "") == "PRESETS")
+print(" ".join(names))
+"#;
+    let o = Command::new("python3")
+        .args(["-c", presets])
+        .arg(&bake)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let panel: Vec<String> = String::from_utf8_lossy(&o.stdout)
+        .split_whitespace()
+        .map(String::from)
+        .collect();
+    let library: Vec<String> = pcsss::medium::material::PRESETS
+        .iter()
+        .map(|p| p.0.to_string())
+        .collect();
+    assert_eq!(panel, library);
 }
