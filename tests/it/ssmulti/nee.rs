@@ -55,29 +55,40 @@ fn walked(mesh: &TriMesh, mut cloud: Cloud, m: Medium, lights: &[Light], sample:
     [0, 1, 2].map(|c| v.iter().map(|x| x[c]).sum::<f64>() / n)
 }
 
-#[test]
-fn sampled_lights_give_a_flat_slab_its_reflectance() {
-    // 200 mean free paths wide, 60 deep: a half-space at the top's middle.
-    let mfp = 0.05;
-    let mesh = TriMesh::from_cloud(&from_bytes(
+/// A box 10 wide and 3 deep, its top at z = 0: 200 mean free paths wide
+/// and 60 deep at a mean free path of 0.05, a half-space at its middle.
+fn slab() -> TriMesh {
+    TriMesh::from_cloud(&from_bytes(
         box_obj([-5.0, -5.0, -3.0], [5.0, 5.0, 0.0]).as_bytes(),
     ))
-    .unwrap();
-    // Points on the top within a unit of its middle.
+    .unwrap()
+}
+
+/// `n` points on the slab's top within a unit of its middle, facing up.
+fn on_top(n: usize) -> Cloud {
     let mut r = Pcg32::new(9, 1);
-    let (p, n): (Vec<[f64; 3]>, Vec<[f32; 3]>) = (0..40)
+    let (p, nn): (Vec<[f64; 3]>, Vec<[f32; 3]>) = (0..n)
         .map(|_| {
             let x = 2.0 * uniform53(&mut r) - 1.0;
             let y = 2.0 * uniform53(&mut r) - 1.0;
             ([x, y, 0.0], [0.0, 0.0, 1.0])
         })
         .unzip();
+    let mut c = Cloud::with_points(n);
+    c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    c.points_mut().set_vec3("N", Role::Normal, &nn).unwrap();
+    c
+}
+
+#[test]
+fn sampled_lights_give_a_flat_slab_its_reflectance() {
+    let mfp = 0.05;
+    let mesh = slab();
+    let top = on_top(40);
     for eta in [1.0, 1.3] {
         for mu in [1.0f64, 0.5] {
             let m = Medium::new([0.95, 0.8, 0.5], [mfp; 3], eta, 0.0).unwrap();
-            let mut c = Cloud::with_points(p.len());
-            c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-            c.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+            let c = top.clone();
             let l = sun([(1.0 - mu * mu).sqrt(), 0.0, mu]);
             let got = walked(&mesh, c, m, &l, true);
             let want = m.rm_at(mu).map(|r| r * mu);
@@ -317,26 +328,14 @@ fn points_facing_away_from_the_eye_do_not_walk() {
 /// reflectance does not depend on it).
 #[test]
 fn channels_of_different_mean_free_paths_each_return_their_own_reflectance() {
-    let mesh = TriMesh::from_cloud(&from_bytes(
-        box_obj([-5.0, -5.0, -3.0], [5.0, 5.0, 0.0]).as_bytes(),
-    ))
-    .unwrap();
-    let mut r = Pcg32::new(9, 1);
-    let (p, n): (Vec<[f64; 3]>, Vec<[f32; 3]>) = (0..300)
-        .map(|_| {
-            let x = 2.0 * uniform53(&mut r) - 1.0;
-            let y = 2.0 * uniform53(&mut r) - 1.0;
-            ([x, y, 0.0], [0.0, 0.0, 1.0])
-        })
-        .unzip();
+    let mesh = slab();
+    let top = on_top(300);
     // skin1's albedos, its mean free paths' spread (red twice blue's) and
     // four times that.
     for mfp in [[0.05, 0.035, 0.025], [0.05, 0.025, 0.0125]] {
         let mu: f64 = 0.85;
         let m = Medium::new([0.9585, 0.838, 0.678], mfp, 1.0, 0.0).unwrap();
-        let mut c = Cloud::with_points(p.len());
-        c.points_mut().set_vec3("P", Role::Point, &p).unwrap();
-        c.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+        let c = top.clone();
         let l = sun([(1.0 - mu * mu).sqrt(), 0.0, mu]);
         let got = walked(&mesh, c, m, &l, true);
         let want = m.rm_at(mu).map(|r| r * mu);
