@@ -161,15 +161,9 @@ def setup(cam, spp, seed=0, denoise=False, threads=2, scn=None):
     mat = bpy.data.materials.new("medium")
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     colour, radius = medium(scn["albedo"], scn["mfp"])
-    bsdf.subsurface_method = "RANDOM_WALK"
-    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-    bsdf.inputs["Subsurface Weight"].default_value = 1.0
-    bsdf.inputs["Subsurface Radius"].default_value = radius
-    bsdf.inputs["Subsurface Scale"].default_value = 1.0
-    bsdf.inputs["Subsurface Anisotropy"].default_value = G
     # Index-matched as in Mitsuba: no specular layer, no bend at entry
     # (Random Walk refracts by the main IOR, clamped just above 1).
-    bsdf.inputs["IOR"].default_value = 1.0
+    cycles_fit.random_walk(bsdf, colour, radius, G, 1.0)
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
     obj.data.materials.append(mat)
 

@@ -68,19 +68,27 @@ class Geometry:
         self.attribs[name] = np.asarray(values, np.float32).reshape(len(self.attribs["P"]), -1)
 
 
-def test_the_houdini_sop_body_bakes_the_binaries_bits(tmp_path):
+def run_sop(tmp_path, parms):
+    """The SOP body run on the icosphere under one distant light, with the
+    spare parameters `parms` (and `lights`): (points, faces, lights file,
+    the geometry it wrote)."""
     p, faces = icosphere()
     lights = tmp_path / "lights.json"
     lights.write_text(json.dumps({"lights": [
         {"name": "key", "type": "distant", "direction": [0.3, -1.0, -0.4], "intensity": 2.0}]}))
     geo = Geometry(p, faces)
-    parms = {"lights": str(lights), "count": 5000, "sd": 0.8, "rd": "0.9,0.5,0.3"}
+    parms = dict(parms, lights=str(lights))
     node = types.SimpleNamespace(
         geometry=lambda: geo,
         parm=lambda n: types.SimpleNamespace(eval=lambda: parms[n]) if n in parms else None)
     hou = types.SimpleNamespace(pwd=lambda: node, attribType=types.SimpleNamespace(Point="point"))
     body = (ROOT / "pipelines" / "houdini" / "python_sop.py").read_text()
     exec(compile(body, "python_sop.py", "exec"), {"hou": hou, "__name__": "__sop__"})
+    return p, faces, lights, geo
+
+
+def test_the_houdini_sop_body_bakes_the_binaries_bits(tmp_path):
+    p, faces, lights, geo = run_sop(tmp_path, {"count": 5000, "sd": 0.8, "rd": "0.9,0.5,0.3"})
     cd = geo.attribs["Cd"]
     assert cd.shape == p.shape and (cd > 0).any()
 
@@ -101,20 +109,9 @@ def test_the_houdini_sop_body_bakes_the_binaries_bits(tmp_path):
 
 
 def test_the_houdini_sop_body_bakes_the_physical_model_with_a_material(tmp_path):
-    p, faces = icosphere()
-    lights = tmp_path / "lights.json"
-    lights.write_text(json.dumps({"lights": [
-        {"name": "key", "type": "distant", "direction": [0.3, -1.0, -0.4], "intensity": 2.0}]}))
-    geo = Geometry(p, faces)
     # A ball of radius 5 units at 10 mm a unit: skin1 (a 1.3 mm mean free
     # path in red) on a 10 cm ball.
-    parms = {"lights": str(lights), "count": 5000, "material": "skin1", "meters_per_unit": 0.01}
-    node = types.SimpleNamespace(
-        geometry=lambda: geo,
-        parm=lambda n: types.SimpleNamespace(eval=lambda: parms[n]) if n in parms else None)
-    hou = types.SimpleNamespace(pwd=lambda: node, attribType=types.SimpleNamespace(Point="point"))
-    body = (ROOT / "pipelines" / "houdini" / "python_sop.py").read_text()
-    exec(compile(body, "python_sop.py", "exec"), {"hou": hou, "__name__": "__sop__"})
+    p, faces, lights, geo = run_sop(tmp_path, {"count": 5000, "material": "skin1", "meters_per_unit": 0.01})
 
     mesh = tmp_path / "mesh.ply"
     pcsss.write(pcsss.Cloud.from_arrays({"P": p}, faces=faces), mesh)

@@ -229,13 +229,7 @@ def cycles_material(obj):
     mat = bpy.data.materials.get("pcsss_cycles") or bpy.data.materials.new("pcsss_cycles")
     mat.use_nodes = True
     bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
-    bsdf.subsurface_method = "RANDOM_WALK"
-    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-    bsdf.inputs["Subsurface Weight"].default_value = 1.0
-    bsdf.inputs["Subsurface Radius"].default_value = radius
-    bsdf.inputs["Subsurface Scale"].default_value = 1.0
-    bsdf.inputs["Subsurface Anisotropy"].default_value = g
-    bsdf.inputs["IOR"].default_value = eta
+    cycles_fit.random_walk(bsdf, colour, radius, g, eta)
     if obj.data.materials:
         obj.data.materials[0] = mat
     else:

@@ -52,3 +52,16 @@ def medium(albedo, mfp, g):
     medium of single-scattering `albedo` and mean free path `mfp` (per
     channel, in the scene's units) and anisotropy `g`."""
     return ([surface_colour(a, g) for a in albedo], [4 * math.pi * m / (1 - g) for m in mfp])
+
+
+def random_walk(bsdf, colour, radius, g, ior):
+    """Sets a Principled BSDF node `bsdf` to Cycles' Random Walk with base
+    colour `colour`, radius `radius` (per channel, from [`medium`]),
+    subsurface scale 1, anisotropy `g` and IOR `ior`."""
+    bsdf.subsurface_method = "RANDOM_WALK"
+    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
+    bsdf.inputs["Subsurface Weight"].default_value = 1.0
+    bsdf.inputs["Subsurface Radius"].default_value = radius
+    bsdf.inputs["Subsurface Scale"].default_value = 1.0
+    bsdf.inputs["Subsurface Anisotropy"].default_value = g
+    bsdf.inputs["IOR"].default_value = ior
