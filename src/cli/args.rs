@@ -82,8 +82,10 @@ pub struct SsArgs {
     pub norm: Norm,
     /// 0: the exact method; up to 0.5: the approximate one, which sums a
     /// cluster of sources whole when its radius is at most T times the
-    /// kernel's length scale; the error grows like T^2 (docs/PERFORMANCE.md,
-    /// "ssmulti").
+    /// kernel's length scale (Burley, the physical model's: T times its
+    /// distance, and its error at most about T^2 of a receiver's sum lit
+    /// over its disk); the error grows like T^2 (docs/DESIGN.md,
+    /// "Approximate method"; docs/PERFORMANCE.md, "ssmulti").
     #[arg(long, default_value_t = 0.0)]
     pub tolerance: f64,
 }

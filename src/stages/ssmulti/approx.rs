@@ -56,6 +56,58 @@ pub(super) struct Planner<'a> {
     /// The largest radius of a cluster that straddles a jump to zero of
     /// the falloff ([`jump_scale`] times the tolerance).
     jump_ok: f64,
+    /// Burley: each channel's profile in use, for [`burley_small`].
+    profiles: Vec<Profile>,
+}
+
+/// A Burley channel's profile: shape `s = D / kappa`, truncation `D`,
+/// and its mean over the disk `I(D) / (pi D^2)`.
+#[derive(Clone, Copy, Debug)]
+struct Profile {
+    s: f64,
+    d: f64,
+    mean: f64,
+}
+
+impl Profile {
+    /// The untruncated profile `W(r)` and a bound on its Hessian's
+    /// largest eigenvalue beyond `r`, `W''(r)` (each of the profile's
+    /// terms `e^(-r/a) / r` has a positive, falling second derivative
+    /// `e^(-r/a) (1 / (a^2 r) + 2 / (a r^2) + 2 / r^3)`, at least its
+    /// `|W'| / r`).
+    fn at(&self, r: f64) -> (f64, f64) {
+        let (mut w, mut h) = (0.0, 0.0);
+        for a in [self.s, 3.0 * self.s] {
+            let e = (-r / a).exp();
+            w += e / r;
+            h += e * (1.0 / (a * a * r) + 2.0 / (a * r * r) + 2.0 / (r * r * r));
+        }
+        (w, h)
+    }
+}
+
+/// Burley's rule (`docs/DESIGN.md#approximate-method`): a cluster of
+/// radius `radius` whose box is `gap` from the receiver leaf's is summed
+/// whole when `radius <= T gap` (the profile's `1 / r` core, as
+/// Barnes-Hut) and, for each channel's profile that reaches it, the
+/// midpoint rule's error `radius^2 W''(gap) / 2` is at most `T^2 / 2`
+/// times `W(gap)` plus the profile's mean over its disk. Summed over the
+/// clusters, that error is at most about `T^2` of the receiver's sum (the
+/// first term bounds it where the profile is steep, the second spends a
+/// share of the whole disk's weight in its tail, where the profile is
+/// small beside its mean), so clusters grow with the distance into the
+/// tail rather than stay a fraction of `d`.
+fn burley_small(profiles: &[Profile], t: f64, radius: f64, gap: f64) -> bool {
+    if gap <= 0.0 || radius > t * gap {
+        return false;
+    }
+    profiles.iter().all(|pr| {
+        if gap >= pr.d {
+            return true;
+        }
+        let (w, h) = pr.at(gap);
+        radius * radius * h <= t * t * (w + pr.mean)
+    })
 }
 
 impl<'a> Planner<'a> {
@@ -81,6 +133,20 @@ impl<'a> Planner<'a> {
             dmin,
             far: reach(p.falloff, ld1),
             jump_ok: p.tolerance * jump_scale(p.falloff, dmin),
+            profiles: match p.falloff {
+                Falloff::Burley { kappa } => {
+                    let used: Vec<f64> = if p.rgb { ld.to_vec() } else { vec![ld1] };
+                    used.into_iter()
+                        .filter(|&d| d > 0.0)
+                        .map(|d| Profile {
+                            s: d / kappa,
+                            d,
+                            mean: disk_integral(p.falloff, d) / (PI * d * d),
+                        })
+                        .collect()
+                }
+                _ => Vec::new(),
+            },
         }
     }
 
@@ -115,10 +181,12 @@ impl<'a> Planner<'a> {
                 i = w.skip as usize;
                 continue;
             }
-            let scale = match p.falloff {
-                Falloff::Smooth => dmin,
-                Falloff::Exp { sigma } => dmin / sigma.max(1.0),
-                Falloff::Burley { kappa } => (dmin / kappa).min(gap2.sqrt()),
+            let small = match p.falloff {
+                Falloff::Smooth => w.radius <= p.tolerance * dmin,
+                Falloff::Exp { sigma } => w.radius <= p.tolerance * dmin / sigma.max(1.0),
+                Falloff::Burley { .. } => {
+                    burley_small(&self.profiles, p.tolerance, w.radius, gap2.sqrt())
+                }
             };
             let straddles = jumps && {
                 let gap = gap2.sqrt();
@@ -128,7 +196,7 @@ impl<'a> Planner<'a> {
                     d > 0.0 && gap <= d && far > d
                 })
             };
-            let small = scale > 0.0 && w.radius <= p.tolerance * scale;
+            let small = small && dmin > 0.0;
             if small && (!straddles || w.radius <= self.jump_ok) {
                 let c = &self.clusters[i];
                 ps.point(PseudoSource {

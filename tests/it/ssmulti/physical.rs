@@ -375,7 +375,7 @@ fn the_sums_equal_the_double_loop_with_the_medium_kernel() {
 /// radius 0.97 inside it, facing inwards and unlit: a thin shell), lit
 /// from +z with irradiance `cos`: the cloud, the points' areas and the
 /// light that enters (before Fresnel).
-fn lit_sphere(shell: bool) -> (Cloud, f64) {
+pub(super) fn lit_sphere(shell: bool) -> (Cloud, f64) {
     let mesh = icosphere(3);
     let outer = scatter_n(&mesh, 10_000, 3, pcsss::stages::scatter::PtareaMode::Prim);
     let mut p = outer.points().vec3_f64("P").unwrap();
