@@ -10,8 +10,9 @@
 #            normalisations (what the physical model's time is made of);
 #   bake     whole bakes of the default bunny scene at 1M points, the seed
 #            model against the physical one at the seed's kernel distances
-#            (no bench clouds needed), then the physical ssmulti on that
-#            bake's cloud with shorter truncations (kappa 9, 7).
+#            (no bench clouds needed), and the physical one with the
+#            approximate method (TOL 0.2, 0.4), then the physical ssmulti on
+#            that bake's cloud with shorter truncations (kappa 9, 7).
 #
 #     benches/probes/stage_costs.sh [shadows|physical|bake|all]   (REPS=3)
 set -euo pipefail
@@ -66,6 +67,10 @@ if [ "$what" = bake ] || [ "$what" = all ]; then
   seed=$(fastest bk)
   phys=$(fastest bk "${medium[@]}")
   echo "bake bunny 1M: seed $seed s; physical $phys s (ratio $(echo "scale=2; $phys / $seed" | bc))"
+  for tol in 0.2 0.4; do
+    t=$(fastest bk "${medium[@]}" TOL=$tol)
+    echo "bake bunny 1M: physical, TOL=$tol, $t s (ratio to the seed bake $(echo "scale=2; $t / $seed" | bc))"
+  done
   bk "${medium[@]}" >/dev/null 2>&1
   for kappa in 12.952642092055077 9 7; do
     t=$(fastest "$BIN/ssmulti" -q "$out/bunny_illum.ply" --model physical --color 0.9,0.5,0.3 \
