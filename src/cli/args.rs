@@ -554,6 +554,12 @@ pub struct IllumArgs {
     /// then needs no ssM.
     #[arg(long, value_name = "CLOUD", requires = "indirect")]
     pub exitance: Option<std::path::PathBuf>,
+    /// With --exitance: cast the rays at the exitance cloud's points (it
+    /// needs N) and carry the light they gather to the input's points by
+    /// their nearest 8 facing the same way: the rays of the coarser cloud
+    /// alone, each point's light averaged over several points' rays.
+    #[arg(long, requires = "exitance")]
+    pub gather_at_exitance: bool,
     /// Lights to use: names and glob patterns, separated by commas or
     /// spaces; ^PATTERN excludes ('*': all).
     #[arg(long, value_name = "PATTERNS", default_value = "*")]

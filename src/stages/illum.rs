@@ -453,7 +453,9 @@ pub fn indirect(
     seed: u64,
     progress: &Progress,
 ) -> Result<IndirectReport> {
-    indirect_from(cloud, None, occluder, mesh, medium, rays, seed, progress)
+    indirect_from(
+        cloud, None, false, occluder, mesh, medium, rays, seed, progress,
+    )
 }
 
 /// Checks that `cloud` holds an exitance `--indirect` can gather: the
@@ -489,10 +491,16 @@ fn physical_ssm(cloud: &Cloud) -> bool {
 /// averages it over its rays, so a cloud of a quarter of the points
 /// gives it at a quarter of the first ssmulti pass's cost
 /// (`docs/DESIGN.md#light-between-surfaces`).
+///
+/// With `at_exitance` (and `from`), the rays are cast at `from`'s points
+/// and the light they gather is carried to `cloud`'s by [`carry`]: a
+/// quarter of the rays again, and each point's light the average of
+/// several points' rays (`docs/DESIGN.md#light-between-surfaces`).
 #[allow(clippy::too_many_arguments)]
 pub fn indirect_from(
     cloud: &mut Cloud,
     from: Option<&Cloud>,
+    at_exitance: bool,
     occluder: &Occluder,
     mesh: &TriMesh,
     medium: &Medium,
@@ -528,14 +536,21 @@ pub fn indirect_from(
         }
     }
     // What the record says the light came from.
+    let at_exitance = at_exitance && from.is_some();
     let from_what = match from {
         None => format!("{rays} rays, from ssM"),
         Some(f) => format!(
-            "{rays} rays, from the ssM of another cloud of {} points (illum_points {})",
+            "{rays} rays{}, from the ssM of another cloud of {} points (illum_points {}){}",
+            if at_exitance { " at each point" } else { "" },
             f.len(),
             match f.detail("illum_points") {
                 Some(DetailValue::Str(s)) => s.as_str(),
                 _ => "not recorded",
+            },
+            if at_exitance {
+                format!(", carried to these by their nearest {CARRY_NEAR} facing the same way")
+            } else {
+                String::new()
             }
         ),
     };
@@ -570,6 +585,87 @@ pub fn indirect_from(
     let origin = spos.first().map_or(DVec3::ZERO, |p| DVec3::from_array(*p));
     let tree =
         crate::geom::kdtree::PointTree::new(spos.iter().map(|p| DVec3::from_array(*p)), origin);
+    let gathered = |at: &[[f64; 3]], at_n: &[[f64; 3]]| {
+        gather(
+            at, at_n, occluder, mesh, &exitance, &tree, rays, seed, progress,
+        )
+    };
+    let chunks: Vec<(Vec<DVec3>, u64)> = if at_exitance {
+        let snrm = spts.vec3_f64("N")?;
+        let (light, hits) = gathered(&spos, &snrm);
+        vec![(carry(&tree, &snrm, &light, &pos, &nrm), hits)]
+    } else {
+        let (light, hits) = gathered(&pos, &nrm);
+        vec![(light, hits)]
+    };
+    let mut report = IndirectReport {
+        rays: if at_exitance { spos.len() } else { pos.len() } as u64 * rays as u64,
+        hits: 0,
+    };
+    // The light arrives from the whole hemisphere: spread, as a constant
+    // dome's (`docs/DESIGN.md#incidence`).
+    let spread_before = if pts.has("illum_diffuse") {
+        pts.vec3_f64("illum_diffuse")?
+    } else {
+        vec![[0.0; 3]; pos.len()]
+    };
+    let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut extra: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    let mut spread: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
+    for (out, hits) in chunks {
+        for e in out {
+            let i = illum.len();
+            let all = DVec3::from_array(direct[i]) + e;
+            if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
+                return Err(Error::invalid(format!(
+                    "point {i}: illum with the indirect light would be {:e}, {:e}, {:e}, beyond the range of a float attribute",
+                    all.x, all.y, all.z
+                )));
+            }
+            illum.push(all.as_vec3().to_array());
+            extra.push(e.as_vec3().to_array());
+            let d = DVec3::from_array(spread_before[i]) + e;
+            spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
+        }
+        report.hits += hits;
+    }
+    cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
+    cloud
+        .points_mut()
+        .set_vec3("illum_indirect", Role::Color, &extra)?;
+    cloud
+        .points_mut()
+        .set_vec3("illum_diffuse", Role::Color, &spread)?;
+    cloud.record(
+        "illum_indirect",
+        vec![
+            ("illum_indirect_rays", DetailValue::Str(from_what)),
+            ("illum_indirect_seed", DetailValue::Str(seed.to_string())),
+        ],
+    );
+    Ok(report)
+}
+
+/// Each point's light carried from the points it was gathered at (see
+/// [`carry`]): its nearest this many of them.
+pub const CARRY_NEAR: usize = 8;
+
+/// The light gathered by `rays` cosine-weighted rays at each of the
+/// points `pos` (normals `nrm`), each ray bringing the `exitance` of the
+/// point of `tree` nearest where it meets the mesh from outside (see
+/// [`indirect`]); and the rays that met it.
+#[allow(clippy::too_many_arguments)]
+fn gather(
+    pos: &[[f64; 3]],
+    nrm: &[[f64; 3]],
+    occluder: &Occluder,
+    mesh: &TriMesh,
+    exitance: &[DVec3],
+    tree: &crate::geom::kdtree::PointTree,
+    rays: u32,
+    seed: u64,
+    progress: &Progress,
+) -> (Vec<DVec3>, u64) {
     progress.start("indirect", pos.len() as u64);
     let chunks: Vec<(Vec<DVec3>, u64)> = pos
         .par_chunks(CHUNK)
@@ -625,50 +721,56 @@ pub fn indirect_from(
         })
         .collect();
     progress.finish();
-    let mut report = IndirectReport {
-        rays: pos.len() as u64 * rays as u64,
-        hits: 0,
-    };
-    // The light arrives from the whole hemisphere: spread, as a constant
-    // dome's (`docs/DESIGN.md#incidence`).
-    let spread_before = if pts.has("illum_diffuse") {
-        pts.vec3_f64("illum_diffuse")?
-    } else {
-        vec![[0.0; 3]; pos.len()]
-    };
-    let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
-    let mut extra: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
-    let mut spread: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
-    for (out, hits) in chunks {
-        for e in out {
-            let i = illum.len();
-            let all = DVec3::from_array(direct[i]) + e;
-            if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
-                return Err(Error::invalid(format!(
-                    "point {i}: illum with the indirect light would be {:e}, {:e}, {:e}, beyond the range of a float attribute",
-                    all.x, all.y, all.z
-                )));
-            }
-            illum.push(all.as_vec3().to_array());
-            extra.push(e.as_vec3().to_array());
-            let d = DVec3::from_array(spread_before[i]) + e;
-            spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
-        }
-        report.hits += hits;
+    let mut light = Vec::with_capacity(pos.len());
+    let mut hits = 0;
+    for (out, h) in chunks {
+        light.extend(out);
+        hits += h;
     }
-    cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
-    cloud
-        .points_mut()
-        .set_vec3("illum_indirect", Role::Color, &extra)?;
-    cloud
-        .points_mut()
-        .set_vec3("illum_diffuse", Role::Color, &spread)?;
-    cloud.record(
-        "illum_indirect",
-        vec![
-            ("illum_indirect_rays", DetailValue::Str(from_what)),
-            ("illum_indirect_seed", DetailValue::Str(seed.to_string())),
-        ],
-    );
-    Ok(report)
+    (light, hits)
+}
+
+/// The light `light` gathered at the points of `tree` (normals `at_n`) carried to the points `pos` (normals `nrm`): each takes the
+/// mean of its [`CARRY_NEAR`] nearest that face its side (`N . N' > 0`),
+/// weighed by a Gaussian of their distance (half the farthest's) and
+/// `(N . N')^4`, so light does not cross a thin part or a crease; one with
+/// none of them facing its side takes the nearest that does among 64, or
+/// nothing.
+fn carry(
+    tree: &crate::geom::kdtree::PointTree,
+    at_n: &[[f64; 3]],
+    light: &[DVec3],
+    pos: &[[f64; 3]],
+    nrm: &[[f64; 3]],
+) -> Vec<DVec3> {
+    let unit = |v: [f64; 3]| DVec3::from_array(v).normalize_or_zero();
+    pos.par_iter()
+        .zip(nrm.par_iter())
+        .map(|(p, n)| {
+            let (p, n) = (DVec3::from_array(*p), unit(*n));
+            let near = tree.nearest(p, CARRY_NEAR);
+            let h2 = near
+                .last()
+                .map_or(0.0, |q| q.distance)
+                .max(f64::MIN_POSITIVE);
+            let (mut sum, mut wsum) = (DVec3::ZERO, 0.0);
+            for q in &near {
+                let j = q.item as usize;
+                let c = n.dot(unit(at_n[j]));
+                if c > 0.0 {
+                    let w = (-2.0 * q.distance / h2).exp() * c.powi(4);
+                    sum += light[j] * w;
+                    wsum += w;
+                }
+            }
+            if wsum > 0.0 {
+                return sum / wsum;
+            }
+            tree.nearest(p, 64)
+                .iter()
+                .map(|q| q.item as usize)
+                .find(|&j| n.dot(unit(at_n[j])) > 0.0)
+                .map_or(DVec3::ZERO, |j| light[j])
+        })
+        .collect()
 }

@@ -911,7 +911,18 @@ fn indirect_light_from_another_clouds_exitance() {
     illum::indirect(&mut own, &occ, &mesh, &medium(), 64, 0, &hidden).unwrap();
     let mut bare = c.clone();
     bare.points_mut().remove("ssM");
-    illum::indirect_from(&mut bare, Some(&c), &occ, &mesh, &medium(), 64, 0, &hidden).unwrap();
+    illum::indirect_from(
+        &mut bare,
+        Some(&c),
+        false,
+        &occ,
+        &mesh,
+        &medium(),
+        64,
+        0,
+        &hidden,
+    )
+    .unwrap();
     assert_eq!(
         own.points().vec3_f64("illum_indirect").unwrap(),
         bare.points().vec3_f64("illum_indirect").unwrap()
@@ -921,6 +932,7 @@ fn indirect_light_from_another_clouds_exitance() {
         illum::indirect_from(
             &mut into.clone(),
             Some(from),
+            false,
             &occ,
             &mesh,
             &medium(),
@@ -937,6 +949,97 @@ fn indirect_light_from_another_clouds_exitance() {
     illum::illum(&mut other, &sun, Some(&sh), 0, &hidden).unwrap();
     let err = refused(&bare, &other);
     assert!(err.to_string().contains("illum_lights_digest"), "{err}");
+}
+
+/// `illum --indirect --exitance CLOUD --gather-at-exitance`: the rays
+/// cast at the exitance cloud's points, their light carried to the
+/// cloud's. With the cloud as its own exitance cloud, the one point facing
+/// up (no other faces its way) keeps its own rays' light to the bit; each
+/// point of the square takes a weighted mean of its neighbours' (within
+/// the least and most of its 8 nearest); a point facing a way no
+/// exitance point faces gets nothing; only the exitance cloud's rays are
+/// cast; the bits do not depend on the thread count.
+#[test]
+fn indirect_light_gathered_at_the_exitance_clouds_points_is_carried() {
+    let (mut c, mesh) = under_a_glowing_square(2.0, 1.0, [1.0, 0.5, 0.25], false);
+    let occ = Occluder::new(&mesh);
+    let sh = illum::Shadows::new(&mesh, &occ, None);
+    let hidden = Progress::hidden();
+    let up = parse(r#"{"lights": [{"name": "below", "type": "distant", "direction": [0, 0, 1]}]}"#);
+    illum::illum(&mut c, &up, Some(&sh), 0, &hidden).unwrap();
+    let mut own = c.clone();
+    illum::indirect(&mut own, &occ, &mesh, &medium(), 32, 0, &hidden).unwrap();
+    let mine = own.points().vec3_f64("illum_indirect").unwrap();
+    // A point facing sideways, beside the one facing up.
+    let mut target = c.clone();
+    let mut p = target.points().vec3_f64("P").unwrap();
+    let mut n = target.points().vec3_f64("N").unwrap();
+    p.push([0.01, 0.0, 0.0]);
+    n.push([1.0, 0.0, 0.0]);
+    let mut t2 = Cloud::with_points(p.len());
+    t2.points_mut().set_vec3("P", Role::Point, &p).unwrap();
+    t2.points_mut().set_vec3("N", Role::Normal, &n).unwrap();
+    illum::illum(&mut t2, &up, Some(&sh), 0, &hidden).unwrap();
+    target = t2;
+    let run = |t: &Cloud| {
+        let mut t = t.clone();
+        let rep = illum::indirect_from(
+            &mut t,
+            Some(&c),
+            true,
+            &occ,
+            &mesh,
+            &medium(),
+            32,
+            0,
+            &hidden,
+        )
+        .unwrap();
+        (t, rep)
+    };
+    let (got, rep) = run(&target);
+    assert_eq!(rep.rays, c.len() as u64 * 32);
+    let carried = got.points().vec3_f64("illum_indirect").unwrap();
+    assert_eq!(carried[0], mine[0]);
+    assert!(mine[0][0] > 0.0);
+    let pos = c.points().vec3_f64("P").unwrap();
+    for i in 1..c.len() {
+        let mut d: Vec<(f64, usize)> = (1..c.len())
+            .map(|j| {
+                (
+                    DVec3::from_array(pos[i]).distance_squared(DVec3::from_array(pos[j])),
+                    j,
+                )
+            })
+            .collect();
+        d.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for ch in 0..3 {
+            let near = d[..8].iter().map(|&(_, j)| mine[j][ch]);
+            let (lo, hi) = near.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v), h.max(v))
+            });
+            let v = carried[i][ch];
+            assert!(
+                v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9),
+                "point {i}: {v} not in {lo}..{hi}"
+            );
+        }
+    }
+    assert_eq!(carried[c.len()], [0.0; 3]);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (again, _) = one.install(|| run(&target));
+    assert_eq!(again.points().vec3_f64("illum_indirect").unwrap(), carried);
+    let said = match got.detail("illum_indirect_rays") {
+        Some(pcsss::cloud::DetailValue::Str(s)) => s.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert!(
+        said.contains("at each point") && said.contains("nearest 8"),
+        "{said}"
+    );
 }
 
 /// What a point sends to others is its multiple scattering and the

@@ -100,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let from = match &args.exitance {
             Some(path) => Some(cli::read_input(
                 Some(path),
-                &Select::only(&["P", "ssM", "illum", "illum_cos"]),
+                &Select::only(&["P", "N", "ssM", "illum", "illum_cos"]),
             )?),
             None => None,
         };
@@ -111,6 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let rep = illum::indirect_from(
             &mut cloud,
             from.as_ref(),
+            args.gather_at_exitance,
             occ,
             mesh,
             m,
