@@ -90,14 +90,16 @@ impl Profile {
 /// radius `radius` whose box is `gap` from the receiver leaf's is summed
 /// whole when `radius <= T gap` (the profile's `1 / r` core, as
 /// Barnes-Hut) and, for each channel's profile that reaches it, the
-/// midpoint rule's error `radius^2 W''(gap) / 2` is at most `T^2 / 2`
-/// times `W(gap)` plus the profile's mean over its disk. Summed over the
-/// clusters, that error is at most about `T^2` of the receiver's sum (the
-/// first term bounds it where the profile is steep, the second spends a
-/// share of the whole disk's weight in its tail, where the profile is
-/// small beside its mean), so clusters grow with the distance into the
-/// tail rather than stay a fraction of `d`.
-fn burley_small(profiles: &[Profile], t: f64, radius: f64, gap: f64) -> bool {
+/// midpoint rule's error for each unit of its area evenly lit, at most
+/// `spread2 W''(gap) / 2` (`spread2` the area's mean squared distance
+/// from the centroid), is at most `T^2 / 2` times `W(gap)` plus the
+/// profile's mean over its disk. Summed over the clusters, that error is
+/// at most about `T^2` of the receiver's sum (the first term bounds it
+/// where the profile is steep, the second spends a share of the whole
+/// disk's weight in its tail, where the profile is small beside its
+/// mean), so clusters grow with the distance into the tail rather than
+/// stay a fraction of `d`.
+fn burley_small(profiles: &[Profile], t: f64, radius: f64, spread2: f64, gap: f64) -> bool {
     if gap <= 0.0 || radius > t * gap {
         return false;
     }
@@ -106,7 +108,7 @@ fn burley_small(profiles: &[Profile], t: f64, radius: f64, gap: f64) -> bool {
             return true;
         }
         let (w, h) = pr.at(gap);
-        radius * radius * h <= t * t * (w + pr.mean)
+        spread2 * h <= t * t * (w + pr.mean)
     })
 }
 
@@ -184,9 +186,13 @@ impl<'a> Planner<'a> {
             let small = match p.falloff {
                 Falloff::Smooth => w.radius <= p.tolerance * dmin,
                 Falloff::Exp { sigma } => w.radius <= p.tolerance * dmin / sigma.max(1.0),
-                Falloff::Burley { .. } => {
-                    burley_small(&self.profiles, p.tolerance, w.radius, gap2.sqrt())
-                }
+                Falloff::Burley { .. } => burley_small(
+                    &self.profiles,
+                    p.tolerance,
+                    w.radius,
+                    self.clusters[i].spread2,
+                    gap2.sqrt(),
+                ),
             };
             let straddles = jumps && {
                 let gap = gap2.sqrt();
@@ -223,6 +229,8 @@ impl<'a> Planner<'a> {
 /// cluster gets exactly its source's).
 struct Cluster {
     centre: DVec3,
+    /// The area's mean squared distance from the centroid.
+    spread2: f64,
     n: [f32; 3],
     q: [f32; 3],
     a: f32,
@@ -237,6 +245,11 @@ fn walk_clusters(walk: &[WalkNode], nodes: &[TreeNode], area_scale: f64) -> Vec<
             let node = &nodes[w.node as usize].sum;
             Cluster {
                 centre: node.centre,
+                spread2: if node.a > 0.0 {
+                    node.m2 / node.a
+                } else {
+                    w.radius * w.radius
+                },
                 n: node.n.normalize_or_zero().as_vec3().to_array(),
                 q: node.q.map(|v| v as f32),
                 a: node.a as f32,

@@ -293,7 +293,9 @@ fn leaf_columns(
             let pt = &inp.pts[i as usize];
             let q = DVec3::from_array(pt.pos);
             if k < src {
-                far2 = far2.max((q - sum.centre).length_squared());
+                let d2 = (q - sum.centre).length_squared();
+                far2 = far2.max(d2);
+                sum.m2 += d2 * pt.area as f64 * inp.area_scale;
             }
             let p = q - origin;
             (h.x[l], h.y[l], h.z[l]) = (p.x as f32, p.y as f32, p.z as f32);

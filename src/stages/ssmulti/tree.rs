@@ -40,6 +40,9 @@ pub(super) struct SourceSums {
     pub n: DVec3,
     pub centre: DVec3,
     pub radius: f64,
+    /// `sum ptarea |x - centre|^2`, the area's second moment about the
+    /// centroid (times `area_scale`).
+    pub m2: f64,
     pub sources: usize,
 }
 
@@ -296,11 +299,14 @@ pub(super) fn aggregate(nodes: &mut [TreeNode], leaves: &[Leaf]) {
                 sources += c.sources;
             }
             let centre = if a > 0.0 { ax / a } else { (lo + hi) * 0.5 };
-            let mut radius: f64 = 0.0;
+            let (mut radius, mut m2): (f64, f64) = (0.0, 0.0);
             for &k in kids {
                 let c = &done[k].sum;
                 if c.sources > 0 {
                     radius = radius.max(c.radius + (c.centre - centre).length());
+                    // (Parallel axes: each child's moment about its own
+                    // centroid, moved to the parent's.)
+                    m2 += c.m2 + c.a * (c.centre - centre).length_squared();
                 }
             }
             node.sum = SourceSums {
@@ -311,6 +317,7 @@ pub(super) fn aggregate(nodes: &mut [TreeNode], leaves: &[Leaf]) {
                 n,
                 centre,
                 radius,
+                m2,
                 sources,
             };
         }

@@ -177,9 +177,10 @@ fn the_physical_kernels_clusters_stay_within_their_bound() {
     // so every point's error is within T^2 of the largest value, on a
     // plane, a sphere, a thin shell and clumped points, with a diffusion
     // length long beside the spacing (where clusters pay). Measured: at
-    // most 0.021 of that bound (errors of neighbouring clusters cancel),
-    // and an RMS error over all points and channels of at most 0.5% of
-    // T^2 (7.2e-4 at T 0.4, on the plane), which is held to 1%.
+    // most 0.035 of that bound (errors of neighbouring clusters cancel),
+    // and an RMS error over all points and channels of at most 1.25% of
+    // T^2 (5.0e-4 at T 0.2, on the plane, whose light varies across it),
+    // which is held to 2%.
     use pcsss::medium::Medium;
     let clouds = [
         ("plane", grid(121, 0.01, [1.0, 0.7, 0.4], 0.5, 3)),
@@ -218,7 +219,7 @@ fn the_physical_kernels_clusters_stay_within_their_bound() {
             );
             assert!(worst <= 1.0, "{name}, T {t}: {worst} of the bound");
             let rms = (num / den).sqrt();
-            assert!(rms <= 0.01 * t * t, "{name}, T {t}: RMS {rms:e}");
+            assert!(rms <= 0.02 * t * t, "{name}, T {t}: RMS {rms:e}");
             assert!(run.pairs < last_pairs, "{name}, T {t}: no fewer pairs");
             last_pairs = run.pairs;
         }
