@@ -30,6 +30,13 @@ the reference's own noise `(h1 - h2)^2 / 4` taken out:
 A converging method's `noise` halves with four times the walks and its
 `floor` goes to the reference's noise with more points. With
 CONVERGE_ONCE=1 each bake is made once (seed 1): its RMS alone.
+
+With CONVERGE_RESOLVED=X only the pixels whose reference's own noise is
+at most X of their value are compared (a point light's fireflies leave
+a few pixels that two halves of thousands of samples do not resolve,
+and their noise, though taken out on average, swamps the rest). The
+bakes' pictures are kept in target/race/ (a rerun with another mask
+reuses them; the stages' BIN and the bake's settings name them).
 """
 import json
 import os
@@ -80,11 +87,24 @@ def main():
             pics, cpu = [], 0.0
             seeds = (1,) if os.environ.get("CONVERGE_ONCE") == "1" else (1, 2)
             for seed in seeds:
-                img, cover, t = race.bake(cf, int(count), extra + [f"SEED={seed}"], d, cam)
+                key = "_".join([name, str(size), count, *extra, f"SEED={seed}"]).replace("=", "")
+                f = race.CACHE / f"converge_bake_{key}.npz"
+                if f.exists():
+                    z = np.load(f)
+                    img, cover, t = z["img"], z["cover"], float(z["cpu"])
+                else:
+                    img, cover, t = race.bake(cf, int(count), extra + [f"SEED={seed}"], d, cam)
+                    np.savez(f, img=img, cover=cover, cpu=t)
                 pics.append(img)
                 cpu += t
             if mask is None:
                 mask = (cover >= 1) & (ref.min(axis=2) > 1e-3)
+                if os.environ.get("CONVERGE_RESOLVED"):
+                    x = float(os.environ["CONVERGE_RESOLVED"])
+                    own_px = np.sqrt(noise2.max(axis=2)) / np.maximum(ref.min(axis=2), 1e-6)
+                    print(f"(pixels whose reference noise is at most {x:g} of their value: "
+                          f"{int((mask & (own_px <= x)).sum())} of {int(mask.sum())})", flush=True)
+                    mask &= own_px <= x
                 own = np.sqrt(np.mean(noise2[mask] / np.maximum(ref[mask], 1e-6) ** 2))
                 print(f"(the reference's own noise {own:.4f} RMS relative, {int(mask.sum())} pixels)", flush=True)
             r = np.maximum(ref[mask], 1e-6)
