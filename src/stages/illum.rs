@@ -493,8 +493,8 @@ fn physical_ssm(cloud: &Cloud) -> bool {
 /// (`docs/DESIGN.md#light-between-surfaces`).
 ///
 /// With `at_exitance` (and `from`), the rays are cast at `from`'s points
-/// and the light they gather is carried to `cloud`'s by [`carry`]: a
-/// quarter of the rays again, and each point's light the average of
+/// and the light they gather is carried to `cloud`'s by [`carry`]: the
+/// rays of `from`'s points alone, and each point's light the average of
 /// several points' rays (`docs/DESIGN.md#light-between-surfaces`).
 #[allow(clippy::too_many_arguments)]
 pub fn indirect_from(
@@ -590,17 +590,16 @@ pub fn indirect_from(
             at, at_n, occluder, mesh, &exitance, &tree, rays, seed, progress,
         )
     };
-    let chunks: Vec<(Vec<DVec3>, u64)> = if at_exitance {
+    let (light, hits) = if at_exitance {
         let snrm = spts.vec3_f64("N")?;
         let (light, hits) = gathered(&spos, &snrm);
-        vec![(carry(&tree, &snrm, &light, &pos, &nrm), hits)]
+        (carry(&tree, &snrm, &light, &pos, &nrm), hits)
     } else {
-        let (light, hits) = gathered(&pos, &nrm);
-        vec![(light, hits)]
+        gathered(&pos, &nrm)
     };
-    let mut report = IndirectReport {
+    let report = IndirectReport {
         rays: if at_exitance { spos.len() } else { pos.len() } as u64 * rays as u64,
-        hits: 0,
+        hits,
     };
     // The light arrives from the whole hemisphere: spread, as a constant
     // dome's (`docs/DESIGN.md#incidence`).
@@ -612,22 +611,18 @@ pub fn indirect_from(
     let mut illum: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     let mut extra: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
     let mut spread: Vec<[f32; 3]> = Vec::with_capacity(pos.len());
-    for (out, hits) in chunks {
-        for e in out {
-            let i = illum.len();
-            let all = DVec3::from_array(direct[i]) + e;
-            if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
-                return Err(Error::invalid(format!(
-                    "point {i}: illum with the indirect light would be {:e}, {:e}, {:e}, beyond the range of a float attribute",
-                    all.x, all.y, all.z
-                )));
-            }
-            illum.push(all.as_vec3().to_array());
-            extra.push(e.as_vec3().to_array());
-            let d = DVec3::from_array(spread_before[i]) + e;
-            spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
+    for (i, e) in light.into_iter().enumerate() {
+        let all = DVec3::from_array(direct[i]) + e;
+        if !(all.is_finite() && all.max_element() <= f32::MAX as f64) {
+            return Err(Error::invalid(format!(
+                "point {i}: illum with the indirect light would be {:e}, {:e}, {:e}, beyond the range of a float attribute",
+                all.x, all.y, all.z
+            )));
         }
-        report.hits += hits;
+        illum.push(all.as_vec3().to_array());
+        extra.push(e.as_vec3().to_array());
+        let d = DVec3::from_array(spread_before[i]) + e;
+        spread.push(d.as_vec3().to_array().map(|x| x.min(f32::MAX)));
     }
     cloud.points_mut().set_vec3("illum", Role::Color, &illum)?;
     cloud
@@ -649,6 +644,8 @@ pub fn indirect_from(
 /// Each point's light carried from the points it was gathered at (see
 /// [`carry`]): its nearest this many of them.
 pub const CARRY_NEAR: usize = 8;
+/// ... and where none of those faces its side, the wider ask.
+const CARRY_MORE: usize = 64;
 
 /// The light gathered by `rays` cosine-weighted rays at each of the
 /// points `pos` (normals `nrm`), each ray bringing the `exitance` of the
@@ -730,11 +727,12 @@ fn gather(
     (light, hits)
 }
 
-/// The light `light` gathered at the points of `tree` (normals `at_n`) carried to the points `pos` (normals `nrm`): each takes the
-/// mean of its [`CARRY_NEAR`] nearest that face its side (`N . N' > 0`),
-/// weighed by a Gaussian of their distance (half the farthest's) and
-/// `(N . N')^4`, so light does not cross a thin part or a crease; one with
-/// none of them facing its side takes the nearest that does among 64, or
+/// The light `light` gathered at the points of `tree` (normals `at_n`)
+/// carried to the points `pos` (normals `nrm`): each takes the mean of its
+/// [`CARRY_NEAR`] nearest that face its side (`N . N' > 0`), weighed by a
+/// Gaussian of their distance (half the farthest's) and `(N . N')^4`, so
+/// light does not cross a thin part or a crease; one with none of them
+/// facing its side takes the nearest that does among [`CARRY_MORE`], or
 /// nothing.
 fn carry(
     tree: &crate::geom::kdtree::PointTree,
@@ -766,7 +764,7 @@ fn carry(
             if wsum > 0.0 {
                 return sum / wsum;
             }
-            tree.nearest(p, 64)
+            tree.nearest(p, CARRY_MORE)
                 .iter()
                 .map(|q| q.item as usize)
                 .find(|&j| n.dot(unit(at_n[j])) > 0.0)
