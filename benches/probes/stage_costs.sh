@@ -12,7 +12,8 @@
 #            model against the physical one at the seed's kernel distances
 #            (no bench clouds needed), and the physical one with the
 #            approximate method (TOL 0.2, 0.4), then the physical ssmulti on
-#            that bake's cloud with shorter truncations (kappa 9, 7).
+#            that bake's cloud with shorter truncations (kappa 9, 7) and
+#            with the approximate method (tolerance 0.2, 0.4).
 #
 #     benches/probes/stage_costs.sh [shadows|physical|bake|all]   (REPS=3)
 set -euo pipefail
@@ -76,6 +77,11 @@ if [ "$what" = bake ] || [ "$what" = all ]; then
     t=$(fastest "$BIN/ssmulti" -q "$out/bunny_illum.ply" --model physical --color 0.9,0.5,0.3 \
       --dmfp 0.125,0.0695,0.0417 --g 0.4 --eta 1.3 --falloff burley --sigma "$kappa" -o /tmp/stage_costs.ply)
     echo "ssmulti physical bunny 1M, kappa $kappa: $t s"
+  done
+  for tol in 0.2 0.4; do
+    t=$(fastest "$BIN/ssmulti" -q "$out/bunny_illum.ply" --model physical --color 0.9,0.5,0.3 \
+      --dmfp 0.125,0.0695,0.0417 --g 0.4 --eta 1.3 --tolerance "$tol" -o /tmp/stage_costs.ply)
+    echo "ssmulti physical bunny 1M, tolerance $tol: $t s"
   done
   rm -rf "$out"
 fi
